@@ -1,0 +1,24 @@
+# Two commands for a new user: `make demo` and `make test` (each sets up .venv first).
+VENV := .venv
+PY := $(VENV)/bin/python
+RATE ?= 1.0
+
+.PHONY: setup demo test test-fast bench clean
+
+setup:
+	@bash scripts/setup_env.sh
+
+demo: setup
+	@$(VENV)/bin/nav-demo --rate $(RATE)
+
+test: setup
+	@$(PY) -m pytest -q test
+
+test-fast: setup
+	@$(PY) -m pytest -q -m "not slow" test
+
+bench: setup
+	@$(PY) benchmarks/run_all.py
+
+clean:
+	rm -rf build install log $(VENV)

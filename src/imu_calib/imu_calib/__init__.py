@@ -1,0 +1,1 @@
+"""Deterministic IMU calibration, Allan variance noise model, sensor-model YAML."""

@@ -1,0 +1,1 @@
+"""Trajectory and MEMS sensor simulator; sim-versus-real diagnosis."""

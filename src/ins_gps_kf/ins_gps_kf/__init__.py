@@ -1,0 +1,1 @@
+"""Strapdown INS and loosely coupled INS/GPS error-state Kalman filter."""

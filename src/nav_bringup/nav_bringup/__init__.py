@@ -1,0 +1,1 @@
+"""Launch files, process runner, demo and report for the whole navigation graph."""

@@ -1,0 +1,22 @@
+from setuptools import find_packages, setup
+
+PACKAGE = "nav_bringup"
+
+setup(
+    name=PACKAGE,
+    version="0.1.0",
+    packages=find_packages(exclude=["test"]),
+    data_files=[
+        ("share/ament_index/resource_index/packages", ["resource/" + PACKAGE]),
+        ("share/" + PACKAGE, ["package.xml"]),
+    ],
+    install_requires=["setuptools"],
+    zip_safe=True,
+    description="Launch files, process runner, demo and report for the whole navigation graph.",
+    license="Apache-2.0",
+    entry_points={
+        "console_scripts": [
+            "nav-demo = nav_bringup.demo:main"
+        ],
+    },
+)

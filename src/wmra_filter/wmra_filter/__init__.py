@@ -1,0 +1,1 @@
+"""Streaming db8 wavelet multi-resolution denoiser for IMU data."""
