@@ -24,10 +24,10 @@ want=$(cat requirements.lock src/*/setup.py src/*/package.xml | sha256sum | cut 
 if [ -f "$STAMP" ] && [ "$(cat "$STAMP")" = "$want" ]; then exit 0; fi
 
 echo "setup: installing pinned dependencies into $VENV (first run takes a few minutes)"
-"$VENV/bin/python" -m pip install -q --upgrade pip
-"$VENV/bin/python" -m pip install -q -r requirements.lock
+"$VENV/bin/python" -m pip install -q --upgrade pip >"$VENV/setup.log" 2>&1
+"$VENV/bin/python" -m pip install -q -r requirements.lock >>"$VENV/setup.log" 2>&1 || { cat "$VENV/setup.log" >&2; exit 1; }
 for pkg in src/*/; do
-  "$VENV/bin/python" -m pip install -q --no-deps --no-build-isolation -e "$pkg"
+  "$VENV/bin/python" -m pip install -q --no-deps --no-build-isolation -e "$pkg" >>"$VENV/setup.log" 2>&1 || { cat "$VENV/setup.log" >&2; exit 1; }
 done
 echo "$want" > "$STAMP"
 echo "setup: done"

@@ -1,0 +1,350 @@
+"""Recording IO: rosbag2 bags (sqlite3, MCAP) and the project's CSV files to NumPy and back.
+
+The one reader and writer every tool uses. Arrays are SI: time in s, angular
+rate in rad/s, specific force in m/s^2, latitude/longitude in rad inside (the
+CSV files and ``NavSatFix`` carry degrees; conversion happens here).
+
+A bag or CSV that is truncated or corrupt is read up to the damage: the good
+part is returned and ``damage`` names the file and position of the problem.
+Pass ``strict=True`` to raise :class:`RecordingError` instead.
+"""
+from __future__ import annotations
+
+import csv
+import logging
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from nav_core.units import DEG
+
+LOG = logging.getLogger(__name__)
+
+IMU_TOPIC = "imu/data_raw"
+GNSS_TOPIC = "gps/fix"
+TEMP_TOPIC = "imu/temperature"
+IMU_CSV_COLUMNS = ("t", "gx", "gy", "gz", "ax", "ay", "az")
+GNSS_CSV_COLUMNS = ("t", "lat_deg", "lon_deg", "h_m", "std_e", "std_n", "std_u")
+TRUTH_CSV_COLUMNS = ("t", "lat_deg", "lon_deg", "h_m", "roll_deg", "pitch_deg", "yaw_deg")
+VELOCITY_COLUMNS = ("ve", "vn", "vu")
+
+
+class RecordingError(ValueError):
+    """A recording cannot be read; the message names the file and the position."""
+
+
+@dataclass
+class ImuRecording:
+    """IMU samples: ``t`` (n,) s, ``gyro`` (n, 3) rad/s, ``accel`` (n, 3) m/s^2, optional ``temp_c`` (n,)."""
+
+    t: np.ndarray
+    gyro: np.ndarray
+    accel: np.ndarray
+    temp_c: np.ndarray | None = None
+    source: str = ""
+    frame_id: str = "imu_link"
+    damage: str | None = None
+
+    def __post_init__(self):
+        self.t = np.asarray(self.t, dtype=float).reshape(-1)
+        self.gyro = np.asarray(self.gyro, dtype=float).reshape(-1, 3)
+        self.accel = np.asarray(self.accel, dtype=float).reshape(-1, 3)
+        n = len(self.t)
+        if self.gyro.shape[0] != n or self.accel.shape[0] != n:
+            raise RecordingError(f"{self.source or 'recording'}: t, gyro and accel lengths differ "
+                                 f"({n}, {self.gyro.shape[0]}, {self.accel.shape[0]})")
+        if self.temp_c is not None:
+            self.temp_c = np.asarray(self.temp_c, dtype=float).reshape(-1)
+            if len(self.temp_c) != n:
+                raise RecordingError(f"{self.source or 'recording'}: temp_c length {len(self.temp_c)} != {n}")
+
+    def __len__(self):
+        return len(self.t)
+
+    @property
+    def rate_hz(self) -> float:
+        """Nominal sample rate from the median sample interval, Hz."""
+        if len(self.t) < 2:
+            raise RecordingError(f"{self.source or 'recording'}: fewer than 2 samples, no rate")
+        return float(1.0 / np.median(np.diff(self.t)))
+
+    def select(self, mask_or_slice) -> ImuRecording:
+        """A new recording with the samples picked by a boolean mask or slice."""
+        return ImuRecording(self.t[mask_or_slice], self.gyro[mask_or_slice], self.accel[mask_or_slice],
+                            None if self.temp_c is None else self.temp_c[mask_or_slice],
+                            self.source, self.frame_id, self.damage)
+
+    def between(self, t0: float, t1: float) -> ImuRecording:
+        """Samples with ``t0 <= t < t1`` (s)."""
+        return self.select((self.t >= t0) & (self.t < t1))
+
+
+@dataclass
+class GnssRecording:
+    """GNSS fixes: ``t`` (n,) s, ``lat``/``lon`` (n,) rad, ``h`` (n,) m, ``std_enu`` (n, 3) m, ``status`` (n,).
+
+    ``status`` follows ``sensor_msgs/NavSatStatus`` (-1 no fix, 0 fix, 1 SBAS, 2 GBAS).
+    """
+
+    t: np.ndarray
+    lat: np.ndarray
+    lon: np.ndarray
+    h: np.ndarray
+    std_enu: np.ndarray
+    status: np.ndarray = None
+    source: str = ""
+    damage: str | None = None
+
+    def __post_init__(self):
+        self.t = np.asarray(self.t, dtype=float).reshape(-1)
+        self.lat = np.asarray(self.lat, dtype=float).reshape(-1)
+        self.lon = np.asarray(self.lon, dtype=float).reshape(-1)
+        self.h = np.asarray(self.h, dtype=float).reshape(-1)
+        self.std_enu = np.asarray(self.std_enu, dtype=float).reshape(-1, 3)
+        if self.status is None:
+            self.status = np.zeros(len(self.t), dtype=int)
+        self.status = np.asarray(self.status, dtype=int).reshape(-1)
+
+    def __len__(self):
+        return len(self.t)
+
+
+@dataclass
+class Trajectory:
+    """Truth trajectory: ``t`` s, ``lat``/``lon`` rad, ``h`` m, ``roll``/``pitch``/``yaw`` rad (body-to-ENU),
+    optional ``velocity_n`` (n, 3) m/s in ENU."""
+
+    t: np.ndarray
+    lat: np.ndarray
+    lon: np.ndarray
+    h: np.ndarray
+    roll: np.ndarray
+    pitch: np.ndarray
+    yaw: np.ndarray
+    velocity_n: np.ndarray | None = None
+    extra: dict = field(default_factory=dict)
+    """Extra named columns (n,) written after the standard ones."""
+
+    def __len__(self):
+        return len(self.t)
+
+
+# ----------------------------------------------------------------------------- CSV
+
+
+def _read_csv_table(path: Path, required, strict: bool):
+    """Columns by header name as float arrays; rows after a malformed one are dropped (damage noted)."""
+    damage = None
+    with open(path, newline="") as fh:
+        reader = csv.reader(fh)
+        try:
+            header = [h.strip() for h in next(reader)]
+        except StopIteration:
+            raise RecordingError(f"{path}: empty file, expected a header row") from None
+        missing = [c for c in required if c not in header]
+        if missing:
+            raise RecordingError(f"{path}: missing column(s) {missing}; header is {header}")
+        rows = []
+        for line_no, row in enumerate(reader, start=2):
+            if not row or all(not c.strip() for c in row):
+                continue
+            try:
+                if len(row) != len(header):
+                    raise ValueError(f"{len(row)} fields, header has {len(header)}")
+                rows.append([float(c) for c in row])
+            except ValueError as err:
+                damage = f"{path}: line {line_no}: {err}; read {len(rows)} good rows before it"
+                if strict:
+                    raise RecordingError(damage) from err
+                LOG.warning("%s", damage)
+                break
+    data = np.array(rows, dtype=float).reshape(-1, len(header))
+    return {name: data[:, i] for i, name in enumerate(header)}, damage
+
+
+def _write_csv(path: Path, columns: dict) -> Path:
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    names = list(columns)
+    data = np.column_stack([np.asarray(columns[n], dtype=float) for n in names])
+    np.savetxt(path, data, delimiter=",", header=",".join(names), comments="", fmt="%.10g")
+    return path
+
+
+def read_imu_csv(path, strict: bool = False) -> ImuRecording:
+    """Read the recording CSV (``t, gx, gy, gz, ax, ay, az[, temp_c]``, SI units)."""
+    path = Path(path)
+    cols, damage = _read_csv_table(path, IMU_CSV_COLUMNS, strict)
+    return ImuRecording(cols["t"], np.column_stack([cols["gx"], cols["gy"], cols["gz"]]),
+                        np.column_stack([cols["ax"], cols["ay"], cols["az"]]), cols.get("temp_c"),
+                        source=str(path), damage=damage)
+
+
+def write_imu_csv(path, rec: ImuRecording) -> Path:
+    """Write the recording CSV (SI units), with ``temp_c`` when present."""
+    cols = {"t": rec.t}
+    cols.update({k: rec.gyro[:, i] for i, k in enumerate(("gx", "gy", "gz"))})
+    cols.update({k: rec.accel[:, i] for i, k in enumerate(("ax", "ay", "az"))})
+    if rec.temp_c is not None:
+        cols["temp_c"] = rec.temp_c
+    return _write_csv(path, cols)
+
+
+def read_gnss_csv(path, strict: bool = False) -> GnssRecording:
+    """Read the GNSS CSV (``t, lat_deg, lon_deg, h_m, std_e, std_n, std_u[, status]``)."""
+    path = Path(path)
+    cols, damage = _read_csv_table(path, GNSS_CSV_COLUMNS, strict)
+    status = cols["status"].astype(int) if "status" in cols else None
+    return GnssRecording(cols["t"], cols["lat_deg"] * DEG, cols["lon_deg"] * DEG, cols["h_m"],
+                         np.column_stack([cols["std_e"], cols["std_n"], cols["std_u"]]), status,
+                         source=str(path), damage=damage)
+
+
+def write_gnss_csv(path, gnss: GnssRecording) -> Path:
+    """Write the GNSS CSV (degrees at this edge) with a ``status`` column."""
+    return _write_csv(path, {"t": gnss.t, "lat_deg": gnss.lat / DEG, "lon_deg": gnss.lon / DEG, "h_m": gnss.h,
+                             "std_e": gnss.std_enu[:, 0], "std_n": gnss.std_enu[:, 1],
+                             "std_u": gnss.std_enu[:, 2], "status": gnss.status})
+
+
+def read_trajectory_csv(path, strict: bool = False) -> Trajectory:
+    """Read the truth trajectory CSV (degrees in the file, rad in the result)."""
+    path = Path(path)
+    cols, _ = _read_csv_table(path, TRUTH_CSV_COLUMNS, strict)
+    vel = None
+    if all(c in cols for c in VELOCITY_COLUMNS):
+        vel = np.column_stack([cols[c] for c in VELOCITY_COLUMNS])
+    known = set(TRUTH_CSV_COLUMNS) | set(VELOCITY_COLUMNS)
+    return Trajectory(cols["t"], cols["lat_deg"] * DEG, cols["lon_deg"] * DEG, cols["h_m"],
+                      cols["roll_deg"] * DEG, cols["pitch_deg"] * DEG, cols["yaw_deg"] * DEG, vel,
+                      {k: v for k, v in cols.items() if k not in known})
+
+
+def write_trajectory_csv(path, traj: Trajectory) -> Path:
+    """Write the truth trajectory CSV (degrees at this edge), velocity and extra columns when present."""
+    cols = {"t": traj.t, "lat_deg": traj.lat / DEG, "lon_deg": traj.lon / DEG, "h_m": traj.h,
+            "roll_deg": traj.roll / DEG, "pitch_deg": traj.pitch / DEG, "yaw_deg": traj.yaw / DEG}
+    if traj.velocity_n is not None:
+        cols.update({k: traj.velocity_n[:, i] for i, k in enumerate(VELOCITY_COLUMNS)})
+    cols.update(traj.extra)
+    return _write_csv(path, cols)
+
+
+# ----------------------------------------------------------------------------- rosbag2
+
+
+def _damage_or_raise(err, strict: bool):
+    if strict:
+        raise RecordingError(str(err)) from err
+    LOG.warning("%s", err)
+    return str(err)
+
+
+def read_imu_bag(path, topic: str = IMU_TOPIC, temp_topic: str = TEMP_TOPIC, strict: bool = False) -> ImuRecording:
+    """IMU samples of ``topic`` (header stamps) and temperature of ``temp_topic`` (interpolated) from a bag."""
+    from nav_core import bagio
+
+    path = Path(path)
+    t, gyro, accel, temp_t, temp = [], [], [], [], []
+    frame_id, damage = "imu_link", None
+    try:
+        for top, _, msg in bagio.iter_messages(path, [topic, temp_topic]):
+            if top == bagio.norm_topic(topic):
+                t.append(bagio.stamp_to_s(msg.header.stamp))
+                w, a = msg.angular_velocity, msg.linear_acceleration
+                gyro.append((w.x, w.y, w.z))
+                accel.append((a.x, a.y, a.z))
+                frame_id = msg.header.frame_id
+            else:
+                temp_t.append(bagio.stamp_to_s(msg.header.stamp))
+                temp.append(msg.temperature)
+    except bagio.BagDamage as err:
+        damage = _damage_or_raise(err, strict)
+    if not t and damage is None:
+        available = bagio.topics(path)
+        raise RecordingError(f"{path}: no messages on topic {topic!r}; the bag has {available}")
+    t = np.asarray(t)
+    temp_c = np.interp(t, temp_t, temp) if temp_t else None
+    return ImuRecording(t, np.asarray(gyro).reshape(-1, 3), np.asarray(accel).reshape(-1, 3), temp_c,
+                        source=str(path), frame_id=frame_id, damage=damage)
+
+
+def read_gnss_bag(path, topic: str = GNSS_TOPIC, strict: bool = False) -> GnssRecording:
+    """``NavSatFix`` messages of ``topic`` from a bag (NaN fixes kept, status as published)."""
+    from nav_core import bagio
+
+    path = Path(path)
+    rows, status, damage = [], [], None
+    try:
+        for _, _, msg in bagio.iter_messages(path, [topic]):
+            cov = np.asarray(msg.position_covariance, dtype=float).reshape(3, 3)
+            rows.append((bagio.stamp_to_s(msg.header.stamp), msg.latitude, msg.longitude, msg.altitude,
+                         *np.sqrt(np.clip(np.diag(cov), 0.0, None))))
+            status.append(msg.status.status)
+    except bagio.BagDamage as err:
+        damage = _damage_or_raise(err, strict)
+    if not rows and damage is None:
+        raise RecordingError(f"{path}: no messages on topic {topic!r}; the bag has {bagio.topics(path)}")
+    a = np.asarray(rows, dtype=float).reshape(-1, 7)
+    return GnssRecording(a[:, 0], a[:, 1] * DEG, a[:, 2] * DEG, a[:, 3], a[:, 4:7], np.asarray(status, int),
+                         source=str(path), damage=damage)
+
+
+def write_bag(path, imu: ImuRecording | None = None, gnss: GnssRecording | None = None, storage: str = "sqlite3",
+              imu_topic: str = IMU_TOPIC, gnss_topic: str = GNSS_TOPIC, temp_topic: str = TEMP_TOPIC,
+              gyro_std: float = 0.0, accel_std: float = 0.0) -> Path:
+    """Write IMU (and temperature) and GNSS recordings to a new rosbag2 bag, messages in time order."""
+    from nav_core import bagio
+
+    events = []
+    if imu is not None:
+        for i in range(len(imu)):
+            events.append((imu.t[i], 0, i))
+    if gnss is not None:
+        for i in range(len(gnss)):
+            events.append((gnss.t[i], 1, i))
+    events.sort()
+    with bagio.BagWriter(path, storage) as bag:
+        for t, kind, i in events:
+            ns = int(round(t * 1e9))
+            if kind == 0:
+                bag.write(imu_topic, ns, bagio.imu_message(t, imu.gyro[i], imu.accel[i], imu.frame_id,
+                                                           gyro_std**2, accel_std**2))
+                if imu.temp_c is not None:
+                    bag.write(temp_topic, ns, bagio.temperature_message(t, imu.temp_c[i], imu.frame_id))
+            else:
+                bag.write(gnss_topic, ns, bagio.navsatfix_message(
+                    t, gnss.lat[i] / DEG, gnss.lon[i] / DEG, gnss.h[i], gnss.std_enu[i], gnss.status[i]))
+    return Path(path)
+
+
+# ----------------------------------------------------------------------------- dispatch
+
+
+def read_imu(path, topic: str = IMU_TOPIC, strict: bool = False) -> ImuRecording:
+    """Read IMU samples from a rosbag2 bag (folder, .db3, .mcap) or the recording CSV."""
+    from nav_core import bagio
+
+    path = Path(path)
+    if not path.exists():
+        raise RecordingError(f"{path}: recording not found")
+    if bagio.is_bag(path):
+        return read_imu_bag(path, topic=topic, strict=strict)
+    if path.suffix.lower() == ".csv":
+        return read_imu_csv(path, strict=strict)
+    raise RecordingError(f"{path}: not a rosbag2 bag (folder with metadata.yaml, .db3, .mcap) or a .csv")
+
+
+def read_gnss(path, topic: str = GNSS_TOPIC, strict: bool = False) -> GnssRecording:
+    """Read GNSS fixes from a rosbag2 bag or the GNSS CSV."""
+    from nav_core import bagio
+
+    path = Path(path)
+    if not path.exists():
+        raise RecordingError(f"{path}: GNSS recording not found")
+    if bagio.is_bag(path):
+        return read_gnss_bag(path, topic=topic, strict=strict)
+    if path.suffix.lower() == ".csv":
+        return read_gnss_csv(path, strict=strict)
+    raise RecordingError(f"{path}: not a rosbag2 bag or a GNSS .csv")

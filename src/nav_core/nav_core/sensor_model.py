@@ -1,0 +1,301 @@
+"""The sensor-model YAML: one schema read by the calibration, the denoiser, the filter and the simulator.
+
+Measurement model of each triad (gyro in rad/s, accel in m/s^2)::
+
+    measured = (I + diag(scale_factor) + misalignment) @ true + bias + noise
+
+``misalignment`` is a 3x3 small-angle matrix with a zero diagonal (rad).
+Stochastic terms are the five Allan-variance coefficients, SI units per axis:
+
+=====================  ===================  ====================
+term                   gyro                 accel
+=====================  ===================  ====================
+quantization Q         rad                  m/s
+white_noise N          rad/sqrt(s)          m/s/sqrt(s)
+bias_instability B     rad/s                m/s^2
+bias_correlation_time  s                    s
+rate_random_walk K     rad/s/sqrt(s)        m/s^2/sqrt(s)
+rate_ramp R            rad/s^2              m/s^3
+=====================  ===================  ====================
+
+A value of 0 means the term is absent. ``bias_correlation_time`` > 0 makes the
+bias instability a first-order Gauss-Markov process with that correlation time
+(its steady-state sigma is ``bias_instability``); 0 means flicker (1/f) noise.
+Each term may carry a 95 % interval per axis (``interval_95``, shape (3, 2)).
+
+The ``physics`` section maps names of :data:`EFFECTS` to their parameters
+(a mapping, possibly empty for the physical default): the effects the
+simulation includes. No ``physics`` section means a naive simulation.
+"""
+from __future__ import annotations
+
+import copy
+import datetime as _dt
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+import yaml
+
+SCHEMA_VERSION = 1
+
+VECTOR_TERMS = ("bias", "scale_factor", "quantization", "white_noise", "bias_instability",
+                "bias_correlation_time", "rate_random_walk", "rate_ramp")
+"""Per-axis terms, each a 3-vector."""
+
+TRIADS = ("gyro", "accel")
+
+UNITS = {
+    "gyro": {"bias": "rad/s", "scale_factor": "1", "misalignment": "rad", "quantization": "rad",
+             "white_noise": "rad/sqrt(s)", "bias_instability": "rad/s", "bias_correlation_time": "s",
+             "rate_random_walk": "rad/s/sqrt(s)", "rate_ramp": "rad/s^2"},
+    "accel": {"bias": "m/s^2", "scale_factor": "1", "misalignment": "rad", "quantization": "m/s",
+              "white_noise": "m/s/sqrt(s)", "bias_instability": "m/s^2", "bias_correlation_time": "s",
+              "rate_random_walk": "m/s^2/sqrt(s)", "rate_ramp": "m/s^3"},
+}
+
+EFFECTS = ("earth_rotation", "gravity_model", "gyro_g_sensitivity", "temperature_bias", "warmup_drift",
+           "scale_factor", "axis_misalignment", "vibration", "quantization", "gauss_markov_bias",
+           "bias_random_walk", "gps_lever_arm", "gps_latency", "colored_gps_noise", "coning_sculling",
+           "coriolis")
+"""The effect vocabulary of the sim-versus-real diagnosis (``../shared/DESIGN.md``)."""
+
+
+class SensorModelError(ValueError):
+    """A sensor-model file or value is invalid; the message names the file and the field."""
+
+
+@dataclass
+class TriadModel:
+    """Deterministic and stochastic error terms of one sensor triad (SI units, see module doc)."""
+
+    bias: np.ndarray = field(default_factory=lambda: np.zeros(3))
+    scale_factor: np.ndarray = field(default_factory=lambda: np.zeros(3))
+    misalignment: np.ndarray = field(default_factory=lambda: np.zeros((3, 3)))
+    quantization: np.ndarray = field(default_factory=lambda: np.zeros(3))
+    white_noise: np.ndarray = field(default_factory=lambda: np.zeros(3))
+    bias_instability: np.ndarray = field(default_factory=lambda: np.zeros(3))
+    bias_correlation_time: np.ndarray = field(default_factory=lambda: np.zeros(3))
+    rate_random_walk: np.ndarray = field(default_factory=lambda: np.zeros(3))
+    rate_ramp: np.ndarray = field(default_factory=lambda: np.zeros(3))
+    intervals: dict = field(default_factory=dict)
+    """Term name -> 95 % interval array, shape (3, 2) ((3, 3, 2) for misalignment)."""
+    info: dict = field(default_factory=dict)
+    """Free-form fit information (goodness of fit, slope readings), written as is."""
+
+    def matrix(self) -> np.ndarray:
+        """The 3x3 matrix ``I + diag(scale_factor) + misalignment``."""
+        return np.eye(3) + np.diag(self.scale_factor) + self.misalignment
+
+    def correct(self, measured: np.ndarray) -> np.ndarray:
+        """Invert the deterministic model: true values, shape (n, 3), from measured ones (same units)."""
+        return np.linalg.solve(self.matrix(), (np.asarray(measured) - self.bias).T).T
+
+    def apply(self, true: np.ndarray) -> np.ndarray:
+        """Apply the deterministic model (no noise) to true values, shape (n, 3)."""
+        return np.asarray(true) @ self.matrix().T + self.bias
+
+
+@dataclass
+class SensorModel:
+    """A whole IMU model: gyro and accel triads, sample rate, provenance, simulated physics."""
+
+    gyro: TriadModel = field(default_factory=TriadModel)
+    accel: TriadModel = field(default_factory=TriadModel)
+    sample_rate_hz: float = 64.0
+    provenance: dict = field(default_factory=dict)
+    physics: dict | None = None
+    """Effect name -> parameters; None for a naive simulation (no section)."""
+
+    def triad(self, name: str) -> TriadModel:
+        """The triad called ``gyro`` or ``accel``."""
+        if name not in TRIADS:
+            raise KeyError(f"unknown triad {name!r}; expected one of {TRIADS}")
+        return getattr(self, name)
+
+    def copy(self) -> SensorModel:
+        """A deep copy."""
+        return copy.deepcopy(self)
+
+    def with_physics(self, effect: str, **parameters) -> SensorModel:
+        """A copy with ``effect`` added to (or replaced in) the physics section."""
+        if effect not in EFFECTS:
+            raise SensorModelError(f"physics: unknown effect {effect!r}; the vocabulary is {EFFECTS}")
+        out = self.copy()
+        out.physics = dict(out.physics or {})
+        out.physics[effect] = _to_builtin(parameters)
+        return out
+
+    def has_physics(self, effect: str) -> bool:
+        """Whether the simulation includes ``effect``."""
+        return bool(self.physics) and effect in self.physics
+
+    def to_dict(self) -> dict:
+        """Plain YAML-ready mapping."""
+        out = {"sensor_model_version": SCHEMA_VERSION, "sample_rate_hz": float(self.sample_rate_hz),
+               "provenance": _to_builtin(self.provenance)}
+        for name in TRIADS:
+            out[name] = _triad_to_dict(name, self.triad(name))
+        if self.physics is not None:
+            out["physics"] = {k: _to_builtin(v or {}) for k, v in self.physics.items()}
+        return out
+
+    def to_kalibr(self, rostopic: str = "/imu/data_raw") -> dict:
+        """Kalibr ``imu.yaml`` keys (worst axis): noise densities per sqrt(Hz), random walks per sqrt(Hz)."""
+        return {
+            "rostopic": rostopic,
+            "update_rate": float(self.sample_rate_hz),
+            # rad/s/sqrt(Hz) equals rad/sqrt(s): same numbers as our white noise N.
+            "gyroscope_noise_density": float(np.max(self.gyro.white_noise)),
+            "gyroscope_random_walk": float(np.max(self.gyro.rate_random_walk)),
+            "accelerometer_noise_density": float(np.max(self.accel.white_noise)),
+            "accelerometer_random_walk": float(np.max(self.accel.rate_random_walk)),
+        }
+
+
+def _to_builtin(obj):
+    """Numpy scalars and arrays to plain Python for YAML."""
+    if isinstance(obj, dict):
+        return {str(k): _to_builtin(v) for k, v in obj.items()}
+    if isinstance(obj, (list, tuple)):
+        return [_to_builtin(v) for v in obj]
+    if isinstance(obj, np.ndarray):
+        return _to_builtin(obj.tolist())
+    if isinstance(obj, np.generic):
+        return obj.item()
+    return obj
+
+
+def _triad_to_dict(name: str, tri: TriadModel) -> dict:
+    out = {"units": dict(UNITS[name])}
+    for term in VECTOR_TERMS + ("misalignment",):
+        entry = {"value": _to_builtin(getattr(tri, term))}
+        if term in tri.intervals and tri.intervals[term] is not None:
+            entry["interval_95"] = _to_builtin(tri.intervals[term])
+        out[term] = entry
+    if tri.info:
+        out["info"] = _to_builtin(tri.info)
+    return out
+
+
+def _array(value, shape, where: str) -> np.ndarray:
+    try:
+        arr = np.asarray(value, dtype=float)
+    except (TypeError, ValueError) as err:
+        raise SensorModelError(f"{where}: expected numbers, got {value!r}") from err
+    if arr.shape != shape:
+        raise SensorModelError(f"{where}: expected shape {shape}, got {arr.shape}")
+    if not np.all(np.isfinite(arr)):
+        raise SensorModelError(f"{where}: values must be finite, got {value!r}")
+    return arr
+
+
+def _triad_from_dict(name: str, data, where: str) -> TriadModel:
+    if data is None:
+        return TriadModel()
+    if not isinstance(data, dict):
+        raise SensorModelError(f"{where}.{name}: expected a mapping, got {type(data).__name__}")
+    tri = TriadModel()
+    known = set(VECTOR_TERMS) | {"misalignment", "units", "info"}
+    unknown = set(data) - known
+    if unknown:
+        raise SensorModelError(f"{where}.{name}: unknown field(s) {sorted(unknown)}")
+    for term in VECTOR_TERMS + ("misalignment",):
+        shape = (3, 3) if term == "misalignment" else (3,)
+        entry = data.get(term)
+        if entry is None:
+            continue
+        if not isinstance(entry, dict) or "value" not in entry:
+            raise SensorModelError(f"{where}.{name}.{term}: expected a mapping with 'value'")
+        if entry["value"] is None:
+            continue
+        setattr(tri, term, _array(entry["value"], shape, f"{where}.{name}.{term}.value"))
+        if entry.get("interval_95") is not None:
+            tri.intervals[term] = _array(entry["interval_95"], shape + (2,),
+                                         f"{where}.{name}.{term}.interval_95")
+    _check_nonnegative(tri, name, where)
+    if term_units := data.get("units"):
+        for key, unit in term_units.items():
+            if UNITS[name].get(key) not in (None, unit):
+                raise SensorModelError(f"{where}.{name}.units.{key}: file says {unit!r}, "
+                                       f"this schema uses {UNITS[name][key]!r}")
+    tri.info = dict(data.get("info") or {})
+    return tri
+
+
+def _check_nonnegative(tri: TriadModel, name: str, where: str) -> None:
+    for term in ("quantization", "white_noise", "bias_instability", "bias_correlation_time",
+                 "rate_random_walk", "rate_ramp"):
+        if np.any(getattr(tri, term) < 0):
+            raise SensorModelError(f"{where}.{name}.{term}.value: must be >= 0, got {getattr(tri, term)}")
+
+
+def from_dict(data, where: str = "<sensor model>") -> SensorModel:
+    """Validate and build a :class:`SensorModel`; errors name ``where`` and the field."""
+    if not isinstance(data, dict):
+        raise SensorModelError(f"{where}: expected a mapping at the top level")
+    version = data.get("sensor_model_version", SCHEMA_VERSION)
+    if version != SCHEMA_VERSION:
+        raise SensorModelError(f"{where}: sensor_model_version {version!r} is not supported "
+                               f"(this code reads {SCHEMA_VERSION})")
+    rate = data.get("sample_rate_hz", 64.0)
+    if not isinstance(rate, (int, float)) or not rate > 0:
+        raise SensorModelError(f"{where}.sample_rate_hz: expected a positive number, got {rate!r}")
+    physics = data.get("physics", None)
+    if "physics" in data:
+        physics = _physics_from(physics, where)
+    return SensorModel(gyro=_triad_from_dict("gyro", data.get("gyro"), where),
+                       accel=_triad_from_dict("accel", data.get("accel"), where),
+                       sample_rate_hz=float(rate), provenance=dict(data.get("provenance") or {}),
+                       physics=physics)
+
+
+def _physics_from(physics, where: str) -> dict:
+    if physics is None:
+        return {}
+    if isinstance(physics, list):  # a bare list of names: physical defaults
+        physics = {name: {} for name in physics}
+    if not isinstance(physics, dict):
+        raise SensorModelError(f"{where}.physics: expected a mapping of effect -> parameters")
+    for effect, params in physics.items():
+        if effect not in EFFECTS:
+            raise SensorModelError(f"{where}.physics.{effect}: unknown effect; the vocabulary is "
+                                   f"{', '.join(EFFECTS)}")
+        if params is not None and not isinstance(params, dict):
+            raise SensorModelError(f"{where}.physics.{effect}: parameters must be a mapping")
+    return {k: dict(v or {}) for k, v in physics.items()}
+
+
+def load(path) -> SensorModel:
+    """Read and validate a sensor-model YAML file."""
+    path = Path(path)
+    try:
+        data = yaml.safe_load(path.read_text())
+    except FileNotFoundError:
+        raise SensorModelError(f"{path}: sensor-model file not found") from None
+    except yaml.YAMLError as err:
+        raise SensorModelError(f"{path}: not valid YAML: {err}") from err
+    return from_dict(data, where=str(path))
+
+
+def save(model: SensorModel, path) -> Path:
+    """Write ``model`` as YAML to ``path`` (parent folders created)."""
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    path.write_text(yaml.safe_dump(model.to_dict(), sort_keys=False, width=100))
+    return path
+
+
+def save_kalibr(model: SensorModel, path, rostopic: str = "/imu/data_raw") -> Path:
+    """Write Kalibr's ``imu.yaml`` for ``model``."""
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    path.write_text(yaml.safe_dump(model.to_kalibr(rostopic), sort_keys=False))
+    return path
+
+
+def stamp_provenance(model: SensorModel, tool: str, source: str, **extra) -> None:
+    """Record which tool made ``model`` from which source, and when (UTC)."""
+    model.provenance.update({"tool": tool, "source": str(source),
+                             "created_utc": _dt.datetime.now(_dt.timezone.utc).isoformat(timespec="seconds"),
+                             **_to_builtin(extra)})

@@ -1,0 +1,30 @@
+"""Shared test fixtures: repository paths, real-data location, an isolated ROS 2 domain per test."""
+import itertools
+import os
+from pathlib import Path
+
+import pytest
+
+REPO = Path(__file__).resolve().parents[1]
+SHARED_DATA = (REPO / ".." / "shared" / "data").resolve()
+_DOMAIN_IDS = itertools.count(start=(os.getpid() % 40) + 10)
+
+
+def shared_data(*parts) -> Path:
+    """Path into ../shared/data; skips with a clear message naming where it looked if absent."""
+    path = SHARED_DATA.joinpath(*parts)
+    if not path.exists():
+        pytest.skip(f"real data not found: looked for {path}")
+    return path
+
+
+@pytest.fixture
+def ros_env(monkeypatch):
+    """Environment for node processes: a test-private ROS_DOMAIN_ID, localhost-only discovery."""
+    domain = str(next(_DOMAIN_IDS) % 100 + 100)  # 100..199; helpers may use 0..99 by hand
+    env = dict(os.environ)
+    env.update({"ROS_DOMAIN_ID": domain, "ROS_AUTOMATIC_DISCOVERY_RANGE": "LOCALHOST",
+                "PYTHONUNBUFFERED": "1", "RCUTILS_LOGGING_BUFFERED_STREAM": "0"})
+    monkeypatch.setenv("ROS_DOMAIN_ID", domain)
+    monkeypatch.setenv("ROS_AUTOMATIC_DISCOVERY_RANGE", "LOCALHOST")
+    return env
