@@ -1,0 +1,195 @@
+"""rclpy helpers shared by every node: main loop, declared parameters, diagnostics, Imu conversion, probe.
+
+The only module of ``nav_core`` that imports rclpy.
+"""
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass
+
+import numpy as np
+import rclpy
+from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
+from rcl_interfaces.msg import FloatingPointRange, IntegerRange, ParameterDescriptor, SetParametersResult
+from rclpy.executors import ExternalShutdownException
+from rclpy.node import Node
+from rclpy.qos import qos_profile_sensor_data
+from sensor_msgs.msg import Imu
+
+SENSOR_QOS = qos_profile_sensor_data
+"""Best-effort QoS of sensor topics: a reliable subscriber will not connect to them."""
+
+DIAG_LEVELS = {"OK": DiagnosticStatus.OK, "WARN": DiagnosticStatus.WARN,
+               "ERROR": DiagnosticStatus.ERROR, "STALE": DiagnosticStatus.STALE}
+
+
+class ConfigError(ValueError):
+    """A parameter value is invalid; the node stops with this message."""
+
+
+def run_node(node_factory, args=None) -> int:
+    """The ros2/demos main: init, build, spin, shut down cleanly; a ConfigError exits with status 2."""
+    rclpy.init(args=args)
+    node = None
+    status = 0
+    try:
+        node = node_factory()
+        rclpy.spin(node)
+    except ConfigError as err:
+        print(f"[ERROR] configuration: {err}", flush=True)
+        status = 2
+    except (KeyboardInterrupt, ExternalShutdownException):
+        pass
+    finally:
+        if node is not None:
+            close = getattr(node, "close", None)
+            if close:
+                close()
+            node.destroy_node()
+        rclpy.try_shutdown()
+    return status
+
+
+@dataclass(frozen=True)
+class Param:
+    """A parameter declaration: name, default, description, optional numeric range or choices."""
+
+    name: str
+    default: object
+    description: str
+    low: float | None = None
+    high: float | None = None
+    choices: tuple | None = None
+
+    def descriptor(self) -> ParameterDescriptor:
+        """The ROS ParameterDescriptor with description and range."""
+        desc = ParameterDescriptor(description=self.description)
+        if self.choices:
+            desc.additional_constraints = f"one of {list(self.choices)}"
+        if self.low is not None and self.high is not None:
+            if isinstance(self.default, bool):
+                pass
+            elif isinstance(self.default, int):
+                desc.integer_range = [IntegerRange(from_value=int(self.low), to_value=int(self.high), step=0)]
+            elif isinstance(self.default, float):
+                desc.floating_point_range = [FloatingPointRange(from_value=float(self.low),
+                                                                to_value=float(self.high), step=0.0)]
+        return desc
+
+    def check(self, value) -> None:
+        """Raise ConfigError if ``value`` is outside the range or choices."""
+        if self.choices and value not in self.choices:
+            raise ConfigError(f"parameter '{self.name}': {value!r} is not one of {list(self.choices)}")
+        if isinstance(value, (int, float)) and not isinstance(value, bool):
+            if self.low is not None and value < self.low or self.high is not None and value > self.high:
+                raise ConfigError(f"parameter '{self.name}': {value!r} outside [{self.low}, {self.high}]")
+
+
+def declare_parameters(node: Node, params) -> dict:
+    """Declare ``params`` with descriptors, validate them (ConfigError), return name -> value.
+
+    Later changes are validated by an on-set-parameters callback that rejects bad values.
+    """
+    by_name = {p.name: p for p in params}
+    values = {}
+    for p in params:
+        node.declare_parameter(p.name, p.default, p.descriptor())
+        values[p.name] = node.get_parameter(p.name).value
+        p.check(values[p.name])
+
+    def on_set(changes):
+        for change in changes:
+            if change.name in by_name:
+                try:
+                    by_name[change.name].check(change.value)
+                except ConfigError as err:
+                    return SetParametersResult(successful=False, reason=str(err))
+        return SetParametersResult(successful=True)
+
+    node.add_on_set_parameters_callback(on_set)
+    return values
+
+
+class Diagnostics:
+    """Publishes one ``DiagnosticStatus`` of a node on ``/diagnostics`` (diagnostic_updater stand-in)."""
+
+    def __init__(self, node: Node, name: str, hardware_id: str = ""):
+        self._node = node
+        self._pub = node.create_publisher(DiagnosticArray, "/diagnostics", 10)
+        self.name = f"{node.get_name()}: {name}"
+        self.hardware_id = hardware_id
+
+    def publish(self, level: str, message: str, values: dict) -> DiagnosticStatus:
+        """Publish ``values`` (stringified) at ``level`` (OK/WARN/ERROR/STALE) with ``message``."""
+        status = DiagnosticStatus(level=DIAG_LEVELS[level], name=self.name, message=message,
+                                  hardware_id=self.hardware_id,
+                                  values=[KeyValue(key=str(k), value=_fmt(v)) for k, v in values.items()])
+        arr = DiagnosticArray()
+        arr.header.stamp = self._node.get_clock().now().to_msg()
+        arr.status = [status]
+        self._pub.publish(arr)
+        return status
+
+
+def _fmt(value) -> str:
+    if isinstance(value, float):
+        return f"{value:.6g}"
+    return str(value)
+
+
+def stamp_from_s(t_s: float):
+    """``builtin_interfaces/Time`` from float seconds."""
+    from builtin_interfaces.msg import Time
+
+    ns = int(round(t_s * 1e9))
+    return Time(sec=ns // 1_000_000_000, nanosec=ns % 1_000_000_000)
+
+
+def stamp_to_s(stamp) -> float:
+    """Float seconds from ``builtin_interfaces/Time``."""
+    return stamp.sec + 1e-9 * stamp.nanosec
+
+
+def imu_to_arrays(msg: Imu):
+    """(t s, gyro (3,) rad/s, accel (3,) m/s^2) of an Imu message."""
+    w, a = msg.angular_velocity, msg.linear_acceleration
+    return stamp_to_s(msg.header.stamp), np.array((w.x, w.y, w.z)), np.array((a.x, a.y, a.z))
+
+
+def imu_from_arrays(t_s: float, gyro, accel, frame_id: str = "imu_link", gyro_var: float = 0.0,
+                    accel_var: float = 0.0, stamp=None) -> Imu:
+    """An Imu message (no orientation: covariance[0] = -1) from rate (rad/s) and specific force (m/s^2)."""
+    msg = Imu()
+    msg.header.stamp = stamp if stamp is not None else stamp_from_s(t_s)
+    msg.header.frame_id = frame_id
+    msg.orientation_covariance[0] = -1.0
+    msg.angular_velocity.x, msg.angular_velocity.y, msg.angular_velocity.z = (float(v) for v in gyro)
+    msg.linear_acceleration.x, msg.linear_acceleration.y, msg.linear_acceleration.z = (float(v) for v in accel)
+    for i in (0, 4, 8):
+        msg.angular_velocity_covariance[i] = gyro_var
+        msg.linear_acceleration_covariance[i] = accel_var
+    return msg
+
+
+class Probe(Node):
+    """Test and demo helper: subscribes to topics and keeps (receive time, message) pairs."""
+
+    def __init__(self, topics: dict, name: str = "probe", qos=SENSOR_QOS):
+        super().__init__(name)
+        self.received = {topic: [] for topic in topics}
+        for topic, msg_type in topics.items():
+            self.create_subscription(msg_type, topic, self._keeper(topic), qos)
+
+    def _keeper(self, topic):
+        def keep(msg):
+            self.received[topic].append((time.monotonic(), msg))
+        return keep
+
+    def spin_until(self, predicate, timeout_s: float) -> bool:
+        """Spin until ``predicate(self)`` is true or ``timeout_s`` passes; return whether it became true."""
+        deadline = time.monotonic() + timeout_s
+        while time.monotonic() < deadline:
+            if predicate(self):
+                return True
+            rclpy.spin_once(self, timeout_sec=0.05)
+        return predicate(self)
