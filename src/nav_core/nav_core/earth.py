@@ -97,3 +97,18 @@ class LocalFrame:
         lat, lon, h = pymap3d.enu2geodetic(enu[..., 0], enu[..., 1], enu[..., 2],
                                            self.lat0_deg, self.lon0_deg, self.h0_m)
         return np.asarray(lat, float), np.asarray(lon, float), np.asarray(h, float)
+
+
+def mat_ne(lat_rad, lon_rad):
+    """Rotation matrix ECEF -> local ENU at geodetic (lat, lon) in rad, shape (3, 3) or (n, 3, 3).
+
+    Its rows are the east, north and up unit vectors in ECEF; its transpose maps ENU to ECEF.
+    """
+    lat = np.asarray(lat_rad, dtype=float)
+    lon = np.asarray(lon_rad, dtype=float)
+    sl, cl, so, co = np.sin(lat), np.cos(lat), np.sin(lon), np.cos(lon)
+    out = np.zeros(np.broadcast_shapes(lat.shape, lon.shape) + (3, 3))
+    out[..., 0, 0], out[..., 0, 1] = -so, co
+    out[..., 1, 0], out[..., 1, 1], out[..., 1, 2] = -sl * co, -sl * so, cl
+    out[..., 2, 0], out[..., 2, 1], out[..., 2, 2] = cl * co, cl * so, sl
+    return out
