@@ -16,7 +16,7 @@ setup(
     license="Apache-2.0",
     entry_points={
         "console_scripts": [
-            
+            "imu-sim = imu_sim.cli:main",
         ],
     },
 )
