@@ -16,7 +16,8 @@ setup(
     license="Apache-2.0",
     entry_points={
         "console_scripts": [
-            
+            "ins_gps_kf_node = ins_gps_kf.ins_gps_kf_node:main",
+            "ins-gps-kf = ins_gps_kf.replay:main",
         ],
     },
 )

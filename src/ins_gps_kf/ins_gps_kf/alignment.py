@@ -1,0 +1,102 @@
+"""Coarse alignment from a stationary period: roll, pitch, gyro bias; heading from GPS course or a parameter.
+
+A MEMS gyro cannot find north (its noise and bias exceed the 15 deg/h Earth rate),
+so heading comes from the GPS course once the vehicle moves, or from a parameter.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from nav_core import earth, frames
+
+
+@dataclass
+class Alignment:
+    """Result of the stationary alignment: roll, pitch (rad), gyro bias (rad/s, body), span (s)."""
+
+    roll: float
+    pitch: float
+    gyro_bias: np.ndarray
+    mean_accel: np.ndarray
+    duration_s: float
+    samples: int
+
+
+def level_from_specific_force(mean_accel):
+    """Roll and pitch (rad) of a resting FLU IMU from its mean specific force (m/s^2, reads +g up)."""
+    fx, fy, fz = np.asarray(mean_accel, dtype=float)
+    return float(np.arctan2(fy, fz)), float(np.arctan2(-fx, np.hypot(fy, fz)))
+
+
+def gyro_bias_at_rest(mean_gyro, roll, pitch, lat_rad, yaw=None):
+    """Gyro bias (rad/s, body): mean rate at rest minus the Earth rate seen at that attitude.
+
+    Without a known ``yaw`` (rad) only the vertical Earth rate is removed; the horizontal
+    part (at most RATE*cos(lat)) stays in the bias.
+    """
+    mat_nb = frames.mat_nb_from_euler(roll, pitch, 0.0 if yaw is None else yaw)
+    w_ie_n = earth.earth_rate_n(lat_rad)
+    if yaw is None:
+        w_ie_n[:2] = 0.0
+    return np.asarray(mean_gyro, dtype=float) - mat_nb.T @ w_ie_n
+
+
+class StationaryAligner:
+    """Accumulates IMU samples while they stay stationary; finishes after ``duration_s`` or when motion starts.
+
+    Stationary means: the sample's rate magnitude (rad/s) and its specific-force deviation
+    from the running mean (m/s^2) stay under the thresholds. Motion before
+    ``min_duration_s`` restarts the accumulation (the period was not stationary).
+    """
+
+    def __init__(self, duration_s, min_duration_s, gyro_threshold, accel_threshold):
+        self.duration_s, self.min_duration_s = duration_s, min_duration_s
+        self.gyro_threshold, self.accel_threshold = gyro_threshold, accel_threshold
+        self.restart()
+
+    def restart(self):
+        """Forget the samples seen so far."""
+        self.t0 = None
+        self.t_last = None
+        self.n = 0
+        self.sum_gyro = np.zeros(3)
+        self.sum_accel = np.zeros(3)
+        self.moving = False
+        self.restarts = getattr(self, "restarts", -1) + 1
+
+    @property
+    def elapsed_s(self) -> float:
+        """Stationary time accumulated so far, s."""
+        return 0.0 if self.t0 is None else self.t_last - self.t0
+
+    def add(self, t, gyro, accel) -> bool:
+        """Add one sample (s, rad/s, m/s^2); True when the alignment is ready to be finished."""
+        if self.n >= 10:
+            mean_g, mean_a = self.sum_gyro / self.n, self.sum_accel / self.n
+            if (np.linalg.norm(gyro - mean_g) > self.gyro_threshold
+                    or np.linalg.norm(accel - mean_a) > self.accel_threshold):
+                if self.elapsed_s >= self.min_duration_s:
+                    self.moving = True
+                    return True
+                self.restart()
+        if self.t0 is None:
+            self.t0 = t
+        self.t_last = t
+        self.n += 1
+        self.sum_gyro += gyro
+        self.sum_accel += accel
+        return self.elapsed_s >= self.duration_s
+
+    def finish(self, lat_rad, yaw=None) -> Alignment:
+        """Roll, pitch and gyro bias from the accumulated samples at latitude ``lat_rad`` (yaw in rad if known)."""
+        mean_g, mean_a = self.sum_gyro / self.n, self.sum_accel / self.n
+        roll, pitch = level_from_specific_force(mean_a)
+        return Alignment(roll, pitch, gyro_bias_at_rest(mean_g, roll, pitch, lat_rad, yaw), mean_a,
+                         self.elapsed_s, self.n)
+
+
+def yaw_from_displacement(d_enu):
+    """Course yaw (rad, ENU: 0 = east, CCW) of a horizontal displacement (m, ENU)."""
+    return float(np.arctan2(d_enu[1], d_enu[0]))

@@ -1,0 +1,169 @@
+"""Filter parameters: one spec shared by the node (ROS parameters) and the offline replay (params YAML).
+
+Degrees, mg and deg/h appear only here, in parameter names; :class:`FilterConfig` holds SI.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from pathlib import Path
+
+import yaml
+
+from nav_core.units import DEG, MG, DEG_PER_H
+
+NODE_NAME = "ins_gps_kf_node"
+
+
+class FilterConfigError(ValueError):
+    """A parameter is invalid; the message names it (the node turns it into ConfigError)."""
+
+
+@dataclass(frozen=True)
+class Spec:
+    """One parameter: name, default, description (with unit), optional range or choices."""
+
+    name: str
+    default: object
+    description: str
+    low: float | None = None
+    high: float | None = None
+    choices: tuple | None = None
+
+
+PARAMETERS = (
+    Spec("imu_topic", "imu/data_corrected", "IMU input topic (remap to imu/data_raw for raw data)"),
+    Spec("gps_topic", "gps/fix", "NavSatFix input topic"),
+    Spec("sensor_model_path", "", "sensor-model YAML (nav_core.sensor_model); empty = hand-tuned MEMS default"),
+    Spec("apply_sensor_model_calibration", False, "subtract the model's bias/scale/misalignment from the IMU"),
+    Spec("imu_rate_hz", 64.0, "nominal IMU rate, Hz (stamps give the real dt)", 1.0, 5000.0),
+    Spec("gps_rate_hz", 1.0, "nominal GPS rate, Hz (GPS age warning at 3 periods)", 0.05, 100.0),
+    Spec("filter_rate_hz", 2.0, "Kalman filter (covariance propagation and update) rate, Hz", 0.1, 100.0),
+    Spec("alignment_time_s", 45.0, "stationary time used for coarse alignment, s", 1.0, 600.0),
+    Spec("min_alignment_time_s", 5.0, "shortest stationary period accepted if motion starts early, s", 0.5, 600.0),
+    Spec("stationary_gyro_dps", 2.0, "stationarity: rms angular rate below this, deg/s", 0.0, 100.0),
+    Spec("stationary_accel_mg", 50.0, "stationarity: |f| deviation from its mean below this, mg", 0.0, 1000.0),
+    Spec("initial_yaw_deg", float("nan"), "initial yaw (ENU, 0 = east, CCW), deg; NaN = from GPS course"),
+    Spec("heading_min_speed_mps", 0.3, "GPS ground speed needed to take the heading from the course, m/s",
+         0.0, 100.0),
+    Spec("datum_lat_deg", float("nan"), "local ENU datum latitude, deg; NaN = first valid fix", -90.0, 90.0),
+    Spec("datum_lon_deg", float("nan"), "local ENU datum longitude, deg; NaN = first valid fix", -180.0, 180.0),
+    Spec("datum_h_m", 0.0, "local ENU datum height, m (used with datum_lat_deg)", -1000.0, 10000.0),
+    Spec("lever_arm_x_m", 0.0, "GPS antenna position in body x (forward), m", -100.0, 100.0),
+    Spec("lever_arm_y_m", 0.0, "GPS antenna position in body y (left), m", -100.0, 100.0),
+    Spec("lever_arm_z_m", 0.0, "GPS antenna position in body z (up), m", -100.0, 100.0),
+    Spec("gps_std_m", 0.0, "GPS horizontal std, m; 0 = use the NavSatFix covariance", 0.0, 1000.0),
+    Spec("gps_std_up_m", 0.0, "GPS vertical std, m; 0 = use the NavSatFix covariance", 0.0, 1000.0),
+    Spec("min_gps_std_m", 0.05, "floor on the GPS std taken from messages, m", 0.0, 100.0),
+    Spec("gate_probability", 0.9999, "chi-square gate: fixes with NIS above this quantile are rejected", 0.5, 1.0),
+    Spec("max_rejected_fixes", 5, "this many gated-out fixes in a row reset the position to GPS", 1, 1000),
+    Spec("reuse_last_fix", False, "paper option: re-use the last GPS fix at intermediate filter epochs"),
+    Spec("zupt_enabled", True, "zero-velocity updates when the IMU is stationary"),
+    Spec("zupt_std_mps", 0.02, "zero-velocity measurement std, m/s", 1e-4, 10.0),
+    Spec("init_gyro_bias_std_dph", 100.0, "initial gyro bias std after alignment, deg/h", 0.0, 1e6),
+    Spec("init_accel_bias_std_mg", 20.0, "initial accel bias std, mg", 0.0, 1e4),
+    Spec("init_attitude_std_deg", 1.0, "initial roll/pitch std after alignment, deg", 0.0, 90.0),
+    Spec("heading_std_deg", 10.0, "initial heading std (course or parameter), deg", 0.0, 180.0),
+    Spec("flicker_correlation_time_s", 300.0, "Gauss-Markov time for flicker bias instability, s", 1.0, 1e6),
+    Spec("reorder_window_s", 0.1, "node: messages are held this long and processed in stamp order, s", 0.0, 5.0),
+    Spec("time_jump_s", 1.0, "backward stamp jump or IMU gap that resets the filter, s", 0.01, 1e6),
+    Spec("frame_id", "odom", "odometry pose frame (local ENU at the datum)"),
+    Spec("child_frame_id", "base_link", "odometry twist / body frame"),
+)
+SPEC_BY_NAME = {s.name: s for s in PARAMETERS}
+
+
+@dataclass(frozen=True)
+class FilterConfig:
+    """The core's settings, SI units (built from parameters by :func:`from_params`)."""
+
+    imu_rate_hz: float = 64.0
+    gps_rate_hz: float = 1.0
+    filter_rate_hz: float = 2.0
+    alignment_time_s: float = 45.0
+    min_alignment_time_s: float = 5.0
+    stationary_gyro: float = 2.0 * DEG
+    stationary_accel: float = 50.0 * MG
+    initial_yaw: float = math.nan
+    heading_min_speed: float = 0.3
+    datum: tuple | None = None
+    lever_arm_b: tuple = (0.0, 0.0, 0.0)
+    gps_std: float = 0.0
+    gps_std_up: float = 0.0
+    min_gps_std: float = 0.05
+    gate_probability: float = 0.9999
+    reuse_last_fix: bool = False
+    max_rejected_fixes: int = 5
+    zupt_enabled: bool = True
+    zupt_std: float = 0.02
+    init_gyro_bias_std: float = 100.0 * DEG_PER_H
+    init_accel_bias_std: float = 20.0 * MG
+    init_attitude_std: float = 1.0 * DEG
+    heading_std: float = 10.0 * DEG
+    flicker_correlation_time: float = 300.0
+    time_jump: float = 1.0
+    apply_calibration: bool = False
+
+
+def defaults() -> dict:
+    """Parameter name -> default value."""
+    return {s.name: s.default for s in PARAMETERS}
+
+
+def check(name: str, value) -> None:
+    """Raise FilterConfigError if ``value`` is out of range for parameter ``name``."""
+    spec = SPEC_BY_NAME.get(name)
+    if spec is None:
+        raise FilterConfigError(f"unknown parameter {name!r}; known: {sorted(SPEC_BY_NAME)}")
+    if isinstance(value, (int, float)) and not isinstance(value, bool) and not math.isnan(value):
+        if (spec.low is not None and value < spec.low) or (spec.high is not None and value > spec.high):
+            raise FilterConfigError(f"parameter '{name}': {value!r} outside [{spec.low}, {spec.high}]")
+
+
+def from_params(params: dict) -> FilterConfig:
+    """Validate a name -> value mapping (missing names take defaults) and build the SI config."""
+    p = defaults()
+    p.update(params)
+    for name, value in p.items():
+        check(name, value)
+    if p["min_alignment_time_s"] > p["alignment_time_s"]:
+        raise FilterConfigError("parameter 'min_alignment_time_s' must not exceed 'alignment_time_s'")
+    has_lat, has_lon = not math.isnan(p["datum_lat_deg"]), not math.isnan(p["datum_lon_deg"])
+    if has_lat != has_lon:
+        raise FilterConfigError("parameters 'datum_lat_deg' and 'datum_lon_deg' must be set together")
+    return FilterConfig(
+        imu_rate_hz=float(p["imu_rate_hz"]), gps_rate_hz=float(p["gps_rate_hz"]),
+        filter_rate_hz=float(p["filter_rate_hz"]), alignment_time_s=float(p["alignment_time_s"]),
+        min_alignment_time_s=float(p["min_alignment_time_s"]),
+        stationary_gyro=p["stationary_gyro_dps"] * DEG, stationary_accel=p["stationary_accel_mg"] * MG,
+        initial_yaw=float(p["initial_yaw_deg"]) * DEG, heading_min_speed=float(p["heading_min_speed_mps"]),
+        datum=(p["datum_lat_deg"], p["datum_lon_deg"], p["datum_h_m"]) if has_lat else None,
+        lever_arm_b=(p["lever_arm_x_m"], p["lever_arm_y_m"], p["lever_arm_z_m"]),
+        gps_std=float(p["gps_std_m"]), gps_std_up=float(p["gps_std_up_m"]), min_gps_std=float(p["min_gps_std_m"]),
+        gate_probability=float(p["gate_probability"]), reuse_last_fix=bool(p["reuse_last_fix"]),
+        max_rejected_fixes=int(p["max_rejected_fixes"]),
+        zupt_enabled=bool(p["zupt_enabled"]), zupt_std=float(p["zupt_std_mps"]),
+        init_gyro_bias_std=p["init_gyro_bias_std_dph"] * DEG_PER_H,
+        init_accel_bias_std=p["init_accel_bias_std_mg"] * MG, init_attitude_std=p["init_attitude_std_deg"] * DEG,
+        heading_std=p["heading_std_deg"] * DEG, flicker_correlation_time=float(p["flicker_correlation_time_s"]),
+        time_jump=float(p["time_jump_s"]), apply_calibration=bool(p["apply_sensor_model_calibration"]))
+
+
+def load_params_yaml(path) -> dict:
+    """``ins_gps_kf_node: ros__parameters:`` of a ROS 2 params file as name -> value (validated names)."""
+    path = Path(path)
+    try:
+        data = yaml.safe_load(path.read_text()) or {}
+    except FileNotFoundError:
+        raise FilterConfigError(f"{path}: params file not found") from None
+    except yaml.YAMLError as err:
+        raise FilterConfigError(f"{path}: not valid YAML: {err}") from err
+    section = (data.get(NODE_NAME) or data.get("/**") or {}).get("ros__parameters")
+    if not isinstance(section, dict):
+        raise FilterConfigError(f"{path}: expected '{NODE_NAME}: ros__parameters:' mapping")
+    unknown = set(section) - set(SPEC_BY_NAME) - {"use_sim_time"}
+    if unknown:
+        raise FilterConfigError(f"{path}: unknown parameter(s) {sorted(unknown)}")
+    section.pop("use_sim_time", None)
+    return {k: (float(v) if isinstance(SPEC_BY_NAME[k].default, float) and isinstance(v, int)
+                and not isinstance(v, bool) else v) for k, v in section.items()}

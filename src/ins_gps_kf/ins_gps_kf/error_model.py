@@ -1,0 +1,92 @@
+"""The 15-state INS error model: named indices, continuous dynamics F, noise input G, process noise from the sensor model.
+
+States (estimate minus truth): ``DP`` position (ENU, m), ``DV`` velocity (ENU, m/s),
+``PHI`` attitude error (ENU, rad; ``C_est = (I - [phi x]) C_true``), ``BG`` gyro
+bias error (body, rad/s), ``BA`` accel bias error (body, m/s^2)::
+
+    dp'  = dv
+    dv'  = [f_n x] phi - C_nb ba - (2 w_ie + w_en) x dv + C_nb n_a
+    phi' = -w_in x phi + C_nb bg - C_nb n_g
+    b'   = -b / tau + n_b      (first-order Gauss-Markov; tau = inf: random walk)
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from nav_core import sensor_model as sm
+from nav_core.frames import skew
+from nav_core.units import DEG, DEG_PER_H, MG
+
+DP, DV, PHI, BG, BA = (slice(0, 3), slice(3, 6), slice(6, 9), slice(9, 12), slice(12, 15))
+STATES = ["dpe", "dpn", "dpu", "dve", "dvn", "dvu", "phie", "phin", "phiu",
+          "bgx", "bgy", "bgz", "bax", "bay", "baz"]
+N_STATES = len(STATES)
+N_NOISES = 12  # gyro white, accel white, gyro bias driving, accel bias driving
+
+
+@dataclass(frozen=True)
+class NoiseModel:
+    """Continuous noise densities per axis (SI) and bias correlation times (s; inf = random walk)."""
+
+    gyro_white: np.ndarray       # rad/sqrt(s)
+    accel_white: np.ndarray      # m/s/sqrt(s)
+    gyro_bias_drive: np.ndarray  # rad/s/sqrt(s)
+    accel_bias_drive: np.ndarray  # m/s^2/sqrt(s)
+    gyro_bias_tau: np.ndarray    # s
+    accel_bias_tau: np.ndarray   # s
+
+
+def default_mems_model() -> sm.SensorModel:
+    """Hand-tuned MEMS defaults (ADXRS300/ADXL210-class datasheet magnitudes) for when no Allan model exists."""
+    model = sm.SensorModel(sample_rate_hz=64.0, provenance={"tool": "ins_gps_kf.error_model.default_mems_model",
+                                                            "source": "hand-tuned datasheet magnitudes"})
+    model.gyro.white_noise = np.full(3, 0.1 * DEG)                  # 0.1 deg/sqrt(s) = 6 deg/sqrt(h)
+    model.gyro.bias_instability = np.full(3, 50.0 * DEG_PER_H)
+    model.gyro.rate_random_walk = np.full(3, 1.0 * DEG_PER_H / 60.0)
+    model.accel.white_noise = np.full(3, 2e-3)                       # m/s/sqrt(s)
+    model.accel.bias_instability = np.full(3, 1.0 * MG)
+    model.accel.rate_random_walk = np.full(3, 1e-5)
+    return model
+
+
+def _bias_drive(triad: sm.TriadModel, flicker_tau: float):
+    """Bias-state driving density and correlation time per axis from B, tau_B and K."""
+    tau = np.where(triad.bias_correlation_time > 0, triad.bias_correlation_time, flicker_tau)
+    drive2 = 2.0 * triad.bias_instability**2 / tau + triad.rate_random_walk**2
+    tau = np.where(triad.bias_instability > 0, tau, np.inf)  # no instability term: pure random walk
+    return np.sqrt(drive2), tau
+
+
+def noise_from_sensor_model(model: sm.SensorModel, flicker_tau_s: float = 300.0) -> NoiseModel:
+    """Process-noise densities from the sensor model (flicker bias approximated as Gauss-Markov)."""
+    g_drive, g_tau = _bias_drive(model.gyro, flicker_tau_s)
+    a_drive, a_tau = _bias_drive(model.accel, flicker_tau_s)
+    return NoiseModel(model.gyro.white_noise.copy(), model.accel.white_noise.copy(), g_drive, a_drive, g_tau, a_tau)
+
+
+def dynamics(mat_nb, f_n, w_ie_n, w_en_n, noise: NoiseModel):
+    """Continuous ``F`` (15, 15) and noise input ``G`` (15, 12) at attitude ``mat_nb`` and ENU specific force (m/s^2)."""
+    f = np.zeros((N_STATES, N_STATES))
+    f[DP, DV] = np.eye(3)
+    f[DV, DV] = -skew(2.0 * w_ie_n + w_en_n)
+    f[DV, PHI] = skew(f_n)
+    f[DV, BA] = -mat_nb
+    f[PHI, PHI] = -skew(w_ie_n + w_en_n)
+    f[PHI, BG] = mat_nb
+    f[BG, BG] = np.diag(-1.0 / noise.gyro_bias_tau)
+    f[BA, BA] = np.diag(-1.0 / noise.accel_bias_tau)
+    g = np.zeros((N_STATES, N_NOISES))
+    g[DV, 3:6] = mat_nb * noise.accel_white
+    g[PHI, 0:3] = -mat_nb * noise.gyro_white
+    g[BG, 6:9] = np.diag(noise.gyro_bias_drive)
+    g[BA, 9:12] = np.diag(noise.accel_bias_drive)
+    return f, g
+
+
+def initial_covariance(pos_std, vel_std, att_std, gyro_bias_std, accel_bias_std):
+    """Diagonal initial covariance from per-block stds (each scalar or (3,), SI units)."""
+    std = np.concatenate([np.broadcast_to(s, 3) for s in (pos_std, vel_std, att_std, gyro_bias_std,
+                                                           accel_bias_std)])
+    return np.diag(std.astype(float) ** 2)

@@ -1,0 +1,364 @@
+"""The INS/GPS filter: alignment, strapdown between filter epochs, covariance propagation and updates at epochs.
+
+One object used identically by the node (one message at a time) and the offline
+replay (large chunks): feed IMU samples and GPS fixes in stamp order (a fix
+before an IMU sample with the same stamp); every filter epoch (multiples of
+``1 / filter_rate_hz`` s) yields an :class:`Estimate`. Chunking does not change
+the numbers: the kernel runs the same per-sample arithmetic either way.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+from scipy.spatial.transform import Rotation
+
+from nav_core import earth, frames
+from nav_core import sensor_model as sm
+from nav_core.earth import LocalFrame
+from nav_core.units import DEG
+from ins_gps_kf import error_model as em
+from ins_gps_kf import kalman, measurements, strapdown
+from ins_gps_kf.alignment import StationaryAligner, yaw_from_displacement
+from ins_gps_kf.config import FilterConfig
+
+WAITING, ALIGNING, HEADING_PENDING, NAVIGATING = "waiting_for_fix", "aligning", "heading_pending", "navigating"
+STATUS_CODES = {WAITING: 0, ALIGNING: 1, HEADING_PENDING: 2, NAVIGATING: 3}
+EPOCH_TOL_S = 1e-6  # stamps within this of an epoch belong to it (ns stamp rounding)
+HEADING_BASELINE_SIGMAS = 10.0  # course baseline at least this many GPS sigmas: heading error ~ 1/10 rad worst
+HEADING_HISTORY_S = 10.0  # longest course baseline, s
+
+
+@dataclass
+class Fix:
+    """A valid GPS fix in the local frame: stamp (s), ENU position (m), covariance (3, 3) m^2."""
+
+    t: float
+    enu: np.ndarray
+    cov: np.ndarray
+
+
+@dataclass
+class Estimate:
+    """Filter output at one epoch: SI, ENU position (m, local frame) and velocity, body-to-ENU quaternion."""
+
+    t: float
+    position_n: np.ndarray
+    velocity_n: np.ndarray
+    quat_xyzw: np.ndarray
+    cov: np.ndarray
+    gyro_bias: np.ndarray
+    accel_bias: np.ndarray
+    status: str
+    gps_used: bool
+    zupt_used: bool
+    nis: float
+    stationary: bool
+
+
+@dataclass
+class Counters:
+    """Event counts reported in diagnostics."""
+
+    fixes: int = 0
+    fixes_invalid: int = 0
+    fixes_rejected: int = 0
+    fixes_reused: int = 0
+    zupts: int = 0
+    resets: int = 0
+    gps_resets: int = 0
+    epochs: int = 0
+    reset_reasons: list = field(default_factory=list)
+
+
+class InsGpsFilter:
+    """Loosely coupled INS/GPS error-state Kalman filter (15 states) with stationary alignment."""
+
+    def __init__(self, cfg: FilterConfig, model: sm.SensorModel | None = None):
+        self.cfg = cfg
+        self.model = model if model is not None else em.default_mems_model()
+        self.noise = em.noise_from_sensor_model(self.model, cfg.flicker_correlation_time)
+        self.lever_arm_b = np.asarray(cfg.lever_arm_b, dtype=float)
+        self.frame = LocalFrame(*cfg.datum) if cfg.datum is not None else None
+        self.counters = Counters()
+        self.last_fix_t = -math.inf
+        self.last_nis = math.nan
+        self._start_over()
+
+    # ------------------------------------------------------------------ life cycle
+
+    def _start_over(self):
+        cfg = self.cfg
+        self.status = WAITING if self.frame is None else ALIGNING
+        self.aligner = StationaryAligner(cfg.alignment_time_s, cfg.min_alignment_time_s, cfg.stationary_gyro,
+                                         cfg.stationary_accel)
+        self.alignment = None
+        self.nav = None
+        self.mem = None
+        self.cov = None
+        self.t_last = None
+        self.pending_fix: Fix | None = None
+        self.prev_fix: Fix | None = None
+        self.heading_history = []  # (fix, INS yaw at its epoch) while the heading is pending
+        self.rejected_in_row = 0
+        self.gyro_bias = np.zeros(3)
+        self.accel_bias = np.zeros(3)
+
+    def reset(self, reason: str):
+        """Forget the navigation solution and re-align (keeps the datum); counted and remembered."""
+        self.counters.resets += 1
+        self.counters.reset_reasons.append(reason)
+        self._start_over()
+
+    @property
+    def navigating(self) -> bool:
+        """Whether a navigation solution exists (aligned)."""
+        return self.nav is not None
+
+    # ------------------------------------------------------------------ GPS input
+
+    def process_gps(self, t, lat_rad, lon_rad, h_m, std_enu, status=0) -> bool:
+        """Queue one fix (s, rad, rad, m, std ENU m, NavSatStatus); False if it is NO_FIX or not finite."""
+        if status < 0 or not np.all(np.isfinite([t, lat_rad, lon_rad, h_m])):
+            self.counters.fixes_invalid += 1
+            return False
+        self.counters.fixes += 1
+        if self.frame is None:
+            self.frame = LocalFrame(lat_rad / DEG, lon_rad / DEG, float(h_m))
+            self.status = ALIGNING
+        cov = measurements.fix_covariance(std_enu, self.cfg.gps_std, self.cfg.gps_std_up, self.cfg.min_gps_std)
+        self.pending_fix = Fix(float(t), self.frame.to_enu(lat_rad / DEG, lon_rad / DEG, h_m), cov)
+        return True
+
+    # ------------------------------------------------------------------ IMU input
+
+    def process_imu(self, t, gyro, accel) -> list[Estimate]:
+        """Feed IMU samples: ``t`` (n,) s, ``gyro`` (n, 3) rad/s, ``accel`` (n, 3) m/s^2; returns epoch estimates."""
+        t = np.atleast_1d(np.asarray(t, dtype=float))
+        gyro = np.atleast_2d(np.asarray(gyro, dtype=float))
+        accel = np.atleast_2d(np.asarray(accel, dtype=float))
+        if self.cfg.apply_calibration:
+            gyro, accel = self.model.gyro.correct(gyro), self.model.accel.correct(accel)
+        out = []
+        if len(t) == 0:
+            return out
+        start = 0
+        for bad in self._time_breaks(t):
+            out += self._process_span(t[start:bad], gyro[start:bad], accel[start:bad])
+            gap = t[bad] - (t[bad - 1] if bad > 0 else self.t_last)
+            self.reset(f"time jump of {gap:+.3f} s at t={t[bad]:.3f} s")
+            start = bad
+        out += self._process_span(t[start:], gyro[start:], accel[start:])
+        return out
+
+    def _time_breaks(self, t):
+        """Indices where the stamp goes backwards or jumps forward by more than ``time_jump`` s."""
+        prev = np.concatenate(([t[0] if self.t_last is None else self.t_last], t[:-1]))
+        dt = t - prev
+        return np.flatnonzero((dt < 0.0) | (dt > self.cfg.time_jump))
+
+    def _process_span(self, t, gyro, accel) -> list[Estimate]:
+        out = []
+        i, n = 0, len(t)
+        while i < n:
+            if self.nav is None:
+                i = self._align(t, gyro, accel, i)
+                continue
+            j = i + int(np.searchsorted(t[i:], self.next_epoch - EPOCH_TOL_S))
+            if j >= n:
+                self._integrate(t[i:], gyro[i:], accel[i:])
+                break
+            self._integrate(t[i:j + 1], gyro[i:j + 1], accel[i:j + 1])
+            out.append(self._epoch())
+            i = j + 1
+        return out
+
+    def _integrate(self, t, gyro, accel):
+        strapdown.integrate(self.nav, self.mem, t, gyro, accel, self.gyro_bias, self.accel_bias,
+                            self.w_ie_n, self.w_en_n, self.g_n)
+        self.t_last = float(t[-1])
+
+    # ------------------------------------------------------------------ alignment
+
+    def _align(self, t, gyro, accel, i) -> int:
+        """Feed samples from ``i`` to the aligner until it finishes; returns the next index."""
+        for k in range(i, len(t)):
+            self.t_last = float(t[k])
+            if self.frame is None:
+                continue
+            if self.aligner.add(t[k], gyro[k], accel[k]):
+                self._start_navigation(float(t[k]))
+                return k + 1
+        return len(t)
+
+    def _start_navigation(self, t0):
+        cfg = self.cfg
+        lat0 = self.frame.lat0_deg * DEG
+        known_yaw = not math.isnan(cfg.initial_yaw)
+        self.alignment = self.aligner.finish(lat0, cfg.initial_yaw if known_yaw else None)
+        yaw = cfg.initial_yaw if known_yaw else 0.0
+        quat = frames.quat_xyzw_from_euler(self.alignment.roll, self.alignment.pitch, yaw)
+        pos, pos_std = np.zeros(3), 10.0
+        if self.pending_fix is not None:
+            mat_nb = Rotation.from_quat(quat).as_matrix()
+            pos = self.pending_fix.enu - mat_nb @ self.lever_arm_b
+            pos_std = np.sqrt(np.diag(self.pending_fix.cov))
+        self.nav = strapdown.new_state(quat, np.zeros(3), pos)
+        self.mem = strapdown.new_memory(t0)
+        self.gyro_bias = self.alignment.gyro_bias.copy()
+        self.accel_bias = np.zeros(3)
+        att_std = np.array([cfg.init_attitude_std, cfg.init_attitude_std, cfg.heading_std])
+        self.cov = em.initial_covariance(pos_std, cfg.zupt_std, att_std, cfg.init_gyro_bias_std,
+                                         cfg.init_accel_bias_std)
+        self.status = NAVIGATING if known_yaw else HEADING_PENDING
+        self.epoch_index = math.floor(t0 * cfg.filter_rate_hz + EPOCH_TOL_S) + 1
+        self._update_earth()
+
+    @property
+    def next_epoch(self) -> float:
+        """Stamp of the next filter epoch, s."""
+        return self.epoch_index / self.cfg.filter_rate_hz
+
+    # ------------------------------------------------------------------ epoch
+
+    def mat_nb(self):
+        """Current body-to-ENU rotation matrix."""
+        return Rotation.from_quat(self.nav[strapdown.Q]).as_matrix()
+
+    def _update_earth(self):
+        """Earth rate, transport rate and gravity (ENU) at the current position, held until the next epoch."""
+        h = self.frame.h0_m + self.nav[strapdown.P][2]
+        rm, rn = earth.radii(self.frame.lat0_deg * DEG)
+        lat = self.frame.lat0_deg * DEG + self.nav[strapdown.P][1] / (rm + h)
+        self.w_ie_n = earth.earth_rate_n(lat)
+        self.w_en_n = earth.transport_rate_n(lat, h, self.nav[strapdown.V])
+        self.g_n = earth.gravity_n(lat, h)
+        self.gravity = -self.g_n[2]
+
+    def _epoch(self) -> Estimate:
+        t_e = self.t_last
+        f_n, w_rms, f_mean, f_std = strapdown.epoch_motion(self.mem)
+        dt = self.mem[strapdown.M_DT]
+        f_cont, g_cont = em.dynamics(self.mat_nb(), f_n, self.w_ie_n, self.w_en_n, self.noise)
+        self.cov = kalman.propagate(self.cov, f_cont, g_cont, dt)
+        stationary = bool(w_rms < self.cfg.stationary_gyro and f_std < self.cfg.stationary_accel
+                          and abs(f_mean - self.gravity) < 3 * self.cfg.stationary_accel)
+        gps_used, nis = self._gps_update(t_e)
+        zupt_used = False
+        if self.cfg.zupt_enabled and stationary:
+            zupt_used = self._apply(measurements.zero_velocity(self.nav[strapdown.V], self.cfg.zupt_std)) is not None
+            self.counters.zupts += zupt_used
+        strapdown.reset_accumulators(self.mem)
+        self._update_earth()
+        self.counters.epochs += 1
+        while self.next_epoch <= t_e + EPOCH_TOL_S:
+            self.epoch_index += 1
+        return Estimate(t_e, self.nav[strapdown.P].copy(), self.nav[strapdown.V].copy(),
+                        self.nav[strapdown.Q].copy(), self.cov.copy(), self.gyro_bias.copy(),
+                        self.accel_bias.copy(), self.status, gps_used, zupt_used, nis, stationary)
+
+    def _gps_update(self, t_e):
+        """Use the newest pending fix (or, optionally, re-use the last one); returns (used, NIS)."""
+        fix, reused = self.pending_fix, False
+        self.pending_fix = None
+        if fix is None:
+            max_age = 1.5 / self.cfg.gps_rate_hz
+            if not (self.cfg.reuse_last_fix and self.prev_fix is not None and t_e - self.prev_fix.t <= max_age):
+                return False, math.nan
+            fix, reused = self.prev_fix, True
+        if self.status == HEADING_PENDING and not reused and self._try_heading(fix, t_e):
+            self.prev_fix = fix
+            self.last_fix_t = fix.t
+            return True, math.nan
+        if not reused and self.rejected_in_row >= self.cfg.max_rejected_fixes:
+            self._reset_to_fix(fix, t_e)
+            return True, math.nan
+        z = measurements.gps_position(self.nav[strapdown.P], self.nav[strapdown.V], self.mat_nb(),
+                                      self.lever_arm_b, fix.enu, fix.cov, t_e - fix.t)
+        corr = self._apply(z)
+        if not reused:
+            self.prev_fix = fix
+            self.counters.fixes_rejected += not corr.accepted
+            self.rejected_in_row = 0 if corr.accepted else self.rejected_in_row + 1
+        else:
+            self.counters.fixes_reused += 1
+        self.last_nis = corr.nis
+        if corr.accepted:
+            self.last_fix_t = max(self.last_fix_t, fix.t)
+            return True, corr.nis
+        return False, self.last_nis
+
+    def _apply(self, measurement):
+        """Gate, update and feed back one ``(z, H, R)``; returns the Correction (its dx is None if rejected)."""
+        z, h, r = measurement
+        self.cov, corr = kalman.correct(self.cov, z, h, r, self.cfg.gate_probability)
+        if corr.accepted:
+            dx = corr.dx.copy()
+            if self.status == HEADING_PENDING:
+                dx[em.PHI.start + 2] = 0.0  # yaw is unknown yet: do not let a linear update steer it
+            self._feed_back(dx)
+        return corr
+
+    def _feed_back(self, dx):
+        """Subtract the estimated errors from the nav state and biases (error state returns to zero)."""
+        self.nav[strapdown.P] -= dx[em.DP]
+        self.nav[strapdown.V] -= dx[em.DV]
+        quat = (Rotation.from_rotvec(dx[em.PHI]) * Rotation.from_quat(self.nav[strapdown.Q])).as_quat()
+        self.nav[strapdown.Q] = quat
+        self.gyro_bias = self.gyro_bias - dx[em.BG]
+        self.accel_bias = self.accel_bias - dx[em.BA]
+
+    # ------------------------------------------------------------------ heading from course
+
+    def _reset_to_fix(self, fix: Fix, t_e):
+        """After too many rejected fixes in a row the INS has diverged: restart position at the fix."""
+        self.counters.gps_resets += 1
+        self.rejected_in_row = 0
+        self.prev_fix = fix
+        self.last_fix_t = fix.t
+        vel = self.nav[strapdown.V]
+        self.nav[strapdown.P] = fix.enu - self.mat_nb() @ self.lever_arm_b + vel * (t_e - fix.t)
+        vel_var = np.maximum(np.diag(self.cov[em.DV, em.DV]), 1.0)
+        self._reset_block(np.r_[0:6], np.concatenate([np.diag(fix.cov), vel_var]))
+
+    def _reset_block(self, idx, variances):
+        """Replace the covariance of states ``idx`` by ``variances``, cutting their correlations."""
+        self.cov[idx, :] = 0.0
+        self.cov[:, idx] = 0.0
+        self.cov[idx, idx] = variances
+
+    def _try_heading(self, fix: Fix, t_e) -> bool:
+        """Set yaw, velocity and position from the GPS course when the ground speed allows; True if done.
+
+        The course of the chord from an earlier fix is the heading at the chord's middle;
+        the INS yaw change since then (gyros are good over seconds) brings it to now.
+        """
+        yaw_ins = float(frames.euler_from_quat_xyzw(self.nav[strapdown.Q])[2])
+        self.heading_history = [(f, y) for f, y in self.heading_history if fix.t - f.t <= HEADING_HISTORY_S]
+        for prev, prev_yaw in reversed(self.heading_history):
+            d, dt = fix.enu - prev.enu, fix.t - prev.t
+            dist = float(np.hypot(d[0], d[1]))
+            sigma = float(np.sqrt(fix.cov[0, 0] + prev.cov[0, 0]))
+            if dt > 0 and dist / dt >= self.cfg.heading_min_speed and dist >= HEADING_BASELINE_SIGMAS * sigma:
+                yaw = yaw_from_displacement(d) + 0.5 * float(frames.wrap_angle(yaw_ins - prev_yaw))
+                self._set_heading(fix, t_e, yaw, dist / dt, d[2] / dt, sigma / dist)
+                return True
+        self.heading_history.append((fix, yaw_ins))
+        return False
+
+    def _set_heading(self, fix: Fix, t_e, yaw, speed, climb, course_std):
+        """Heading (rad), ground speed and climb (m/s) from the course; position from the fix."""
+        roll, pitch, _ = frames.euler_from_quat_xyzw(self.nav[strapdown.Q])
+        quat = frames.quat_xyzw_from_euler(roll, pitch, yaw)
+        vel = np.array([speed * np.cos(yaw), speed * np.sin(yaw), climb])
+        self.nav[strapdown.Q] = quat
+        self.nav[strapdown.V] = vel
+        self.nav[strapdown.P] = fix.enu - Rotation.from_quat(quat).as_matrix() @ self.lever_arm_b
+        self.nav[strapdown.P] += vel * (t_e - fix.t)
+        vel_var = np.diag(fix.cov) * 2.0 / HEADING_HISTORY_S + 0.1**2  # curvature of the chord
+        self._reset_block(np.r_[0:6, 8], np.concatenate([np.diag(fix.cov), vel_var,
+                                                         [self.cfg.heading_std**2 + course_std**2]]))
+        self.heading_history = []
+        self.status = NAVIGATING
+        self._update_earth()

@@ -1,0 +1,199 @@
+"""ROS 2 node around :class:`ins_gps_kf.filter.InsGpsFilter`: IMU + NavSatFix in, Odometry + oriented Imu out.
+
+Subscribes ``imu_topic`` (default ``imu/data_corrected``) and ``gps_topic`` (``gps/fix``)
+with the sensor-data QoS (best effort); publishes ``odometry/filtered`` (pose in
+``odom`` = local ENU at the datum, twist in ``base_link``) at every filter epoch,
+``imu/data`` (with orientation) at every IMU sample once aligned, and ``/diagnostics``.
+Messages wait ``reorder_window_s`` in a buffer ordered by stamp, so late and
+out-of-order messages are processed in order; older ones are dropped and counted;
+a stamp jump beyond ``time_jump_s`` resets the filter (reported).
+"""
+from __future__ import annotations
+
+import os
+
+os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")  # 15x15 matrices: BLAS threads only cost time
+
+import heapq  # noqa: E402
+import itertools  # noqa: E402
+import math  # noqa: E402
+
+import numpy as np  # noqa: E402
+from nav_msgs.msg import Odometry  # noqa: E402
+from rclpy.exceptions import InvalidParameterTypeException, InvalidParameterValueException  # noqa: E402
+from rclpy.node import Node  # noqa: E402
+from sensor_msgs.msg import Imu, NavSatFix  # noqa: E402
+
+from nav_core import sensor_model as sm  # noqa: E402
+from nav_core.ros_node import (SENSOR_QOS, ConfigError, Diagnostics, Param, declare_parameters,  # noqa: E402
+                               imu_to_arrays, run_node, stamp_from_s, stamp_to_s)
+from nav_core.units import DEG  # noqa: E402
+from ins_gps_kf import config as kfconfig  # noqa: E402
+from ins_gps_kf import error_model as em  # noqa: E402
+from ins_gps_kf import strapdown  # noqa: E402
+from ins_gps_kf.filter import ALIGNING, NAVIGATING, Estimate, InsGpsFilter  # noqa: E402
+from ins_gps_kf.replay import load_model  # noqa: E402
+
+GPS, IMU = 0, 1  # a fix sorts before an IMU sample of the same stamp (as in the replay)
+
+
+def _param(spec: kfconfig.Spec) -> Param:
+    """ROS declaration of a core parameter; NaN defaults ('not set') get no ROS range (the core checks it)."""
+    unset = isinstance(spec.default, float) and math.isnan(spec.default)
+    return Param(spec.name, spec.default, spec.description, None if unset else spec.low,
+                 None if unset else spec.high, spec.choices)
+
+
+class InsGpsKfNode(Node):
+    """The fusion node; all numerics live in the core filter."""
+
+    def __init__(self, **kwargs):
+        super().__init__(kfconfig.NODE_NAME, **kwargs)
+        try:
+            self.params = declare_parameters(self, [_param(s) for s in kfconfig.PARAMETERS])
+            cfg = kfconfig.from_params(self.params)
+            model = load_model(self.params["sensor_model_path"] or "default")
+        except (kfconfig.FilterConfigError, sm.SensorModelError, InvalidParameterValueException,
+                InvalidParameterTypeException) as err:
+            raise ConfigError(str(err)) from err
+        self.filter = InsGpsFilter(cfg, model)
+        self.window = float(self.params["reorder_window_s"])
+        self.time_jump = float(self.params["time_jump_s"])
+        self.heap, self.seq = [], itertools.count()
+        self.newest_t = -math.inf
+        self.last_t = None
+        self.late_dropped = 0
+        self.node_resets = 0
+        self.last_reset = ""
+        self.last_estimate: Estimate | None = None
+        self.odom_pub = self.create_publisher(Odometry, "odometry/filtered", 10)
+        self.imu_pub = self.create_publisher(Imu, "imu/data", SENSOR_QOS)
+        self.create_subscription(Imu, self.params["imu_topic"], self.on_imu, SENSOR_QOS)
+        self.create_subscription(NavSatFix, self.params["gps_topic"], self.on_gps, SENSOR_QOS)
+        self.diag = Diagnostics(self, "ins_gps_kf")
+        self.create_timer(1.0, self.publish_diagnostics)
+        self.get_logger().info(f"ready: imu '{self.params['imu_topic']}', gps '{self.params['gps_topic']}', "
+                               f"model '{self.params['sensor_model_path'] or 'hand-tuned default'}'")
+
+    # ------------------------------------------------------------------ input
+
+    def on_imu(self, msg: Imu):
+        """Queue one IMU sample."""
+        t, gyro, accel = imu_to_arrays(msg)
+        self._push(t, IMU, (gyro, accel))
+
+    def on_gps(self, msg: NavSatFix):
+        """Queue one fix (NaN and NO_FIX fixes are counted and ignored by the filter)."""
+        cov = np.asarray(msg.position_covariance, dtype=float).reshape(3, 3)
+        std = np.sqrt(np.clip(np.diag(cov), 0.0, None)) if msg.position_covariance_type > 0 else np.zeros(3)
+        self._push(stamp_to_s(msg.header.stamp), GPS,
+                   (msg.latitude * DEG, msg.longitude * DEG, msg.altitude, std, msg.status.status))
+
+    def _push(self, t, kind, payload):
+        if self.last_t is not None and t < self.last_t - self.time_jump:
+            self._reset(f"stamp jumped back {self.last_t - t:.3f} s (bag restart?)")
+        heapq.heappush(self.heap, (t, kind, next(self.seq), payload))
+        self.newest_t = max(self.newest_t, t)
+        self._drain(self.newest_t - self.window)
+
+    def _reset(self, reason):
+        self.get_logger().warn(f"time jump: {reason}; filter reset")
+        self.filter.reset(reason)
+        self.heap.clear()
+        self.newest_t, self.last_t = -math.inf, None
+        self.node_resets += 1
+        self.last_reset = reason
+
+    def _drain(self, until_t):
+        while self.heap and self.heap[0][0] <= until_t:
+            t, kind, _, payload = heapq.heappop(self.heap)
+            if self.last_t is not None and (t < self.last_t or (kind == GPS and t == self.last_t)):
+                self.late_dropped += 1  # arrived after its place in the stamp order was processed
+                continue
+            if kind == GPS:
+                self.filter.process_gps(t, *payload)
+                continue
+            self.last_t = t
+            for est in self.filter.process_imu(t, payload[0][None], payload[1][None]):
+                self.publish_odometry(est)
+            self.publish_imu(t, *payload)
+
+    def close(self):
+        """Process what is still buffered (called by run_node on shutdown)."""
+        self._drain(math.inf)
+
+    # ------------------------------------------------------------------ output
+
+    def publish_imu(self, t, gyro, accel):
+        """The input sample, bias-corrected, with the estimated orientation and its covariance."""
+        f = self.filter
+        if not f.navigating:
+            return
+        msg = Imu()
+        msg.header.stamp = stamp_from_s(t)
+        msg.header.frame_id = self.params["child_frame_id"]
+        q = f.nav[strapdown.Q]
+        msg.orientation.x, msg.orientation.y, msg.orientation.z, msg.orientation.w = (float(v) for v in q)
+        msg.orientation_covariance = f.cov[em.PHI, em.PHI].flatten().tolist()
+        w, a = gyro - f.gyro_bias, accel - f.accel_bias
+        msg.angular_velocity.x, msg.angular_velocity.y, msg.angular_velocity.z = (float(v) for v in w)
+        msg.linear_acceleration.x, msg.linear_acceleration.y, msg.linear_acceleration.z = (float(v) for v in a)
+        rate = f.cfg.imu_rate_hz
+        for i in range(3):
+            msg.angular_velocity_covariance[4 * i] = float(f.noise.gyro_white[i] ** 2 * rate)
+            msg.linear_acceleration_covariance[4 * i] = float(f.noise.accel_white[i] ** 2 * rate)
+        self.imu_pub.publish(msg)
+
+    def publish_odometry(self, est: Estimate):
+        """Pose (ENU, odom) and twist (body) with covariances from the filter's P."""
+        self.last_estimate = est
+        msg = Odometry()
+        msg.header.stamp = stamp_from_s(est.t)
+        msg.header.frame_id = self.params["frame_id"]
+        msg.child_frame_id = self.params["child_frame_id"]
+        p = msg.pose.pose
+        p.position.x, p.position.y, p.position.z = (float(v) for v in est.position_n)
+        p.orientation.x, p.orientation.y, p.orientation.z, p.orientation.w = (float(v) for v in est.quat_xyzw)
+        idx = np.r_[0:3, 6:9]
+        msg.pose.covariance = est.cov[np.ix_(idx, idx)].flatten().tolist()
+        mat_bn = self.filter.mat_nb().T
+        v_b = mat_bn @ est.velocity_n
+        msg.twist.twist.linear.x, msg.twist.twist.linear.y, msg.twist.twist.linear.z = (float(v) for v in v_b)
+        twist_cov = np.zeros((6, 6))
+        twist_cov[:3, :3] = mat_bn @ est.cov[em.DV, em.DV] @ mat_bn.T
+        twist_cov[3:, 3:] = np.diag(self.filter.noise.gyro_white ** 2 * self.filter.cfg.filter_rate_hz)
+        msg.twist.covariance = twist_cov.flatten().tolist()
+        self.odom_pub.publish(msg)
+
+    def publish_diagnostics(self):
+        """State, NIS, rejected fixes, GPS age, alignment status, resets."""
+        f = self.filter
+        c = f.counters
+        age = (self.last_t - f.last_fix_t) if self.last_t is not None else math.inf
+        stale_gps = age > 3.0 / f.cfg.gps_rate_hz
+        if f.status == NAVIGATING and not stale_gps:
+            level, message = "OK", "navigating"
+        elif f.status == NAVIGATING:
+            level, message = "WARN", f"navigating on INS only (GPS age {age:.1f} s)"
+        else:
+            level, message = "WARN", f.status
+        values = {"state": f.status, "last_nis": f.last_nis, "fixes": c.fixes, "rejected_fixes": c.fixes_rejected,
+                  "invalid_fixes": c.fixes_invalid, "reused_fixes": c.fixes_reused, "gps_resets": c.gps_resets,
+                  "gps_age_s": age, "zupts": c.zupts, "epochs": c.epochs,
+                  "alignment": ("aligned" if f.alignment is not None else
+                                f"{f.aligner.elapsed_s:.1f}/{f.cfg.alignment_time_s:.0f} s stationary"
+                                if f.status == ALIGNING else "waiting for a GPS fix (datum)"),
+                  "filter_resets": c.resets, "last_reset": (c.reset_reasons[-1] if c.reset_reasons else ""),
+                  "late_dropped": self.late_dropped}
+        if f.alignment is not None:
+            values.update({"align_roll_deg": f.alignment.roll / DEG, "align_pitch_deg": f.alignment.pitch / DEG})
+        self.diag.publish(level, message, values)
+
+
+def main(args=None) -> int:
+    """Console script ``ins_gps_kf_node``."""
+    return run_node(InsGpsKfNode, args=args)
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
