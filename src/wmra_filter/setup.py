@@ -9,6 +9,7 @@ setup(
     data_files=[
         ("share/ament_index/resource_index/packages", ["resource/" + PACKAGE]),
         ("share/" + PACKAGE, ["package.xml"]),
+        ("share/" + PACKAGE + "/config", ["config/wmra_filter.yaml"]),
     ],
     install_requires=["setuptools"],
     zip_safe=True,
@@ -16,7 +17,8 @@ setup(
     license="Apache-2.0",
     entry_points={
         "console_scripts": [
-            
+            "wmra_node = wmra_filter.wmra_node:main",
+            "wmra-report = wmra_filter.report:main",
         ],
     },
 )

@@ -1,0 +1,155 @@
+"""wmra_node: calibrate and WMRA-denoise ``imu/data_raw`` into ``imu/data_corrected`` (sensor-data QoS).
+
+Each output carries the stamp and frame of the input sample it denoises and leaves
+``delay_samples`` (= right support + hop - 1) samples after it. A sample interval
+that is not positive or exceeds ``gap_factor / sample_rate_hz`` restarts the
+window: the pending samples are flushed (published, edge-extended) first, and the
+restart is counted in the diagnostics and logged.
+"""
+from __future__ import annotations
+
+import time
+
+import numpy as np
+from sensor_msgs.msg import Imu
+
+from nav_core import sensor_model
+from nav_core.ros_node import (SENSOR_QOS, ConfigError, Diagnostics, Param, declare_parameters, imu_from_arrays,
+                               imu_to_arrays, run_node)
+from rclpy.node import Node
+from wmra_filter import levels, thresholds as thr
+from wmra_filter.streaming import StreamingWmra
+from wmra_filter.wmra import WmraConfig, WmraConfigError, calibrate, model_sample_sigma
+
+PARAMS = (
+    Param("sensor_model_path", "", "sensor-model YAML (nav_core.sensor_model): calibration and white noise N"),
+    Param("sample_rate_hz", 0.0, "input sample rate, Hz; 0 = the sensor model's sample_rate_hz", 0.0, 1e5),
+    Param("wavelet", "db8", "PyWavelets discrete wavelet (the paper: db8)"),
+    Param("vehicle", "road_vehicle", "vehicle class whose motion bandwidth is kept when bandwidth_hz is 0",
+          choices=tuple(levels.VEHICLE_BANDWIDTH_HZ)),
+    Param("bandwidth_hz", 0.0, "motion bandwidth kept untouched, Hz; 0 = the vehicle's default", 0.0, 1e5),
+    Param("level", 0, "SWT decomposition level; 0 = from sample rate and bandwidth", 0, 12),
+    Param("window", 0, "SWT window, samples (multiple of 2^level); 0 = the smallest valid one", 0, 1 << 20),
+    Param("hop", 8, "outputs computed per SWT step, samples (delay and CPU trade-off)", 1, 1 << 16),
+    Param("threshold_mode", "hard_soft", "shrinkage: hard, soft or hard_soft (hard, then soft at soft_ratio)",
+          choices=thr.MODES),
+    Param("soft_ratio", 0.5, "hard_soft: soft threshold as a fraction of the hard one", 0.0, 1.0),
+    Param("threshold_rule", "universal", "threshold rule: universal or sure", choices=thr.RULES),
+    Param("noise_source", "model", "detail noise sigma from the sensor model's white noise or from the data (mad)",
+          choices=thr.NOISE_SOURCES),
+    Param("gap_factor", 1.5, "a sample interval above gap_factor / sample_rate_hz restarts the window", 1.01, 1e3),
+    Param("diagnostics_period_s", 1.0, "period of the /diagnostics status, s", 0.05, 60.0),
+)
+
+
+def config_from_params(values: dict, model: sensor_model.SensorModel) -> WmraConfig:
+    """The WMRA config the node's parameters describe (raises WmraConfigError)."""
+    fs = values["sample_rate_hz"] or model.sample_rate_hz
+    common = dict(wavelet=values["wavelet"], mode=values["threshold_mode"], soft_ratio=values["soft_ratio"],
+                  rule=values["threshold_rule"], noise=values["noise_source"], hop=values["hop"],
+                  window=values["window"])
+    if values["level"]:
+        return WmraConfig(fs, values["level"], **common)
+    return WmraConfig.for_bandwidth(fs, values["bandwidth_hz"] or None, values["vehicle"], **common)
+
+
+def load_model(path: str) -> sensor_model.SensorModel:
+    """The sensor model at ``path`` (ConfigError naming the parameter and the file)."""
+    if not path:
+        raise ConfigError("parameter 'sensor_model_path' is empty: give the sensor-model YAML to apply")
+    try:
+        return sensor_model.load(path)
+    except sensor_model.SensorModelError as err:
+        raise ConfigError(f"parameter 'sensor_model_path': {err}") from None
+
+
+class WmraNode(Node):
+    """The denoising node around :class:`StreamingWmra`."""
+
+    def __init__(self):
+        super().__init__("wmra_node")
+        values = declare_parameters(self, PARAMS)
+        self.model = load_model(values["sensor_model_path"])
+        try:
+            self.cfg = config_from_params(values, self.model)
+        except WmraConfigError as err:
+            raise ConfigError(str(err)) from None
+        sigma = model_sample_sigma(self.model, self.cfg.sample_rate_hz)
+        if self.cfg.noise == "model" and not np.all(sigma > 0):
+            raise ConfigError(f"{values['sensor_model_path']}: white_noise must be > 0 on every axis for "
+                              "noise_source 'model' (or set noise_source: mad)")
+        self.stream = StreamingWmra(self.cfg, 6, sample_sigma=sigma)
+        self.max_interval_s = values["gap_factor"] / self.cfg.sample_rate_hz
+        self.stats = {"received": 0, "published": 0, "restarts": 0, "last_restart": "none",
+                      "busy_s": 0.0, "busy_max_s": 0.0}
+        self._last_t = None
+        self.pub = self.create_publisher(Imu, "imu/data_corrected", SENSOR_QOS)
+        self.create_subscription(Imu, "imu/data_raw", self.on_imu, SENSOR_QOS)
+        self.diagnostics = Diagnostics(self, "wmra", hardware_id=values["sensor_model_path"])
+        self.create_timer(values["diagnostics_period_s"], self.publish_diagnostics)
+        self.get_logger().info(f"ready: level {self.cfg.level}, window {self.cfg.window_samples}, "
+                               f"hop {self.cfg.hop}, delay {self.cfg.delay_samples} samples "
+                               f"({self.cfg.delay_s:.3f} s at {self.cfg.sample_rate_hz:g} Hz)")
+
+    def on_imu(self, msg: Imu) -> None:
+        """Calibrate, push, publish what the window releases."""
+        start = time.perf_counter()
+        t, gyro, accel = imu_to_arrays(msg)
+        self.stats["received"] += 1
+        if self._last_t is not None and not 0.0 < t - self._last_t <= self.max_interval_s:
+            self._restart(t)
+        self._last_t = t
+        sample = calibrate(gyro, accel, self.model)[0]
+        self._publish(self.stream.push(sample, tag=(msg.header.stamp, msg.header.frame_id)))
+        busy = time.perf_counter() - start
+        self.stats["busy_s"] += busy
+        self.stats["busy_max_s"] = max(self.stats["busy_max_s"], busy)
+
+    def _restart(self, t: float) -> None:
+        kind = "time jump" if t <= self._last_t else "gap"
+        self.stats["restarts"] += 1
+        self.stats["last_restart"] = f"{kind} of {t - self._last_t:.6g} s at t={t:.6f}"
+        self.get_logger().warning(f"{kind} in imu/data_raw ({t - self._last_t:.6g} s at t={t:.6f} s): "
+                                  "flushing and restarting the window")
+        self._publish(self.stream.restart())
+
+    def _publish(self, outputs) -> None:
+        for (stamp, frame_id), value in outputs:
+            self.pub.publish(imu_from_arrays(0.0, value[:3], value[3:], frame_id=frame_id, stamp=stamp))
+            self.stats["published"] += 1
+
+    def publish_diagnostics(self) -> None:
+        """Delay, window, thresholds in use and processing time per message on /diagnostics."""
+        s, cfg = self.stats, self.cfg
+        lam = self.stream.thresholds
+        values = {"delay_samples": cfg.delay_samples, "delay_s": cfg.delay_s, "window": cfg.window_samples,
+                  "hop": cfg.hop, "level": cfg.level, "wavelet": cfg.wavelet, "threshold_mode": cfg.mode,
+                  "threshold_rule": cfg.rule, "noise_source": cfg.noise,
+                  "thresholds_gyro_rad_s": "pending" if lam is None else _levels_text(lam[:, :3]),
+                  "thresholds_accel_m_s2": "pending" if lam is None else _levels_text(lam[:, 3:]),
+                  "received": s["received"], "published": s["published"], "restarts": s["restarts"],
+                  "last_restart": s["last_restart"],
+                  "processing_mean_us": 1e6 * s["busy_s"] / max(s["received"], 1),
+                  "processing_max_us": 1e6 * s["busy_max_s"]}
+        level = "WARN" if s["restarts"] else "OK"
+        self.diagnostics.publish(level, "denoising" if s["received"] else "waiting for imu/data_raw", values)
+
+    def close(self) -> None:
+        """Publish the samples still in the window before shutting down."""
+        try:
+            self._publish(self.stream.flush())
+        except Exception:  # the context may already be shut down on SIGINT; losing the tail is acceptable
+            pass
+
+
+def _levels_text(lam: np.ndarray) -> str:
+    return "; ".join(f"L{j + 1}: " + " ".join(f"{v:.3g}" for v in row) for j, row in enumerate(lam))
+
+
+def main(args=None) -> int:
+    """Console script ``wmra_node``."""
+    return run_node(WmraNode, args)
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

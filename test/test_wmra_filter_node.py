@@ -1,0 +1,120 @@
+"""wmra_node wiring: a real node process fed by an rclpy publisher, observed with a Probe."""
+import time
+
+import numpy as np
+import pytest
+import rclpy
+from diagnostic_msgs.msg import DiagnosticArray
+from sensor_msgs.msg import Imu
+
+from nav_core import sensor_model
+from nav_core.processes import NodeProcess
+from rclpy.qos import QoSProfile, ReliabilityPolicy
+
+from nav_core.ros_node import SENSOR_QOS, Probe, imu_from_arrays, imu_to_arrays, stamp_to_s
+from nav_core.sensor_model import SensorModel, TriadModel
+from wmra_filter.streaming import StreamingWmra
+from wmra_filter.wmra import WmraConfig, calibrate, model_sample_sigma
+
+pytestmark = pytest.mark.ros
+FS = 64.0
+HOP = 4
+
+
+def _model(tmp_path):
+    model = SensorModel(gyro=TriadModel(bias=np.array([0.01, -0.02, 0.0055]), white_noise=np.full(3, 8.7e-4)),
+                        accel=TriadModel(bias=np.array([0.1, 0.0, 0.133]), scale_factor=np.array([0, 0, 0.0041]),
+                                         white_noise=np.full(3, 1.2e-3)), sample_rate_hz=FS)
+    return model, sensor_model.save(model, tmp_path / "bp3010.yaml")
+
+
+def _samples(n, t0, seed):
+    rng = np.random.default_rng(seed)
+    t = t0 + np.arange(n) / FS
+    gyro = np.where(t[:, None] % 2 < 1, 0.3, -0.2) * [0, 0, 1] + rng.normal(size=(n, 3)) * 8.7e-4 * 8
+    accel = np.array([0, 0, 9.81]) + rng.normal(size=(n, 3)) * 1.2e-3 * 8
+    return t, gyro, accel
+
+
+def _expected(model, segments):
+    """The core's streaming output for the same input, restarted between segments: stamp -> (6,)."""
+    cfg = WmraConfig.for_bandwidth(FS, hop=HOP)
+    stream = StreamingWmra(cfg, 6, sample_sigma=model_sample_sigma(model, FS))
+    out = []
+    for i, (t, gyro, accel) in enumerate(segments):
+        if i:
+            out += stream.restart()
+        out += stream.push_many(calibrate(gyro, accel, model), tags=t)
+    return {round(tag, 6): value for tag, value in out}, cfg
+
+
+@pytest.fixture
+def rclpy_context():
+    rclpy.init()
+    yield
+    rclpy.try_shutdown()
+
+
+def _publish(feeder, pub, probe, t, gyro, accel):
+    for ti, g, a in zip(t, gyro, accel):
+        pub.publish(imu_from_arrays(ti, g, a))
+        rclpy.spin_once(probe, timeout_sec=0.0)
+        time.sleep(0.004)
+
+
+def test_node_denoises_preserves_stamps_matches_core_and_restarts_on_gap(tmp_path, ros_env, rclpy_context):
+    model, path = _model(tmp_path)
+    node = NodeProcess("wmra_node", env=ros_env, ros_args={"sensor_model_path": str(path), "hop": HOP,
+                                                           "diagnostics_period_s": 0.2})
+    try:
+        assert node.wait_for_line("ready", 30), node.output
+        # best effort like SENSOR_QOS, but a deep queue: a gap flushes a whole delay's worth at once
+        probe = Probe({"imu/data_corrected": Imu, "/diagnostics": DiagnosticArray},
+                      qos=QoSProfile(depth=1000, reliability=ReliabilityPolicy.BEST_EFFORT))
+        feeder = rclpy.create_node("feeder")
+        pub = feeder.create_publisher(Imu, "imu/data_raw", SENSOR_QOS)
+        assert probe.spin_until(lambda p: pub.get_subscription_count() > 0
+                                and p.count_publishers("imu/data_corrected") > 0, 20)
+        first, second = _samples(150, 100.0, 1), _samples(100, 110.0, 2)  # 7.7 s gap between them
+        _publish(feeder, pub, probe, *first)
+        _publish(feeder, pub, probe, *second)
+        expected, cfg = _expected(model, [first, second])
+        assert probe.spin_until(lambda p: len(p.received["imu/data_corrected"]) >= len(expected), 20), \
+            f"{len(probe.received['imu/data_corrected'])} of {len(expected)} outputs; node said:\n{node.output}"
+        assert len(expected) == 150 + 100 - cfg.delay_samples
+        got = {round(stamp_to_s(m.header.stamp), 6): m for _, m in probe.received["imu/data_corrected"]}
+        assert set(got) == set(expected)
+        for stamp, msg in got.items():
+            _, gyro, accel = imu_to_arrays(msg)
+            np.testing.assert_allclose(np.concatenate([gyro, accel]), expected[stamp], rtol=0, atol=1e-12)
+            assert msg.header.frame_id == "imu_link"
+
+        def restart_reported(p):
+            for _, arr in p.received["/diagnostics"]:
+                values = {kv.key: kv.value for st in arr.status if "wmra" in st.name for kv in st.values}
+                if values.get("restarts") == "1" and "gap" in values.get("last_restart", ""):
+                    return values
+            return None
+        assert probe.spin_until(restart_reported, 10), "no diagnostics reporting the restart"
+        diag = restart_reported(probe)
+        assert diag["delay_samples"] == str(cfg.delay_samples) and diag["window"] == str(cfg.window_samples)
+        assert diag["thresholds_gyro_rad_s"].startswith("L1:") and float(diag["processing_mean_us"]) > 0
+        feeder.destroy_node()
+        probe.destroy_node()
+    finally:
+        node.stop()
+
+
+@pytest.mark.parametrize("params, message", [
+    ({"sensor_model_path": "/nonexistent/model.yaml"}, "/nonexistent/model.yaml: sensor-model file not found"),
+    ({"wavelet": "db99"}, "wavelet 'db99'"),
+    ({"window": 40}, "window 40"),
+])
+def test_node_exits_with_status_2_and_a_message_on_bad_config(tmp_path, ros_env, params, message):
+    _, path = _model(tmp_path)
+    node = NodeProcess("wmra_node", env=ros_env, ros_args={"sensor_model_path": str(path), **params})
+    try:
+        assert node.proc.wait(timeout=30) == 2
+    finally:
+        node.stop()
+    assert message in node.output
