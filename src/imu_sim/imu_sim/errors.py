@@ -6,7 +6,7 @@ diagnosis can add or remove one term at a time). Rates are the mean rate over
 each sample interval (increment / dt), rad/s or m/s^2.
 
 Allan-deviation signatures (sigma(tau)) these generate:
-white noise N -> N/sqrt(tau); bias instability B (flicker, PSD B^2/(2 pi f)) ->
+white noise N -> N/sqrt(tau); bias instability B (flicker, one-sided PSD B^2/(pi f)) ->
 plateau B*sqrt(2 ln2/pi) = 0.664 B; Gauss-Markov (sigma B, time constant T) -> the
 GM curve peaking near tau = 1.89 T; rate random walk K -> K sqrt(tau/3); rate ramp R
 -> R tau/sqrt(2); quantization Q -> sqrt(3) Q/tau, made by rounding the cumulative
@@ -37,12 +37,12 @@ def white_rate(n: int, dt: float, density, rng) -> np.ndarray:
 
 
 def flicker(n: int, dt: float, coeff, rng) -> np.ndarray:
-    """Flicker (1/f) noise with one-sided PSD B^2/(2 pi f), shape (n, 3); O(N log N) by FFT shaping."""
+    """Flicker (1/f) noise, one-sided PSD B^2/(pi f) (Allan plateau 0.664 B), shape (n, 3); O(N log N) by FFT."""
     coeff = np.asarray(coeff, float)
     m = 2 * n  # twice as long, then cut: avoids circular wrap-around of the slowest components
     freqs = np.fft.rfftfreq(m, dt)
     scale = np.zeros_like(freqs)
-    scale[1:] = np.sqrt(1.0 / (2 * np.pi * freqs[1:]) / (2.0 * dt))
+    scale[1:] = np.sqrt(1.0 / (np.pi * freqs[1:]) / (2.0 * dt))
     spectrum = np.fft.rfft(rng.standard_normal((3, m)), axis=1) * scale
     return (np.fft.irfft(spectrum, n=m, axis=1)[:, :n] * coeff[:, None]).T
 
