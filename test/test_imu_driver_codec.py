@@ -1,0 +1,137 @@
+"""BP3010 codec: round trip, single-frame errors, and the stream decoder under damage (hypothesis)."""
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from imu_driver.bp3010_codec import (DEFAULT_FORMAT, FrameError, FrameFormat, StreamDecoder, decode_frame,
+                                     encode_counts, encode_stream, to_counts)
+
+L = DEFAULT_FORMAT.length
+
+
+def _frames(n, seed=0, fmt=DEFAULT_FORMAT):
+    rng = np.random.default_rng(seed)
+    counts = rng.integers(-32768, 32768, size=(n, 6))
+    return counts, encode_counts(np.arange(n), counts, status=rng.integers(0, 256, n), fmt=fmt)
+
+
+def test_encode_then_decode_returns_the_same_counts_scaled_to_si():
+    counts, data = _frames(300)
+    out = StreamDecoder().feed(data)
+    assert len(out) == 300
+    np.testing.assert_array_equal(np.rint(out.dtheta / DEFAULT_FORMAT.dtheta_lsb_rad), counts[:, :3])
+    np.testing.assert_array_equal(np.rint(out.dv / DEFAULT_FORMAT.dv_lsb_mps), counts[:, 3:])
+    np.testing.assert_array_equal(out.counter, np.arange(300) % 256)
+
+
+def test_encoded_frame_has_the_documented_layout():
+    frame = encode_counts([7], [[1, -1, 2, 300, -300, 0]], status=0x5A)
+    assert len(frame) == 16 and frame[0] == 0xA5 and frame[1] == 7 and frame[14] == 0x5A
+    assert frame[2:4] == (1).to_bytes(2, "little", signed=True)
+    assert frame[10:12] == (-300).to_bytes(2, "little", signed=True)
+    assert sum(frame) % 256 == 0
+
+
+def test_increments_are_rounded_to_the_lsb():
+    dth = np.array([[2.5e-6 * 10.4, -2.5e-6 * 3.6, 0.0]])
+    dv = np.array([[5e-5 * 1.5000001, 0.0, -5e-5]])
+    np.testing.assert_array_equal(to_counts(dth, dv), [[10, -4, 0, 2, 0, -1]])
+    out = decode_frame(encode_stream(dth, dv))
+    np.testing.assert_allclose(out.dtheta, [[2.5e-5, -1e-5, 0.0]])
+
+
+@pytest.mark.parametrize("checksum", ["sum_zero", "sum", "xor"])
+@pytest.mark.parametrize("byteorder", ["little", "big"])
+def test_every_layout_constant_is_a_parameter(checksum, byteorder):
+    fmt = FrameFormat(sync=0x55, checksum=checksum, byteorder=byteorder,
+                      field_order=("dv_x", "dv_y", "dv_z", "dtheta_x", "dtheta_y", "dtheta_z"),
+                      dtheta_lsb_rad=1e-6, dv_lsb_mps=1e-4)
+    counts, data = _frames(50, fmt=fmt)
+    out = StreamDecoder(fmt=fmt).feed(data)
+    np.testing.assert_array_equal(np.rint(out.dtheta / 1e-6), counts[:, :3])
+    np.testing.assert_array_equal(np.rint(out.dv / 1e-4), counts[:, 3:])
+
+
+def test_decode_frame_names_the_bad_byte():
+    _, data = _frames(1)
+    with pytest.raises(FrameError, match="byte 0"):
+        decode_frame(b"\x00" + data[1:16])
+    bad = bytearray(data[:16])
+    bad[5] ^= 1
+    with pytest.raises(FrameError, match="byte 15: checksum"):
+        decode_frame(bytes(bad))
+    with pytest.raises(FrameError, match="15 bytes"):
+        decode_frame(data[:15])
+
+
+def test_out_of_range_increment_is_refused():
+    with pytest.raises(FrameError, match="int16"):
+        encode_stream(np.array([[1.0, 0, 0]]), np.zeros((1, 3)))
+
+
+def test_counter_gaps_count_lost_frames_across_wraparound():
+    counts, data = _frames(600)
+    keep = [i for i in range(600) if i not in (10, 11, 255, 256, 257)]
+    stream = b"".join(data[i * L:(i + 1) * L] for i in keep)
+    dec = StreamDecoder()
+    out = dec.feed(stream)
+    assert len(out) == len(keep)
+    assert dec.stats.lost_frames == 5
+
+
+def test_frames_split_across_reads_are_reassembled():
+    _, data = _frames(100)
+    dec = StreamDecoder()
+    rng = np.random.default_rng(1)
+    cuts = np.sort(rng.choice(len(data), 60, replace=False))
+    got = sum(len(dec.feed(chunk.tobytes())) for chunk in np.split(np.frombuffer(data, np.uint8), cuts))
+    got += len(dec.flush())
+    assert got == 100 and dec.stats.bytes_discarded == 0
+
+
+# -- property: any damage, no exception, every intact frame recovered, damage counted ---------
+
+damage_ops = st.lists(
+    st.tuples(st.sampled_from(["garbage", "drop", "flip"]), st.integers(0, 10**6),
+              st.binary(min_size=1, max_size=40), st.integers(1, 255)),
+    max_size=12)
+
+
+@settings(max_examples=200, deadline=None)
+@given(n=st.integers(1, 80), seed=st.integers(0, 2**32 - 1), ops=damage_ops,
+       chunk=st.integers(1, 64))
+def test_decoder_recovers_every_intact_frame_and_counts_the_damage(n, seed, ops, chunk):
+    counts, data = _frames(n, seed)
+    stream = bytearray(data)
+    owner = list(range(n * L))  # which original byte each stream byte is (-1: garbage)
+    touched = set()
+    for kind, where, garbage, xor in ops:
+        at = where % (len(stream) + 1)
+        if kind == "garbage":
+            if 0 < at < len(owner) and owner[at - 1] >= 0 and owner[at] >= 0 and owner[at - 1] // L == owner[at] // L:
+                touched.add(owner[at] // L)  # inserted inside a frame: that frame is no longer contiguous
+            stream[at:at] = garbage
+            owner[at:at] = [-1] * len(garbage)
+        elif len(stream) and at < len(stream):
+            if owner[at] >= 0:
+                touched.add(owner[at] // L)
+            if kind == "drop":
+                del stream[at]
+                del owner[at]
+            else:
+                stream[at] ^= xor
+                owner[at] = -1
+    intact = {i for i in range(n) if i not in touched}
+
+    dec = StreamDecoder()
+    parts = [dec.feed(bytes(stream[i:i + chunk])) for i in range(0, len(stream), chunk)] + [dec.flush()]
+    rows = [(int(c), tuple(np.rint(th / 2.5e-6).astype(int)) + tuple(np.rint(v / 5e-5).astype(int)))
+            for p in parts for c, th, v in zip(p.counter, p.dtheta, p.dv)]
+    got = {r for r in rows}
+    for i in intact:
+        assert (i % 256, tuple(counts[i])) in got, f"intact frame {i} not recovered"
+    damaged = len(touched) > 0 or any(k == "garbage" for k, *_ in ops)
+    if damaged and len(stream) > 0:
+        s = dec.stats
+        assert s.checksum_errors + s.bytes_discarded + s.lost_frames + s.resyncs > 0 or not touched
