@@ -65,6 +65,25 @@ def test_hard_soft_is_hard_then_soft_at_a_fraction_of_the_threshold():
     np.testing.assert_allclose(thr.shrink(d, [1.5], "hard_soft", 1.0), thr.shrink(d, [1.5], "soft"))
 
 
+@settings(max_examples=20, deadline=None)
+@given(ratio=st.floats(0, 1), seed=st.integers(0, 2**31))
+def test_hard_soft_equals_pywt_hard_then_pywt_soft(ratio, seed):
+    rng = np.random.default_rng(seed)
+    d, lam = rng.normal(size=(50, 3)), rng.uniform(0.1, 2, size=3)
+    expected = pywt.threshold(pywt.threshold(d, lam, "hard"), ratio * lam + 1e-300, "soft")
+    np.testing.assert_allclose(thr.shrink(d, lam, "hard_soft", ratio), expected, rtol=0, atol=1e-14)
+
+
+def test_sample_calibrator_equals_batch_calibrate():
+    from wmra_filter.wmra import Calibrator
+    rng = np.random.default_rng(14)
+    model = SensorModel(gyro=TriadModel(bias=rng.normal(size=3), scale_factor=rng.normal(size=3) * 0.01),
+                        accel=TriadModel(bias=rng.normal(size=3)))
+    g, a = rng.normal(size=(5, 3)), rng.normal(size=(5, 3))
+    np.testing.assert_allclose(np.array([Calibrator(model)(gi, ai) for gi, ai in zip(g, a)]),
+                               calibrate(g, a, model), rtol=0, atol=1e-13)
+
+
 def test_model_noise_sigma_matches_the_mad_estimate_on_white_noise():
     rng = np.random.default_rng(3)
     fs, density = 64.0, np.array([8.7e-4, 1.2e-3])
@@ -183,3 +202,13 @@ def test_denoise_imu_uses_the_white_noise_of_the_sensor_model():
 def test_bad_settings_raise_a_clear_error(changes, message):
     with pytest.raises(WmraConfigError, match=message):
         WmraConfig(64.0, 2).with_(**changes)
+
+
+def test_nav_core_corrector_equals_triad_correct():
+    from nav_core.sensor_model import corrector
+    rng = np.random.default_rng(13)
+    tri = TriadModel(bias=rng.normal(size=3), scale_factor=rng.normal(size=3) * 0.01,
+                     misalignment=(rng.normal(size=(3, 3)) * 1e-3) * (1 - np.eye(3)))
+    x = rng.normal(size=(20, 3))
+    np.testing.assert_allclose(corrector(tri)(x), tri.correct(x), rtol=0, atol=1e-13)
+    np.testing.assert_allclose(corrector(tri)(x[0]), tri.correct(x[0]), rtol=0, atol=1e-13)

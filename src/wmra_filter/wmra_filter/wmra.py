@@ -22,7 +22,7 @@ from dataclasses import dataclass, replace
 import numpy as np
 import pywt
 
-from nav_core.sensor_model import SensorModel
+from nav_core.sensor_model import SensorModel, corrector
 from wmra_filter import levels, thresholds as thr
 
 BLOCK = 1 << 16
@@ -201,6 +201,16 @@ def model_sample_sigma(model: SensorModel, sample_rate_hz: float) -> np.ndarray:
 def calibrate(gyro: np.ndarray, accel: np.ndarray, model: SensorModel) -> np.ndarray:
     """Deterministic correction (bias, scale, misalignment) -> (n, 6): gyro rad/s then accel m/s^2."""
     return np.hstack([np.atleast_2d(model.gyro.correct(gyro)), np.atleast_2d(model.accel.correct(accel))])
+
+
+class Calibrator:
+    """:func:`calibrate` for one sample at a time: (3,) gyro rad/s, (3,) accel m/s^2 -> (6,)."""
+
+    def __init__(self, model: SensorModel):
+        self._gyro, self._accel = corrector(model.gyro), corrector(model.accel)
+
+    def __call__(self, gyro, accel) -> np.ndarray:
+        return np.concatenate([self._gyro(gyro), self._accel(accel)], axis=-1)
 
 
 @dataclass

@@ -19,7 +19,7 @@ from nav_core.ros_node import (SENSOR_QOS, ConfigError, Diagnostics, Param, decl
 from rclpy.node import Node
 from wmra_filter import levels, thresholds as thr
 from wmra_filter.streaming import StreamingWmra
-from wmra_filter.wmra import WmraConfig, WmraConfigError, calibrate, model_sample_sigma
+from wmra_filter.wmra import Calibrator, WmraConfig, WmraConfigError, model_sample_sigma
 
 PARAMS = (
     Param("sensor_model_path", "", "sensor-model YAML (nav_core.sensor_model): calibration and white noise N"),
@@ -79,6 +79,7 @@ class WmraNode(Node):
             raise ConfigError(f"{values['sensor_model_path']}: white_noise must be > 0 on every axis for "
                               "noise_source 'model' (or set noise_source: mad)")
         self.stream = StreamingWmra(self.cfg, 6, sample_sigma=sigma)
+        self.calibrate = Calibrator(self.model)
         self.max_interval_s = values["gap_factor"] / self.cfg.sample_rate_hz
         self.stats = {"received": 0, "published": 0, "restarts": 0, "last_restart": "none",
                       "busy_s": 0.0, "busy_max_s": 0.0}
@@ -99,7 +100,7 @@ class WmraNode(Node):
         if self._last_t is not None and not 0.0 < t - self._last_t <= self.max_interval_s:
             self._restart(t)
         self._last_t = t
-        sample = calibrate(gyro, accel, self.model)[0]
+        sample = self.calibrate(gyro, accel)
         self._publish(self.stream.push(sample, tag=(msg.header.stamp, msg.header.frame_id)))
         busy = time.perf_counter() - start
         self.stats["busy_s"] += busy
