@@ -1,0 +1,156 @@
+"""``bp3010_driver``: read BP3010 frames from a serial port and publish ``sensor_msgs/Imu`` on ``imu/data_raw``.
+
+A background thread reads the port (pyserial) and publishes; the executor
+thread runs the diagnostics timer. The node never exits on bad bytes or a
+lost port: it reports and reconnects every ``reconnect_period_s``.
+"""
+from __future__ import annotations
+
+import threading
+import time
+
+import serial
+from sensor_msgs.msg import Imu
+
+from imu_driver.bp3010_codec import FIELDS, RATE_SELECT, FrameFormat
+from imu_driver.driver_core import DriverCore
+from nav_core.ros_node import SENSOR_QOS, ConfigError, Diagnostics, Param, declare_parameters, imu_from_arrays, run_node
+from rclpy.node import Node
+
+PARAMS = (
+    Param("port", "/dev/ttyUSB0", "serial device (or a stable symlink such as /dev/serial/by-id/...)"),
+    Param("baud", 38400, "UART speed, bit/s (8N1)", 1200, 4_000_000),
+    Param("rate_hz", 64, "output rate, Hz; selected on start with 7B 88/89/8A/8B", choices=(64, 32, 16, 8)),
+    Param("frame_id", "imu_link", "frame_id of the published messages"),
+    Param("angular_velocity_stddev", 0.007, "1-sigma angular rate noise per sample, rad/s (covariance diagonal)",
+          0.0, 10.0),
+    Param("linear_acceleration_stddev", 0.0096, "1-sigma specific force noise per sample, m/s^2", 0.0, 100.0),
+    Param("reconnect_period_s", 1.0, "time between attempts to reopen a lost port, s", 0.01, 600.0),
+    Param("diagnostics_period_s", 1.0, "period of /diagnostics, s", 0.05, 60.0),
+    Param("max_stamp_offset_s", 0.1, "re-anchor the frame clock when it drifts this far from host time, s",
+          0.001, 10.0),
+    Param("frame.sync", 0xA5, "sync byte value", 0, 255),
+    Param("frame.checksum", "sum_zero", "checksum kind", choices=("sum_zero", "sum", "xor")),
+    Param("frame.byteorder", "little", "byte order of the int16 increments", choices=("little", "big")),
+    Param("frame.field_order", list(FIELDS), "order of the six increments in the frame"),
+    Param("frame.dtheta_lsb_rad", 2.5e-6, "angle increment scale, rad/LSB", 1e-12, 1.0),
+    Param("frame.dv_lsb_mps", 5e-5, "velocity increment scale, (m/s)/LSB", 1e-12, 10.0),
+)
+
+
+class Bp3010Driver(Node):
+    """The serial driver node."""
+
+    def __init__(self, **kwargs):
+        super().__init__("bp3010_driver", **kwargs)
+        self.p = declare_parameters(self, PARAMS)
+        try:
+            fmt = FrameFormat(sync=self.p["frame.sync"], checksum=self.p["frame.checksum"],
+                              byteorder=self.p["frame.byteorder"], field_order=tuple(self.p["frame.field_order"]),
+                              dtheta_lsb_rad=self.p["frame.dtheta_lsb_rad"], dv_lsb_mps=self.p["frame.dv_lsb_mps"])
+        except ValueError as err:
+            raise ConfigError(f"frame layout: {err}") from err
+        self.core = DriverCore(self.p["rate_hz"], fmt, self.p["max_stamp_offset_s"])
+        self.pub = self.create_publisher(Imu, "imu/data_raw", SENSOR_QOS)
+        self.diag = Diagnostics(self, "BP3010", hardware_id=self.p["port"])
+        self.port_state = "connecting"
+        self.reconnects = 0
+        self.last_error = ""
+        self._serial = None
+        self._frames_at_last_diag = 0
+        self._last_diag_time = time.monotonic()
+        self._stop = threading.Event()
+        self._gyro_var = self.p["angular_velocity_stddev"] ** 2
+        self._accel_var = self.p["linear_acceleration_stddev"] ** 2
+        self._thread = threading.Thread(target=self._read_loop, name="bp3010_reader", daemon=True)
+        self._thread.start()
+        self.create_timer(self.p["diagnostics_period_s"], self._publish_diagnostics)
+        self.get_logger().info(f"ready: port {self.p['port']} at {self.p['baud']} baud, {self.p['rate_hz']} Hz")
+
+    # -- port ------------------------------------------------------------
+
+    def _open(self) -> bool:
+        try:
+            self._serial = serial.Serial(self.p["port"], self.p["baud"], timeout=0.1)
+            self._serial.write(RATE_SELECT[self.p["rate_hz"]])
+        except (serial.SerialException, OSError) as err:
+            self._serial = None
+            self._set_state("waiting for port", str(err))
+            return False
+        if self.port_state != "connecting":
+            self.reconnects += 1
+        self.core.reconnected()
+        self._set_state("connected", "")
+        return True
+
+    def _set_state(self, state: str, error: str) -> None:
+        if state != self.port_state:
+            log = self.get_logger().info if state == "connected" else self.get_logger().warning
+            log(f"port {self.p['port']}: {state}" + (f" ({error})" if error else ""))
+        self.port_state, self.last_error = state, error or self.last_error
+
+    def _read_loop(self) -> None:
+        while not self._stop.is_set():
+            if self._serial is None and not self._open():
+                self._stop.wait(self.p["reconnect_period_s"])
+                continue
+            try:
+                data = self._serial.read(max(1, self._serial.in_waiting))
+            except (serial.SerialException, OSError, TypeError) as err:
+                self._close_port()
+                self._set_state("disconnected", str(err))
+                self._stop.wait(self.p["reconnect_period_s"])
+                continue
+            if data:
+                self._publish(data)
+
+    def _publish(self, data: bytes) -> None:
+        now_s = self.get_clock().now().nanoseconds * 1e-9
+        samples = self.core.feed(data, now_s)
+        for i in range(len(samples.t)):
+            self.pub.publish(imu_from_arrays(samples.t[i], samples.gyro[i], samples.accel[i], self.p["frame_id"],
+                                             self._gyro_var, self._accel_var))
+
+    def _close_port(self) -> None:
+        if self._serial is not None:
+            try:
+                self._serial.close()
+            except (serial.SerialException, OSError):
+                pass
+        self._serial = None
+
+    # -- diagnostics -----------------------------------------------------
+
+    def _publish_diagnostics(self) -> None:
+        stats = self.core.decoder.stats
+        now = time.monotonic()
+        rate = (stats.frames - self._frames_at_last_diag) / max(now - self._last_diag_time, 1e-9)
+        self._frames_at_last_diag, self._last_diag_time = stats.frames, now
+        values = {"frames_received": stats.frames, "checksum_errors": stats.checksum_errors,
+                  "resyncs": stats.resyncs, "lost_frames": stats.lost_frames,
+                  "bytes_discarded": stats.bytes_discarded, "actual_rate_hz": rate,
+                  "nominal_rate_hz": self.p["rate_hz"], "port": self.p["port"], "port_state": self.port_state,
+                  "reconnects": self.reconnects, "clock_reanchors": self.core.clock.reanchors,
+                  "last_error": self.last_error}
+        if self.port_state != "connected":
+            level, msg = "ERROR", f"port {self.port_state}"
+        elif rate < 0.5 * self.p["rate_hz"]:
+            level, msg = "WARN", f"receiving {rate:.1f} Hz of {self.p['rate_hz']} Hz"
+        else:
+            level, msg = "OK", "receiving"
+        self.diag.publish(level, msg, values)
+
+    def close(self) -> None:
+        """Stop the reader thread and close the port."""
+        self._stop.set()
+        self._thread.join(timeout=2.0)
+        self._close_port()
+
+
+def main(args=None) -> int:
+    """Entry point of ``bp3010_driver``."""
+    return run_node(Bp3010Driver, args)
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
