@@ -9,6 +9,7 @@ setup(
     data_files=[
         ("share/ament_index/resource_index/packages", ["resource/" + PACKAGE]),
         ("share/" + PACKAGE, ["package.xml"]),
+        ("share/" + PACKAGE + "/config", ["config/allan_node.yaml"]),
     ],
     install_requires=["setuptools"],
     zip_safe=True,
@@ -16,7 +17,8 @@ setup(
     license="Apache-2.0",
     entry_points={
         "console_scripts": [
-            
+            "imu-calib = imu_calib.cli:main",
+            "allan_node = imu_calib.allan_node:main",
         ],
     },
 )

@@ -63,7 +63,7 @@ def characterise(rec: ImuRecording, per_decade: int | None = None, taus=None, pr
                  base_model: sensor_model.SensorModel | None = None) -> Characterisation:
     """Allan deviation (overlapping) and five-term fit of the six axes of a static recording.
 
-    ``progress`` is called with a short label before each axis (for tqdm).
+    ``progress`` is called with a short label after each of the six axes (for tqdm).
     ``base_model`` keeps its deterministic terms (bias, scale, misalignment).
     """
     rate = check_uniform(rec)
@@ -75,9 +75,9 @@ def characterise(rec: ImuRecording, per_decade: int | None = None, taus=None, pr
         data = getattr(rec, triad)
         per_axis = []
         for i in range(3):
+            per_axis.append(overlapping_adev(data[:, i], rate, taus))
             if progress:
                 progress(f"{triad} {AXIS_NAMES[i]}")
-            per_axis.append(overlapping_adev(data[:, i], rate, taus))
         adevs[triad] = _stack(per_axis)
         fits[triad] = [fit_noise(a) for a in per_axis]
         white[triad] = psd(data, rate).white_noise

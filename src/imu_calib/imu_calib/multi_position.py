@@ -57,7 +57,7 @@ class MultiPositionResult:
     residuals: np.ndarray
     """|corrected segment mean| - g per static segment (input units)."""
     residuals_before: np.ndarray
-    """The same with the nominal model (no bias, unit scale), for comparison."""
+    """The same for the naive six-position style start (mid-range bias, half-range scale), for comparison."""
     segments: list = field(default_factory=list)
 
     @property
@@ -117,7 +117,11 @@ def _residuals(p, means, g):
 
 
 def fit_accel(means, gravity: float):
-    """Least-squares bias, scale, misalignment from static means (k, 3); returns params, covariance, residuals."""
+    """Least-squares bias, scale, misalignment from static means (k, 3).
+
+    Returns parameters, covariance, residuals, and the residuals of the naive
+    start (bias = mid-range, scale = half-range / g, no misalignment).
+    """
     means = np.asarray(means, float)
     if len(means) < 9:
         raise ValueError(f"multi-position calibration needs at least 9 static orientations, found {len(means)}")
@@ -129,7 +133,7 @@ def fit_accel(means, gravity: float):
     dof = max(len(means) - len(p0), 1)
     s2 = float(res.fun @ res.fun) / dof
     cov = np.linalg.pinv(res.jac.T @ res.jac) * s2
-    return res.x, cov, res.fun
+    return res.x, cov, res.fun, _residuals(p0, means, gravity)
 
 
 def multi_position(rec: ImuRecording, lat_rad: float | None = None, height_m: float = 0.0,
@@ -147,14 +151,13 @@ def multi_position(rec: ImuRecording, lat_rad: float | None = None, height_m: fl
     intervals = detect_static(rec.accel, rate, **detect_kwargs)
     segs = segments_of(rec, intervals)
     means = np.array([s.accel_mean for s in segs]).reshape(-1, 3)
-    p, cov, resid = fit_accel(means, gravity)
+    p, cov, resid, before = fit_accel(means, gravity)
     bias, scale, mis = _unpack(p)
     sd = np.sqrt(np.maximum(np.diag(cov), 0.0))
     intervals_95 = {"bias": _ci(bias, sd[0:3]), "scale_factor": _ci(scale, sd[3:6]),
                     "misalignment": _mis_interval(mis, sd[6:9])}
     gyro_bias, gyro_ci = _gyro_bias(rec, segs, bias, scale, mis, lat_rad, detect_kwargs.get("init_static_s", 30.0))
     intervals_95["gyro_bias"] = gyro_ci
-    before = np.linalg.norm(means, axis=1) - gravity
     return MultiPositionResult(bias, scale, mis, gyro_bias, intervals_95, gravity, resid, before, segs)
 
 

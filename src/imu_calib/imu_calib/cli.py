@@ -1,0 +1,208 @@
+"""``imu-calib``: Allan characterisation and deterministic calibrations from recordings.
+
+Subcommands (degrees and deg/s only here, at the edge; SI in the files)::
+
+    imu-calib allan REC --out DIR [--topic T] [--per-decade N]
+    imu-calib two-position --up REC --down REC --axis x --lat-deg 51.08 --height-m 1100 --out MODEL.yaml
+    imu-calib rate-table --rec1 REC --rate1-dps 100 --rec2 REC --rate2-dps -100 --axis z \
+        --direction up --lat-deg 51.08 --out MODEL.yaml
+    imu-calib multi-position REC --out MODEL.yaml --lat-deg 51.08 [--height-m H]
+
+REC is a rosbag2 bag or the recording CSV (``nav_core.recording.read_imu``);
+``--format ucalgary`` / ``--format imutk`` read the two real text formats of
+``shared/data``. The calibration subcommands update MODEL.yaml if it exists.
+"""
+from __future__ import annotations
+
+import argparse
+import sys
+from pathlib import Path
+
+import numpy as np
+
+from imu_calib import datasets, model_io, multi_position, rate_table, two_position
+from imu_calib.allan import AllanError
+from nav_core import sensor_model
+from nav_core.recording import IMU_TOPIC, RecordingError, read_imu
+from nav_core.units import DEG
+
+
+def load_recording(path, topic: str = IMU_TOPIC, fmt: str = "auto", gyro_file=None):
+    """A recording from a bag/CSV (auto) or one of the real text formats (ucalgary, imutk)."""
+    if fmt == "ucalgary":
+        return datasets.load_ucalgary_updown(path)
+    if fmt == "imutk":
+        if gyro_file is None:
+            raise RecordingError("--format imutk needs --gyro-file (REC is the accelerometer file)")
+        return datasets.load_imutk(path, gyro_file)
+    return read_imu(path, topic=topic)
+
+
+def _add_format(p) -> None:
+    p.add_argument("--topic", default=IMU_TOPIC, help="IMU topic in a bag (default %(default)s)")
+    p.add_argument("--format", default="auto", choices=("auto", "ucalgary", "imutk"),
+                   help="recording format: auto (bag or CSV), ucalgary text, imutk text (raw counts)")
+
+
+def _add_site(p, required: bool = True) -> None:
+    p.add_argument("--lat-deg", type=float, required=required, help="site latitude, deg")
+    p.add_argument("--height-m", type=float, default=0.0, help="site ellipsoidal height, m")
+
+
+def build_parser() -> argparse.ArgumentParser:
+    """The argument parser with its four subcommands."""
+    parser = argparse.ArgumentParser(prog="imu-calib", description=__doc__.split("\n")[0])
+    sub = parser.add_subparsers(dest="command", required=True)
+
+    p = sub.add_parser("allan", help="Allan deviation, 5-term noise fit -> sensor_model.yaml, imu.yaml, allan.png")
+    p.add_argument("recording", help="rosbag2 bag or recording CSV of a static IMU")
+    p.add_argument("--out", required=True, help="output folder")
+    p.add_argument("--per-decade", type=int, default=0,
+                   help="log-spaced cluster times per decade (default 0: octave grid)")
+    p.add_argument("--base-model", help="sensor model whose deterministic terms are kept")
+    p.add_argument("--no-progress", action="store_true", help="no progress bar")
+    _add_format(p)
+    p.set_defaults(func=cmd_allan)
+
+    p = sub.add_parser("two-position", help="accelerometer bias and scale of one axis (paper eqs. 1-4)")
+    p.add_argument("--up", required=True, help="recording with the axis pointing up")
+    p.add_argument("--down", required=True, help="recording with the axis pointing down")
+    p.add_argument("--axis", required=True, choices=("x", "y", "z"))
+    p.add_argument("--out", required=True, help="sensor-model YAML to create or update")
+    _add_site(p)
+    _add_format(p)
+    p.set_defaults(func=cmd_two_position)
+
+    p = sub.add_parser("rate-table", help="gyro scale and bias of one axis at two table rates (eqs. 5-7)")
+    p.add_argument("--rec1", required=True)
+    p.add_argument("--rate1-dps", type=float, required=True, help="table rate of rec1, deg/s")
+    p.add_argument("--rec2", required=True)
+    p.add_argument("--rate2-dps", type=float, required=True, help="table rate of rec2, deg/s")
+    p.add_argument("--axis", required=True, choices=("x", "y", "z"))
+    p.add_argument("--direction", default="up", choices=sorted(rate_table.DIRECTIONS),
+                   help="direction (ENU) the gyro axis points along on the table")
+    p.add_argument("--out", required=True)
+    _add_site(p)
+    _add_format(p)
+    p.set_defaults(func=cmd_rate_table)
+
+    p = sub.add_parser("multi-position", help="accel bias, scale, misalignment and gyro bias from many orientations")
+    p.add_argument("recording")
+    p.add_argument("--out", required=True)
+    p.add_argument("--gyro-file", help="gyro file for --format imutk")
+    p.add_argument("--gravity", type=float, help="gravity magnitude in the data's units (default: WGS-84 at site)")
+    p.add_argument("--init-static-s", type=float, default=30.0, help="initial static interval, s")
+    p.add_argument("--threshold-factor", type=float, default=4.0,
+                   help="static if window variance < factor x initial level")
+    p.add_argument("--min-static-s", type=float, default=2.0, help="shortest static segment kept, s")
+    _add_site(p, required=False)
+    _add_format(p)
+    p.set_defaults(func=cmd_multi_position)
+    return parser
+
+
+def cmd_allan(args) -> int:
+    """Characterise a static recording and write the three outputs."""
+    from tqdm import tqdm
+
+    from imu_calib.characterise import characterise, write_outputs
+
+    rec = load_recording(args.recording, args.topic, args.format)
+    base = sensor_model.load(args.base_model) if args.base_model else None
+    print(f"{args.recording}: {len(rec)} samples, {len(rec) / rec.rate_hz:.1f} s at {rec.rate_hz:.3g} Hz", flush=True)
+    bar = tqdm(total=6, desc="Allan deviation", unit="axis", disable=args.no_progress)
+
+    def progress(label):
+        bar.set_postfix_str(label)
+        bar.update(1)
+
+    result = characterise(rec, per_decade=args.per_decade or None, progress=progress, base_model=base)
+    bar.close()
+    paths = write_outputs(result, args.out, rostopic="/" + args.topic.lstrip("/"))
+    _print_noise(result)
+    for path in paths.values():
+        print(f"wrote {path}")
+    return 0
+
+
+def _print_noise(result) -> None:
+    for triad in ("gyro", "accel"):
+        for i, fit in enumerate(result.fits[triad]):
+            terms = ", ".join(f"{t}={fit.values[t]:.3g} [{fit.intervals[t][0]:.3g}, {fit.intervals[t][1]:.3g}]"
+                              for t in fit.kept)
+            gm = f", GM tau_c={fit.bias_correlation_time:.3g} s" if fit.bias_correlation_time else ""
+            print(f"{triad} {'xyz'[i]}: {terms}{gm} (SI; reduced chi2 {fit.chi2_reduced:.2f})")
+
+
+def cmd_two_position(args) -> int:
+    """Eqs. 1-4 for one axis; update the model."""
+    up = load_recording(args.up, args.topic, args.format)
+    down = load_recording(args.down, args.topic, args.format)
+    res = two_position.two_position_from_recordings(up, down, args.axis, args.lat_deg * DEG, args.height_m)
+    model = model_io.load_or_new(args.out, up.rate_hz)
+    two_position.apply_to_model(model, res)
+    model.accel.info.setdefault("two_position", {})[args.axis] = {"gravity_mps2": res.gravity,
+                                                                  "mean_up": res.mean_up, "mean_down": res.mean_down}
+    sensor_model.stamp_provenance(model, "imu_calib two-position", f"{args.up} + {args.down}",
+                                  lat_deg=args.lat_deg, height_m=args.height_m)
+    sensor_model.save(model, args.out)
+    print(f"local gravity {res.gravity:.5f} m/s^2 at {args.lat_deg} deg, {args.height_m} m")
+    print(f"accel {args.axis}: bias {res.bias:.5f} m/s^2 [{res.bias_interval[0]:.5f}, {res.bias_interval[1]:.5f}], "
+          f"scale factor {res.scale_factor:.5f} [{res.scale_interval[0]:.5f}, {res.scale_interval[1]:.5f}]")
+    print(f"gyro {args.axis}: bias {res.gyro_bias / DEG:.5f} deg/s")
+    print(f"wrote {args.out}")
+    return 0
+
+
+def cmd_rate_table(args) -> int:
+    """Eqs. 5-7 for one axis; update the model."""
+    i = two_position.axis_index(args.axis)
+    rec1 = load_recording(args.rec1, args.topic, args.format)
+    rec2 = load_recording(args.rec2, args.topic, args.format)
+    res = rate_table.rate_table(rec1.gyro[:, i], args.rate1_dps * DEG, rec2.gyro[:, i], args.rate2_dps * DEG,
+                                args.lat_deg * DEG, args.direction, i)
+    model = model_io.load_or_new(args.out, rec1.rate_hz)
+    rate_table.apply_to_model(model, res)
+    sensor_model.stamp_provenance(model, "imu_calib rate-table", f"{args.rec1} + {args.rec2}",
+                                  lat_deg=args.lat_deg, axis_direction=args.direction)
+    sensor_model.save(model, args.out)
+    print(f"Earth rate along the axis ({args.direction}): {res.earth_rate_component / DEG * 3600:.4f} deg/h")
+    print(f"gyro {args.axis}: scale factor {res.scale_factor:.5f} "
+          f"[{res.scale_interval[0]:.5f}, {res.scale_interval[1]:.5f}], bias {res.bias / DEG:.5f} deg/s "
+          f"[{res.bias_interval[0] / DEG:.5f}, {res.bias_interval[1] / DEG:.5f}]")
+    print(f"wrote {args.out}")
+    return 0
+
+
+def cmd_multi_position(args) -> int:
+    """Static detection and least-squares accel fit; update the model."""
+    rec = load_recording(args.recording, args.topic, args.format, args.gyro_file)
+    lat = None if args.lat_deg is None else args.lat_deg * DEG
+    res = multi_position.multi_position(rec, lat, args.height_m, args.gravity, init_static_s=args.init_static_s,
+                                        threshold_factor=args.threshold_factor, min_static_s=args.min_static_s)
+    model = model_io.load_or_new(args.out, rec.rate_hz)
+    multi_position.apply_to_model(model, res)
+    sensor_model.stamp_provenance(model, "imu_calib multi-position", args.recording, lat_deg=args.lat_deg,
+                                  gravity=res.gravity, static_segments=len(res.segments))
+    sensor_model.save(model, args.out)
+    print(f"{len(res.segments)} static segments; |g| residual RMS {res.rms_residual:.4g} after, "
+          f"{np.sqrt(np.mean(res.residuals_before ** 2)):.4g} before (data units)")
+    print(f"accel bias {np.round(res.bias, 5)}, scale factor {np.round(res.scale_factor, 5)}")
+    print(f"misalignment (upper triangle) {np.round(res.misalignment[[0, 0, 1], [1, 2, 2]], 6)}")
+    print(f"gyro bias {np.round(res.gyro_bias, 6)}")
+    print(f"wrote {args.out}")
+    return 0
+
+
+def main(argv=None) -> int:
+    """Console-script entry point."""
+    args = build_parser().parse_args(argv)
+    try:
+        return args.func(args)
+    except (AllanError, RecordingError, sensor_model.SensorModelError, ValueError) as err:
+        print(f"imu-calib {args.command}: error: {err}", file=sys.stderr)
+        return 2
+
+
+if __name__ == "__main__":
+    sys.exit(main())
