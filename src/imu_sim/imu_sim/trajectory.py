@@ -270,32 +270,32 @@ def gnss_track_trajectory(path, duration_s: float | None = None, min_std_m: floa
     return traj
 
 
-TRUTH_CSV_POSITION_STD_M = 0.005
-"""Position resolution (m, 1 sigma) assumed for truth CSV rows: the CSV writer keeps 10 significant digits."""
+TRUTH_CSV_POSITION_STD_M = 0.003
+"""Position noise (m, 1 sigma) assumed for truth CSV rows: the CSV writer keeps 10 significant digits (~1 cm of longitude)."""
 
 
 def truth_csv_trajectory(truth: Trajectory, frame: LocalFrame | None = None,
                          position_std_m: float = TRUTH_CSV_POSITION_STD_M) -> TruthTrajectory:
     """A smooth trajectory through a truth trajectory (nav_core :class:`Trajectory`, e.g. a truth CSV).
 
-    Rows are thinned to about 10 Hz; position is a quintic smoothing spline per ENU axis
+    Position is a quintic smoothing spline per ENU axis through every row
     (chi^2 per row ~ 1 at ``position_std_m``, so CSV rounding does not become acceleration
-    noise), attitude a quintic quaternion spline.
+    noise); attitude a quintic quaternion spline through rows thinned to about 10 Hz.
     """
     if len(truth.t) < 2:
         raise ValueError("truth trajectory needs at least 2 rows")
     step = max(1, int(round(KNOT_SPACING_S / np.median(np.diff(truth.t)))))
     idx = np.unique(np.r_[np.arange(0, len(truth.t), step), len(truth.t) - 1])
-    t = truth.t[idx]
     frame = frame or LocalFrame(float(truth.lat[0] / DEG), float(truth.lon[0] / DEG), float(truth.h[0]))
-    enu = frame.to_enu(truth.lat[idx] / DEG, truth.lon[idx] / DEG, truth.h[idx])
+    enu = frame.to_enu(truth.lat / DEG, truth.lon / DEG, truth.h)
     rot = rotation_from_euler(truth.roll[idx], truth.pitch[idx], truth.yaw[idx])
+    t = truth.t
     if len(t) > 5:
         splines = [UnivariateSpline(t, enu[:, i], k=5, s=len(t) * position_std_m**2) for i in range(3)]
         position = ComponentSplinePosition(splines, t[0], t[-1])
     else:
         position = EnuSplinePosition(t, enu)
-    return TruthTrajectory(frame, position, QuatSplineAttitude(t, rot), float(t[0]), float(t[-1]))
+    return TruthTrajectory(frame, position, QuatSplineAttitude(t[idx], rot), float(t[0]), float(t[-1]))
 
 
 # ----------------------------------------------------------------------------- static and rate table
