@@ -85,24 +85,37 @@ class Bp3010Driver(Node):
 
     def _set_state(self, state: str, error: str) -> None:
         if state != self.port_state:
-            log = self.get_logger().info if state == "connected" else self.get_logger().warning
-            log(f"port {self.p['port']}: {state}" + (f" ({error})" if error else ""))
+            text = f"port {self.p['port']}: {state}" + (f" ({error})" if error else "")
+            # rclpy forbids one call site logging at two severities, hence two calls.
+            if state == "connected":
+                self.get_logger().info(text)
+            else:
+                self.get_logger().warning(text)
         self.port_state, self.last_error = state, error or self.last_error
 
     def _read_loop(self) -> None:
         while not self._stop.is_set():
-            if self._serial is None and not self._open():
-                self._stop.wait(self.p["reconnect_period_s"])
-                continue
             try:
-                data = self._serial.read(max(1, self._serial.in_waiting))
-            except (serial.SerialException, OSError, TypeError) as err:
-                self._close_port()
-                self._set_state("disconnected", str(err))
+                self._read_once()
+            except Exception as err:  # the reader must outlive any surprise; report and go on
+                self.last_error = f"{type(err).__name__}: {err}"
+                self.get_logger().error(f"reader: {self.last_error}")
                 self._stop.wait(self.p["reconnect_period_s"])
-                continue
-            if data:
-                self._publish(data)
+
+    def _read_once(self) -> None:
+        """Open the port if needed, read what is there, publish the frames."""
+        if self._serial is None and not self._open():
+            self._stop.wait(self.p["reconnect_period_s"])
+            return
+        try:
+            data = self._serial.read(max(1, self._serial.in_waiting))
+        except (serial.SerialException, OSError, TypeError) as err:
+            self._close_port()
+            self._set_state("disconnected", str(err))
+            self._stop.wait(self.p["reconnect_period_s"])
+            return
+        if data:
+            self._publish(data)
 
     def _publish(self, data: bytes) -> None:
         now_s = self.get_clock().now().nanoseconds * 1e-9

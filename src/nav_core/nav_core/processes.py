@@ -53,14 +53,15 @@ class NodeProcess:
     def wait_for_line(self, text: str, timeout_s: float = 20.0) -> bool:
         """Wait until a printed line contains ``text``; False on timeout or exit."""
         deadline = time.monotonic() + timeout_s
-        while time.monotonic() < deadline:
+        while True:
             if any(text in line for line in self.lines):
                 return True
             if self.proc.poll() is not None:
                 time.sleep(0.1)
                 return any(text in line for line in self.lines)
+            if time.monotonic() >= deadline:
+                return False
             time.sleep(0.05)
-        return False
 
     def stop(self, timeout_s: float = 10.0) -> int:
         """SIGINT, then SIGKILL after ``timeout_s``; returns the exit code."""
