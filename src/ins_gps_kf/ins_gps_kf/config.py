@@ -115,6 +115,8 @@ def check(name: str, value) -> None:
     spec = SPEC_BY_NAME.get(name)
     if spec is None:
         raise FilterConfigError(f"unknown parameter {name!r}; known: {sorted(SPEC_BY_NAME)}")
+    if spec.choices and value not in spec.choices:
+        raise FilterConfigError(f"parameter '{name}': {value!r} is not one of {list(spec.choices)}")
     if isinstance(value, (int, float)) and not isinstance(value, bool) and not math.isnan(value):
         if (spec.low is not None and value < spec.low) or (spec.high is not None and value > spec.high):
             raise FilterConfigError(f"parameter '{name}': {value!r} outside [{spec.low}, {spec.high}]")

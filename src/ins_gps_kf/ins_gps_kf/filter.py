@@ -224,7 +224,7 @@ class InsGpsFilter:
 
     def mat_nb(self):
         """Current body-to-ENU rotation matrix."""
-        return Rotation.from_quat(self.nav[strapdown.Q]).as_matrix()
+        return strapdown.mat_nb(self.nav)
 
     def _update_earth(self):
         """Earth rate, transport rate and gravity (ENU) at the current position, held until the next epoch."""
@@ -304,8 +304,7 @@ class InsGpsFilter:
         """Subtract the estimated errors from the nav state and biases (error state returns to zero)."""
         self.nav[strapdown.P] -= dx[em.DP]
         self.nav[strapdown.V] -= dx[em.DV]
-        quat = (Rotation.from_rotvec(dx[em.PHI]) * Rotation.from_quat(self.nav[strapdown.Q])).as_quat()
-        self.nav[strapdown.Q] = quat
+        strapdown.rotate_attitude(self.nav, dx[em.PHI])
         self.gyro_bias = self.gyro_bias - dx[em.BG]
         self.accel_bias = self.accel_bias - dx[em.BA]
 

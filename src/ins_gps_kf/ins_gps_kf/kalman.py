@@ -2,6 +2,7 @@
 from __future__ import annotations
 
 from dataclasses import dataclass
+from functools import lru_cache
 
 import numpy as np
 from filterpy.common import van_loan_discretization
@@ -33,6 +34,7 @@ def propagate(cov, f_cont, g_cont, dt):
     return 0.5 * (cov + cov.T)
 
 
+@lru_cache(maxsize=64)
 def gate_threshold(dof: int, probability: float) -> float:
     """Chi-square quantile for the innovation gate."""
     return float(chi2.ppf(probability, dof))

@@ -11,7 +11,8 @@ dv_{k-1}, dv_k) the two-sample corrections are (Savage, Titterton & Weston):
 
 Attitude ``q_nb(k) = q(-zeta) * q_nb(k-1) * q(phi_k)`` with ``zeta = (w_ie + w_en) dt``
 (Earth rate and transport rate turn the ENU frame); velocity adds the body
-increment rotated to ENU, gravity and the Coriolis term; position (local ENU, m)
+increment rotated to ENU with the start-of-interval attitude, less ``zeta x dv_n / 2``
+(the frame turns during the interval), gravity and the Coriolis term; position (local ENU, m)
 integrates velocity by the trapezoid rule. Earth rate, transport rate and normal
 gravity come from :mod:`nav_core.earth`, evaluated once per filter epoch by the
 caller and held over the epoch (they change by parts per billion in 0.5 s).
@@ -105,6 +106,7 @@ def integrate(nav, mem, t, gyro, accel, bias_gyro, bias_accel, w_ie_n, w_en_n, g
         mem[M_HAS_PREV] = 1.0
         q = nav[Q].copy()
         dv_n = _mat_from_quat(q) @ dv_body
+        dv_n = dv_n - 0.5 * _cross(w_in * dt, dv_n)  # the ENU frame turns during the interval too
         v_old = nav[V].copy()
         v_new = v_old + dv_n + (g_n - _cross(cor, v_old)) * dt
         nav[V] = v_new
@@ -118,6 +120,19 @@ def integrate(nav, mem, t, gyro, accel, bias_gyro, bias_accel, w_ie_n, w_en_n, g
         fn = np.sqrt(np.sum(f * f))
         mem[M_F] += fn
         mem[M_F2] += fn * fn
+
+
+@njit(cache=True)
+def mat_nb(nav):
+    """Body-to-ENU rotation matrix (3, 3) of a nav-state array."""
+    return _mat_from_quat(nav[Q])
+
+
+@njit(cache=True)
+def rotate_attitude(nav, phi_n):
+    """Turn the attitude of ``nav`` in place by the small ENU rotation vector ``phi_n`` (rad), on the left."""
+    q = _quat_mul(_quat_from_rotvec(phi_n), nav[Q])
+    nav[Q] = q / np.sqrt(np.sum(q * q))
 
 
 def new_state(quat_xyzw, velocity_n, position_n):
