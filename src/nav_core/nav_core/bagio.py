@@ -57,30 +57,135 @@ def topics(path) -> dict:
         return {norm_topic(c.topic): c.msgtype for c in reader.connections}
 
 
-def iter_messages(path, wanted_topics):
-    """Yield ``(topic, log_time_ns, msg)`` for the wanted topics in log-time order.
+def iter_raw(path, wanted_topics=None):
+    """Yield ``(topic, msgtype, log_time_ns, cdr_bytes)`` for the wanted topics (all if None).
 
-    Raises :class:`BagDamage` where the bag is damaged, after yielding everything before it.
+    A healthy bag is read with rosbags in log-time order. A bag rosbags cannot
+    open (truncated: no MCAP summary, a cut sqlite file) is read record by
+    record in storage order up to the damage. Either way, damage raises
+    :class:`BagDamage` after everything good before it was yielded.
     """
     path = Path(path)
-    wanted = {norm_topic(t) for t in wanted_topics}
+    wanted = None if wanted_topics is None else {norm_topic(t) for t in wanted_topics}
     count = 0
-    last_ns = None
     try:
-        with Reader(path) as reader:
-            conns = [c for c in reader.connections if norm_topic(c.topic) in wanted]
-            for conn, log_ns, raw in reader.messages(connections=conns):
-                msg = TYPESTORE.deserialize_cdr(raw, conn.msgtype)
-                count += 1
-                last_ns = log_ns
-                yield norm_topic(conn.topic), log_ns, msg
-    except BagDamage:
-        raise
+        reader = Reader(path)
+        reader.open()
     except FileNotFoundError as err:
         raise BagDamage(f"{path}: {err}", 0) from err
+    except Exception as err:  # rosbags refuses damaged storage at open: recover what is there
+        yield from _recover(path, wanted, err)
+        return
+    try:
+        conns = [c for c in reader.connections if wanted is None or norm_topic(c.topic) in wanted]
+        for conn, log_ns, raw in reader.messages(connections=conns):
+            count += 1
+            yield norm_topic(conn.topic), conn.msgtype, log_ns, raw
     except Exception as err:  # rosbags, sqlite3 and mcap raise many kinds on damage
-        where = f"after message {count}" + (f" (log time {last_ns * 1e-9:.6f} s)" if last_ns else "")
-        raise BagDamage(f"{path}: damaged or unreadable {where}: {type(err).__name__}: {err}", count) from err
+        raise BagDamage(f"{path}: damaged after message {count}: {type(err).__name__}: {err}", count) from err
+    finally:
+        reader.close()
+
+
+def iter_messages(path, wanted_topics):
+    """Yield ``(topic, log_time_ns, msg)`` (rosbags message objects); damage as in :func:`iter_raw`."""
+    for topic, msgtype, log_ns, raw in iter_raw(path, wanted_topics):
+        yield topic, log_ns, TYPESTORE.deserialize_cdr(raw, msgtype)
+
+
+def _storage_files(path: Path) -> list:
+    if path.is_file():
+        return [path]
+    files = sorted(p for p in path.iterdir() if p.suffix in (".db3", ".mcap"))
+    if not files:
+        raise BagDamage(f"{path}: no .db3 or .mcap storage file in the bag folder", 0)
+    return files
+
+
+def _recover(path: Path, wanted, open_error):
+    count = 0
+    for storage in _storage_files(path):
+        reader = _recover_sqlite if storage.suffix == ".db3" else _recover_mcap
+        try:
+            for item in reader(storage, wanted):
+                count += 1
+                yield item
+        except BagDamage as err:
+            raise BagDamage(f"{err} (rosbags could not open it: {open_error})", count) from err
+
+
+def _readable_sqlite_copy(storage: Path, tmpdir: str) -> Path:
+    """A copy of a cut sqlite file that SQLite will open: whole pages only, header page count cleared.
+
+    SQLite trusts the page count in the header and calls a shorter file
+    malformed; with the count zeroed it uses the file size. The user's file is
+    never modified.
+    """
+    import shutil
+    import struct
+
+    copy = Path(tmpdir) / storage.name
+    shutil.copyfile(storage, copy)
+    with open(copy, "r+b") as fh:
+        header = fh.read(100)
+        if len(header) < 100 or not header.startswith(b"SQLite format 3"):
+            raise BagDamage(f"{storage}: not an sqlite3 file (bad header)", 0)
+        page = struct.unpack(">H", header[16:18])[0]
+        page = 65536 if page == 1 else page
+        fh.truncate(copy.stat().st_size // page * page)
+        fh.seek(28)
+        fh.write(b"\0\0\0\0")
+    return copy
+
+
+def _recover_sqlite(storage: Path, wanted):
+    """Rows of a rosbag2 sqlite3 file in insertion order, up to the first unreadable page."""
+    import sqlite3
+    import tempfile
+
+    count, last_id = 0, None
+    with tempfile.TemporaryDirectory() as tmpdir:
+        try:
+            con = sqlite3.connect(_readable_sqlite_copy(storage, tmpdir))
+            types = {tid: (norm_topic(name), mtype) for tid, name, mtype in
+                     con.execute("SELECT id, name, type FROM topics")}
+            rows = con.execute("SELECT id, topic_id, timestamp, data FROM messages ORDER BY id")
+            for row_id, tid, log_ns, data in rows:
+                topic, mtype = types[tid]
+                last_id = row_id
+                if wanted is None or topic in wanted:
+                    count += 1
+                    yield topic, mtype, log_ns, bytes(data)
+            con.close()
+        except sqlite3.DatabaseError as err:
+            where = f"after row id {last_id}" if last_id is not None else "before the first message"
+            raise BagDamage(f"{storage}: sqlite damaged {where} ({count} messages read): {err}", count) from err
+        raise BagDamage(f"{storage}: sqlite file is cut short but every row it holds was read "
+                        f"({count} messages)", count)
+
+
+def _recover_mcap(storage: Path, wanted):
+    """Messages of an MCAP file read as a stream (no summary needed), up to the damage."""
+    from mcap.exceptions import McapError
+    from mcap.stream_reader import StreamReader
+    from mcap.records import Channel, Message, Schema
+
+    schemas, channels, count = {}, {}, 0
+    with open(storage, "rb") as fh:
+        try:
+            for record in StreamReader(fh, skip_magic=False, emit_chunks=False).records:
+                if isinstance(record, Schema):
+                    schemas[record.id] = record.name
+                elif isinstance(record, Channel):
+                    channels[record.id] = (norm_topic(record.topic), schemas.get(record.schema_id, ""))
+                elif isinstance(record, Message) and record.channel_id in channels:
+                    topic, mtype = channels[record.channel_id]
+                    if wanted is None or topic in wanted:
+                        count += 1
+                        yield topic, mtype, record.log_time, bytes(record.data)
+        except (McapError, EOFError, ValueError, OSError) as err:
+            raise BagDamage(f"{storage}: MCAP damaged at byte {fh.tell()} ({count} messages read): "
+                            f"{type(err).__name__}: {err}", count) from err
 
 
 def imu_message(t_s: float, gyro, accel, frame_id: str = "imu_link",
