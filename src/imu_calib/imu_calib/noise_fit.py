@@ -5,7 +5,7 @@ Model (IEEE Std 952, rate-type signal, SI units)::
     avar(tau) = 3 Q^2 / tau^2 + N^2 / tau + (2 ln 2 / pi) B^2 + K^2 tau / 3 + R^2 tau^2 / 2
 
 is linear in c = (Q^2, N^2, B^2, K^2, R^2). The fit is weighted least squares
-with c >= 0 (``scipy.optimize.lsq_linear``), iteratively reweighted: the
+with c >= 0 (``scipy.optimize.nnls``), iteratively reweighted: the
 variance of each Allan-variance point is ``2 avar_model^2 / edf`` (edf from the
 model's dominant noise type), so weights come from the confidence of each point
 and do not bias the fit towards low points. Terms the data do not support are
@@ -101,9 +101,7 @@ def _irls(F, avar_hat, edf_fn, alphas_of_terms, floor: float, n_iter: int = 6):
     c = np.zeros(F.shape[1])
     for _ in range(n_iter):
         scale = np.maximum(np.abs(F / sigma[:, None]).max(axis=0), 1e-300)
-        res = optimize.lsq_linear(F / sigma[:, None] / scale, avar_hat / sigma, bounds=(0.0, np.inf),
-                                  method="bvls", tol=1e-12)
-        c = res.x / scale
+        c = optimize.nnls(F / sigma[:, None] / scale, avar_hat / sigma)[0] / scale
         model = F @ c
         if not np.all(model > 0):
             break
@@ -174,7 +172,7 @@ def _choose_bias_law(prob: _Problem, terms) -> tuple:
     chi2_flicker = prob.fit(terms, 0.0, 0.0)[2]
     best = None
     # correlation times near the shortest cluster times would only mimic white noise
-    for tau_c in np.geomspace(prob.taus[min(3, len(prob.taus) - 1)], prob.taus[-1] * 10, 48):
+    for tau_c in np.geomspace(prob.taus[min(3, len(prob.taus) - 1)], prob.taus[-1] * 10, 32):
         c, _, chi2 = prob.fit(terms, tau_c, 0.0)
         if best is None or chi2 < best[0]:
             best = (chi2, tau_c, c)

@@ -1,0 +1,85 @@
+"""allan_node wiring: live subscribe-for-duration then characterise, offline recording, bad config."""
+import time
+
+import numpy as np
+import pytest
+import rclpy
+from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus
+from sensor_msgs.msg import Imu
+
+from imu_calib import synthetic
+from nav_core import sensor_model
+from nav_core.processes import NodeProcess
+from nav_core.recording import write_imu_csv
+from nav_core.ros_node import SENSOR_QOS, Probe, imu_from_arrays
+
+pytestmark = pytest.mark.ros
+MODEL = sensor_model.SensorModel(gyro=sensor_model.TriadModel(white_noise=np.full(3, 1e-3)),
+                                 accel=sensor_model.TriadModel(white_noise=np.full(3, 2e-3)), sample_rate_hz=50.0)
+
+
+@pytest.fixture
+def rclpy_context():
+    rclpy.init()
+    yield
+    rclpy.try_shutdown()
+
+
+def _result(probe):
+    for _, arr in probe.received["/diagnostics"]:
+        for st in arr.status:
+            if "allan_node" in st.name and st.message != "collecting":
+                return st
+    return None
+
+
+@pytest.mark.slow
+def test_node_collects_duration_of_live_data_then_writes_the_model(tmp_path, ros_env, rclpy_context):
+    out = tmp_path / "live"
+    node = NodeProcess("allan_node", env=ros_env, ros_args={"duration_s": 4.0, "out_dir": str(out),
+                                                            "diagnostics_period_s": 0.2})
+    try:
+        probe = Probe({"/diagnostics": DiagnosticArray})
+        feeder = rclpy.create_node("feeder")
+        pub = feeder.create_publisher(Imu, "imu/data_raw", SENSOR_QOS)
+        assert probe.spin_until(lambda p: pub.get_subscription_count() > 0, 20), node.output
+        rec = synthetic.static_recording(MODEL, 6.0, np.random.default_rng(0), t0=1000.0)
+        for t, g, a in zip(rec.t, rec.gyro, rec.accel):
+            pub.publish(imu_from_arrays(t, g, a))
+            rclpy.spin_once(probe, timeout_sec=0.0)
+            time.sleep(0.004)
+        assert probe.spin_until(lambda p: _result(p) is not None, 30), node.output
+        status = _result(probe)
+        values = {kv.key: kv.value for kv in status.values}
+        assert status.level == DiagnosticStatus.OK, status.message
+        assert 150 <= int(values["samples"]) <= 202  # 4 s of stamps at 50 Hz, best effort may drop a few
+        model = sensor_model.load(out / "sensor_model.yaml")
+        np.testing.assert_allclose(model.gyro.white_noise, 1e-3, rtol=0.35)
+        assert (out / "imu.yaml").exists() and (out / "allan.png").exists()
+        feeder.destroy_node()
+        probe.destroy_node()
+    finally:
+        node.stop()
+
+
+@pytest.mark.slow
+def test_node_characterises_a_recording_and_can_exit_when_done(tmp_path, ros_env):
+    csv = write_imu_csv(tmp_path / "rec.csv", synthetic.static_recording(MODEL, 60.0, np.random.default_rng(1)))
+    out = tmp_path / "offline"
+    node = NodeProcess("allan_node", env=ros_env, ros_args={"recording": str(csv), "out_dir": str(out),
+                                                            "exit_when_done": True, "diagnostics_period_s": 0.1})
+    try:
+        assert node.proc.wait(timeout=60) == 0, node.output
+    finally:
+        node.stop()
+    assert "wrote" in node.output
+    assert sensor_model.load(out / "sensor_model.yaml").sample_rate_hz == pytest.approx(50.0)
+
+
+def test_node_stops_with_a_message_when_out_dir_is_missing(ros_env):
+    node = NodeProcess("allan_node", env=ros_env, ros_args={"out_dir": ""})
+    try:
+        assert node.proc.wait(timeout=30) == 2
+    finally:
+        node.stop()
+    assert "out_dir" in node.output
