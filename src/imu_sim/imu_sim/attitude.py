@@ -58,6 +58,10 @@ class QuatSplineAttitude:
 
     def rate_b(self, t) -> np.ndarray:
         """omega_nb^b in rad/s, shape (n, 3); zero outside the spline's time span."""
+        return self.rotation_and_rate(t)[1]
+
+    def rotation_and_rate(self, t):
+        """(body-to-ENU Rotation, omega_nb^b rad/s (n, 3)) with one spline evaluation."""
         t = np.atleast_1d(np.asarray(t, float))
         s, sd = self._s(t), self._s(t, 1)
         norm = np.linalg.norm(s, axis=1, keepdims=True)
@@ -65,7 +69,7 @@ class QuatSplineAttitude:
         qd = (sd - q * np.einsum("ij,ij->i", q, sd)[:, None]) / norm
         out = body_rate_from_quat(q, qd)
         out[(t < self.t0) | (t > self.t1)] = 0.0
-        return out
+        return Rotation.from_quat(q), out
 
 
 def right_jacobian(phi: np.ndarray) -> np.ndarray:
@@ -139,6 +143,10 @@ class PiecewiseAttitude:
                 phi = np.column_stack([poly(tau) for poly in p.phi])
                 quat[m] = (p.rot0 * Rotation.from_rotvec(phi)).as_quat()
         return Rotation.from_quat(quat)
+
+    def rotation_and_rate(self, t):
+        """(body-to-ENU Rotation, omega_nb^b rad/s (n, 3))."""
+        return self.rotation(t), self.rate_b(t)
 
     def rate_b(self, t) -> np.ndarray:
         """omega_nb^b in rad/s, shape (n, 3)."""

@@ -77,8 +77,9 @@ def true_rates(traj: TruthTrajectory, t, physics: Physics = FULL):
         accel -= earth.gravity_n(lat, h)
     else:
         accel[:, 2] += G0
-    rot_inv = traj.attitude.rotation(t).inv()
-    return traj.attitude.rate_b(t) + rot_inv.apply(w_in), rot_inv.apply(accel)
+    rot, rate_nb = traj.attitude.rotation_and_rate(t)
+    rot_inv = rot.inv()
+    return rate_nb + rot_inv.apply(w_in), rot_inv.apply(accel)
 
 
 def sample_times(traj: TruthTrajectory, rate_hz: float) -> np.ndarray:

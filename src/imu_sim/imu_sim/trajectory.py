@@ -8,6 +8,7 @@ truth CSV, and static multi-position / rate-table sequences.
 """
 from __future__ import annotations
 
+import warnings
 from dataclasses import dataclass
 
 import numpy as np
@@ -96,7 +97,9 @@ class TruthTrajectory:
         """The truth at times t (s) as a nav_core :class:`Trajectory` (for the truth CSV)."""
         t = np.atleast_1d(np.asarray(t, float))
         lat, lon, h = self.geodetic(t)
-        roll, pitch, yaw = euler_from_rotation(self.attitude.rotation(t))
+        with warnings.catch_warnings():  # pitch +-90 deg (multi-position) has no unique roll/yaw split
+            warnings.filterwarnings("ignore", message="Gimbal lock detected")
+            roll, pitch, yaw = euler_from_rotation(self.attitude.rotation(t))
         return Trajectory(t, lat, lon, h, roll, pitch, yaw, self.velocity_n(t, lat, lon))
 
 
@@ -171,13 +174,15 @@ def _segment_profiles(segments, t: np.ndarray, yaw0: float):
             raise ValueError(f"segments[{i}].type: {kind!r} is not one of {SEGMENT_TYPES}")
         if not dur > 0:
             raise ValueError(f"segments[{i}].duration_s: must be > 0, got {dur}")
-        m = t >= t_start
+        m = slice(np.searchsorted(t, t_start), np.searchsorted(t, t_start + dur))
         tau = (t[m] - t_start) / dur
         v_end = {"accelerate": float(seg.get("speed_mps", v_now)), "stop": 0.0}.get(kind, v_now)
         speed[m] = v_now + (v_end - v_now) * _smoothstep(tau)
         d_yaw = float(seg.get("angle_deg", 0.0)) * DEG if kind == "turn" else 0.0
         yaw[m] = yaw_now + d_yaw * _smoothstep(tau)
         t_start, v_now, yaw_now = t_start + dur, v_end, yaw_now + d_yaw
+    after = t >= t_start
+    speed[after], yaw[after] = v_now, yaw_now
     return speed, yaw, t_start
 
 
