@@ -67,6 +67,7 @@ def test_cli_writes_bag_csvs_truth_and_bp3010_stream_readable_by_the_project_rea
     truth = recording.read_trajectory_csv(out / "truth.csv")
     assert truth.t[0] == 0.0 and len(truth) == len(imu_csv) + 1
     assert (out / "bp3010.bin").stat().st_size == 16 * len(imu_csv)
+    assert (out / "overview.png").stat().st_size > 10_000
 
 
 def test_bp3010_stream_decodes_to_the_simulated_increments_within_one_lsb(tmp_path):

@@ -4,10 +4,14 @@ from __future__ import annotations
 import argparse
 import sys
 import time
+from pathlib import Path
+
+from tqdm import tqdm
 
 from nav_core.sensor_model import SensorModelError
 
 from imu_sim.effects import EffectError
+from imu_sim.plots import overview_png
 from imu_sim.scenario import ScenarioError
 from imu_sim.simulate import FORMATS, simulate, write_outputs
 
@@ -27,11 +31,20 @@ def _parser() -> argparse.ArgumentParser:
 
 
 def _simulate(args) -> int:
+    steps = tqdm(total=3, desc="imu-sim", unit="step", file=sys.stderr)
     start = time.perf_counter()
+    steps.set_postfix_str("simulating")
     res = simulate(args.scenario, args.model, seed=args.seed, rate_hz=args.rate_hz)
+    steps.update()
     print(f"simulated {res.info['duration_s']:.1f} s at {res.rate_hz:g} Hz ({len(res.imu)} IMU samples, "
           f"{0 if res.gnss is None else len(res.gnss)} GPS fixes) in {time.perf_counter() - start:.1f} s")
+    steps.set_postfix_str("writing recording")
     paths = write_outputs(res, args.out, args.format, args.storage)
+    steps.update()
+    steps.set_postfix_str("plotting")
+    paths["overview_png"] = overview_png(res, Path(args.out) / "overview.png")
+    steps.update()
+    steps.close()
     for name, path in paths.items():
         print(f"  {name}: {path}")
     if res.bp3010 is None:
