@@ -22,6 +22,7 @@ import numpy as np  # noqa: E402
 from nav_msgs.msg import Odometry  # noqa: E402
 from rclpy.exceptions import InvalidParameterTypeException, InvalidParameterValueException  # noqa: E402
 from rclpy.node import Node  # noqa: E402
+from rclpy.qos import QoSProfile  # noqa: E402
 from sensor_msgs.msg import Imu, NavSatFix  # noqa: E402
 
 from nav_core import sensor_model as sm  # noqa: E402
@@ -34,6 +35,7 @@ from ins_gps_kf import strapdown  # noqa: E402
 from ins_gps_kf.filter import ALIGNING, NAVIGATING, Estimate, InsGpsFilter  # noqa: E402
 from ins_gps_kf.replay import load_model  # noqa: E402
 
+INPUT_QUEUE_DEPTH = 200  # messages; ~3 s of 64 Hz IMU
 GPS, IMU = 0, 1  # a fix sorts before an IMU sample of the same stamp (as in the replay)
 
 
@@ -66,12 +68,17 @@ class InsGpsKfNode(Node):
         self.node_resets = 0
         self.last_reset = ""
         self.last_estimate: Estimate | None = None
+        self.closing = False
         self.odom_pub = self.create_publisher(Odometry, "odometry/filtered", 10)
         self.imu_pub = self.create_publisher(Imu, "imu/data", SENSOR_QOS)
-        self.create_subscription(Imu, self.params["imu_topic"], self.on_imu, SENSOR_QOS)
-        self.create_subscription(NavSatFix, self.params["gps_topic"], self.on_gps, SENSOR_QOS)
+        # best effort like every sensor topic, with a deeper history: a burst waits instead of being lost
+        input_qos = QoSProfile(depth=INPUT_QUEUE_DEPTH, reliability=SENSOR_QOS.reliability,
+                               durability=SENSOR_QOS.durability, history=SENSOR_QOS.history)
+        self.create_subscription(Imu, self.params["imu_topic"], self.on_imu, input_qos)
+        self.create_subscription(NavSatFix, self.params["gps_topic"], self.on_gps, input_qos)
         self.diag = Diagnostics(self, "ins_gps_kf")
         self.create_timer(1.0, self.publish_diagnostics)
+        strapdown.warm_up()  # compile or load the numba kernels now, not on the first aligned sample
         self.get_logger().info(f"ready: imu '{self.params['imu_topic']}', gps '{self.params['gps_topic']}', "
                                f"model '{self.params['sensor_model_path'] or 'hand-tuned default'}'")
 
@@ -90,7 +97,8 @@ class InsGpsKfNode(Node):
                    (msg.latitude * DEG, msg.longitude * DEG, msg.altitude, std, msg.status.status))
 
     def _push(self, t, kind, payload):
-        if self.last_t is not None and t < self.last_t - self.time_jump:
+        # IMU stamps are the clock: only they can signal a restart; a very late fix is just late
+        if kind == IMU and self.last_t is not None and t < self.last_t - self.time_jump:
             self._reset(f"stamp jumped back {self.last_t - t:.3f} s (bag restart?)")
         heapq.heappush(self.heap, (t, kind, next(self.seq), payload))
         self.newest_t = max(self.newest_t, t)
@@ -119,7 +127,8 @@ class InsGpsKfNode(Node):
             self.publish_imu(t, *payload)
 
     def close(self):
-        """Process what is still buffered (called by run_node on shutdown)."""
+        """Run what is still buffered through the filter without publishing (called by run_node on shutdown)."""
+        self.closing = True
         self._drain(math.inf)
 
     # ------------------------------------------------------------------ output
@@ -127,7 +136,7 @@ class InsGpsKfNode(Node):
     def publish_imu(self, t, gyro, accel):
         """The input sample, bias-corrected, with the estimated orientation and its covariance."""
         f = self.filter
-        if not f.navigating:
+        if not f.navigating or self.closing:
             return
         msg = Imu()
         msg.header.stamp = stamp_from_s(t)
@@ -147,6 +156,8 @@ class InsGpsKfNode(Node):
     def publish_odometry(self, est: Estimate):
         """Pose (ENU, odom) and twist (body) with covariances from the filter's P."""
         self.last_estimate = est
+        if self.closing:
+            return
         msg = Odometry()
         msg.header.stamp = stamp_from_s(est.t)
         msg.header.frame_id = self.params["frame_id"]

@@ -163,3 +163,12 @@ def epoch_motion(mem):
     f_mean = mem[M_F] / n
     f_std = np.sqrt(max(mem[M_F2] / n - f_mean**2, 0.0))
     return f_n, w_rms, f_mean, f_std
+
+
+def warm_up():
+    """Run each kernel once so numba compiles (or loads its cache) before real data arrives."""
+    nav, mem = new_state([0.0, 0.0, 0.0, 1.0], np.zeros(3), np.zeros(3)), new_memory(0.0)
+    z = np.zeros(3)
+    integrate(nav, mem, np.array([0.01]), np.zeros((1, 3)), np.zeros((1, 3)), z, z, z, z, z)
+    mat_nb(nav)
+    rotate_attitude(nav, z)
