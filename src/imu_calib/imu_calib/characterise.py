@@ -56,7 +56,8 @@ def check_uniform(rec: ImuRecording, tolerance: float = 0.05) -> float:
     if bad.mean() > tolerance:
         raise AllanError(f"{rec.source}: {bad.mean():.1%} of sample intervals differ from the median "
                          f"{median:.4g} s by more than half; Allan variance needs uniform sampling")
-    return float(1.0 / median)
+    # stamps in s carry float noise: 1e-6 Hz resolution is plenty for any IMU rate
+    return float(np.round(1.0 / median, 6))
 
 
 def characterise(rec: ImuRecording, per_decade: int | None = None, taus=None, progress=None,

@@ -9,8 +9,8 @@ Subcommands (degrees and deg/s only here, at the edge; SI in the files)::
     imu-calib multi-position REC --out MODEL.yaml --lat-deg 51.08 [--height-m H]
 
 REC is a rosbag2 bag or the recording CSV (``nav_core.recording.read_imu``);
-``--format ucalgary`` / ``--format imutk`` read the two real text formats of
-``shared/data``. The calibration subcommands update MODEL.yaml if it exists.
+``--format ucalgary`` / ``--format imutk`` / ``--format adis`` read the real
+recordings of ``shared/data``. The calibration subcommands update MODEL.yaml if it exists.
 """
 from __future__ import annotations
 
@@ -31,6 +31,8 @@ def load_recording(path, topic: str = IMU_TOPIC, fmt: str = "auto", gyro_file=No
     """A recording from a bag/CSV (auto) or one of the real text formats (ucalgary, imutk)."""
     if fmt == "ucalgary":
         return datasets.load_ucalgary_updown(path)
+    if fmt == "adis":
+        return datasets.load_adis_npz(path)
     if fmt == "imutk":
         if gyro_file is None:
             raise RecordingError("--format imutk needs --gyro-file (REC is the accelerometer file)")
@@ -40,8 +42,8 @@ def load_recording(path, topic: str = IMU_TOPIC, fmt: str = "auto", gyro_file=No
 
 def _add_format(p) -> None:
     p.add_argument("--topic", default=IMU_TOPIC, help="IMU topic in a bag (default %(default)s)")
-    p.add_argument("--format", default="auto", choices=("auto", "ucalgary", "imutk"),
-                   help="recording format: auto (bag or CSV), ucalgary text, imutk text (raw counts)")
+    p.add_argument("--format", default="auto", choices=("auto", "ucalgary", "imutk", "adis"),
+                   help="recording format: auto (bag or CSV), ucalgary text, imutk text (raw counts), adis .npz")
 
 
 def _add_site(p, required: bool = True) -> None:
