@@ -36,7 +36,7 @@ def norm_topic(topic: str) -> str:
 def is_bag(path) -> bool:
     """Whether ``path`` is a rosbag2 folder or a bare .db3/.mcap storage file."""
     p = Path(path)
-    return (p.is_dir() and (p / "metadata.yaml").exists()) or p.suffix in (".db3", ".mcap")
+    return (p.is_dir() and (p / "metadata.yaml").exists()) or (p.is_file() and p.suffix in (".db3", ".mcap"))
 
 
 def stamp_to_s(stamp) -> float:
@@ -53,8 +53,19 @@ def s_to_stamp(t_s: float):
 
 def topics(path) -> dict:
     """Topic name (no slash) -> message type of a bag."""
-    with Reader(Path(path)) as reader:
-        return {norm_topic(c.topic): c.msgtype for c in reader.connections}
+    try:
+        with Reader(Path(path)) as reader:
+            return {norm_topic(c.topic): c.msgtype for c in reader.connections}
+    except FileNotFoundError:
+        raise
+    except Exception as err:  # damaged: list what can be read
+        found = {}
+        try:
+            for topic, msgtype, _, _ in _recover(Path(path), None, err):
+                found.setdefault(topic, msgtype)
+        except BagDamage:
+            pass
+        return found
 
 
 def iter_raw(path, wanted_topics=None):
@@ -78,6 +89,8 @@ def iter_raw(path, wanted_topics=None):
         return
     try:
         conns = [c for c in reader.connections if wanted is None or norm_topic(c.topic) in wanted]
+        if not conns:
+            return  # rosbags reads every connection when given none
         for conn, log_ns, raw in reader.messages(connections=conns):
             count += 1
             yield norm_topic(conn.topic), conn.msgtype, log_ns, raw

@@ -168,7 +168,7 @@ def _write_csv(path: Path, columns: dict) -> Path:
     path.parent.mkdir(parents=True, exist_ok=True)
     names = list(columns)
     data = np.column_stack([np.asarray(columns[n], dtype=float) for n in names])
-    np.savetxt(path, data, delimiter=",", header=",".join(names), comments="", fmt="%.10g")
+    np.savetxt(path, data, delimiter=",", header=",".join(names), comments="", fmt="%.15g")  # 15 digits: sub-mm in degrees
     return path
 
 

@@ -13,7 +13,7 @@ from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 from rcl_interfaces.msg import FloatingPointRange, IntegerRange, ParameterDescriptor, SetParametersResult
 from rclpy.executors import ExternalShutdownException
 from rclpy.node import Node
-from rclpy.qos import qos_profile_sensor_data
+from rclpy.qos import QoSProfile, ReliabilityPolicy, qos_profile_sensor_data
 from sensor_msgs.msg import Imu
 
 SENSOR_QOS = qos_profile_sensor_data
@@ -174,8 +174,10 @@ def imu_from_arrays(t_s: float, gyro, accel, frame_id: str = "imu_link", gyro_va
 class Probe(Node):
     """Test and demo helper: subscribes to topics and keeps (receive time, message) pairs."""
 
-    def __init__(self, topics: dict, name: str = "probe", qos=SENSOR_QOS):
+    def __init__(self, topics: dict, name: str = "probe", qos=None):
         super().__init__(name)
+        # Best effort (connects to sensor publishers) with a deep queue so a busy probe loses nothing.
+        qos = qos or QoSProfile(depth=10000, reliability=ReliabilityPolicy.BEST_EFFORT)
         self.received = {topic: [] for topic in topics}
         for topic, msg_type in topics.items():
             self.create_subscription(msg_type, topic, self._keeper(topic), qos)

@@ -1,0 +1,161 @@
+"""``bag_play``: publish a rosbag2 bag's messages with their original timing and ``/clock`` (for use_sim_time).
+
+Plays every topic whose type is importable here (sensor_msgs, nav_msgs, ...)
+or the ones named in ``topics``. Sensor topics use the sensor-data QoS. A
+damaged bag plays up to the damage and the error names the file and position.
+"""
+from __future__ import annotations
+
+import importlib
+import threading
+import time
+
+import rclpy
+from rclpy.node import Node
+from rclpy.qos import QoSProfile
+from rclpy.serialization import deserialize_message
+from rosgraph_msgs.msg import Clock
+
+from nav_core import bagio
+from nav_core.ros_node import SENSOR_QOS, ConfigError, Param, declare_parameters, run_node
+
+SENSOR_TYPES = {"sensor_msgs/msg/Imu", "sensor_msgs/msg/NavSatFix", "sensor_msgs/msg/Temperature"}
+
+PARAMS = (
+    Param("bag", "", "rosbag2 bag to play: folder, .db3 or .mcap"),
+    Param("rate", 1.0, "playback speed multiplier", 0.01, 1000.0),
+    Param("start_offset_s", 0.0, "skip this much of the bag's start, s", 0.0, 1e9),
+    Param("loop", False, "play again from the start when done"),
+    Param("topics", [""], "topics to play (empty: all with a known type)"),
+    Param("publish_clock", True, "publish /clock with the bag's time"),
+    Param("clock_rate_hz", 100.0, "/clock rate between messages, Hz (of bag time)", 1.0, 10000.0),
+    Param("start_delay_s", 0.5, "wait this long after start so subscribers can connect, s", 0.0, 60.0),
+    Param("wait_for_subscribers", 0, "before playing, wait until every topic has this many subscribers", 0, 100),
+    Param("wait_timeout_s", 30.0, "give up waiting for subscribers after this long, s", 0.0, 3600.0),
+    Param("exit_when_done", True, "shut down after the last message"),
+)
+
+
+def message_class(msgtype: str):
+    """The rclpy message class of ``pkg/msg/Name``, or None if it is not installed."""
+    pkg, _, name = msgtype.split("/")
+    try:
+        return getattr(importlib.import_module(f"{pkg}.msg"), name)
+    except (ImportError, AttributeError):
+        return None
+
+
+class BagPlayer(Node):
+    """Replays a bag from a background thread; the executor stays free."""
+
+    def __init__(self, **kwargs):
+        super().__init__("bag_play", **kwargs)
+        self.p = declare_parameters(self, PARAMS)
+        if not self.p["bag"] or not bagio.is_bag(self.p["bag"]):
+            raise ConfigError(f"parameter 'bag': {self.p['bag']!r} is not a rosbag2 bag (folder, .db3, .mcap)")
+        wanted = [t for t in self.p["topics"] if t]
+        self.publishers_by_topic = self._make_publishers(wanted)
+        self.clock_pub = self.create_publisher(Clock, "/clock", QoSProfile(depth=10))
+        self.played = 0
+        self.error = ""
+        self._stop = threading.Event()
+        self.done = threading.Event()
+        self._thread = threading.Thread(target=self._play, name="bag_play", daemon=True)
+        self._thread.start()
+        self.create_timer(0.2, self._check_done)
+        self.get_logger().info(f"ready: playing {self.p['bag']} topics {sorted(self.publishers_by_topic)} "
+                               f"at {self.p['rate']}x")
+
+    def _make_publishers(self, wanted) -> dict:
+        pubs = {}
+        for topic, msgtype in bagio.topics(self.p["bag"]).items():
+            if wanted and topic not in {bagio.norm_topic(t) for t in wanted}:
+                continue
+            cls = message_class(msgtype)
+            if cls is None:
+                self.get_logger().warning(f"skipping {topic}: type {msgtype} is not installed")
+                continue
+            qos = SENSOR_QOS if msgtype in SENSOR_TYPES else QoSProfile(depth=100)
+            pubs[topic] = (cls, self.create_publisher(cls, "/" + topic, qos))
+        if not pubs:
+            raise ConfigError(f"bag {self.p['bag']}: no playable topics")
+        return pubs
+
+    def _wait_for_subscribers(self) -> None:
+        want = self.p["wait_for_subscribers"]
+        deadline = time.monotonic() + self.p["wait_timeout_s"]
+        while want and time.monotonic() < deadline and not self._stop.is_set():
+            if all(pub.get_subscription_count() >= want for _, pub in self.publishers_by_topic.values()):
+                time.sleep(0.5)  # the subscriber's side of discovery can lag the publisher's
+                return
+            time.sleep(0.05)
+        if want:
+            self.get_logger().warning(f"playing without {want} subscriber(s) on every topic after waiting")
+
+    def _play(self) -> None:
+        time.sleep(self.p["start_delay_s"])
+        self._wait_for_subscribers()
+        while not self._stop.is_set():
+            self._play_once()
+            if not self.p["loop"] or self.error:
+                break
+        self.done.set()
+
+    def _play_once(self) -> None:
+        rate, offset_ns = self.p["rate"], int(self.p["start_offset_s"] * 1e9)
+        first_ns, wall0, next_clock_ns = None, None, None
+        clock_step_ns = int(1e9 / self.p["clock_rate_hz"])
+        try:
+            for topic, _, log_ns, raw in bagio.iter_raw(self.p["bag"], list(self.publishers_by_topic)):
+                if first_ns is None:
+                    first_ns = log_ns + offset_ns
+                    wall0 = time.monotonic()
+                    next_clock_ns = first_ns
+                if log_ns < first_ns:
+                    continue
+                # Between messages, /clock ticks at clock_rate_hz so sim-time timers keep running.
+                while next_clock_ns < log_ns and not self._stop.is_set():
+                    self._wait_until(wall0 + (next_clock_ns - first_ns) * 1e-9 / rate)
+                    self._publish_clock(next_clock_ns)
+                    next_clock_ns += clock_step_ns
+                if self._stop.is_set():
+                    return
+                self._wait_until(wall0 + (log_ns - first_ns) * 1e-9 / rate)
+                self._publish_clock(log_ns)
+                cls, pub = self.publishers_by_topic[topic]
+                pub.publish(deserialize_message(raw, cls))
+                self.played += 1
+        except bagio.BagDamage as err:
+            self.error = str(err)
+            self.get_logger().error(f"stopped at damage after {self.played} messages: {err}")
+
+    def _publish_clock(self, ns: int) -> None:
+        if self.p["publish_clock"]:
+            msg = Clock()
+            msg.clock.sec, msg.clock.nanosec = ns // 1_000_000_000, ns % 1_000_000_000
+            self.clock_pub.publish(msg)
+
+    def _wait_until(self, deadline: float) -> None:
+        delay = deadline - time.monotonic()
+        if delay > 0:
+            self._stop.wait(delay)
+
+    def _check_done(self) -> None:
+        if self.done.is_set() and self.p["exit_when_done"]:
+            self.get_logger().info(f"done: played {self.played} messages")
+            self.done.clear()
+            rclpy.try_shutdown()
+
+    def close(self) -> None:
+        """Stop the playback thread."""
+        self._stop.set()
+        self._thread.join(timeout=2.0)
+
+
+def main(args=None) -> int:
+    """Entry point of ``bag_play``."""
+    return run_node(BagPlayer, args)
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

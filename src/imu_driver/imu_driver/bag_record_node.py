@@ -1,0 +1,74 @@
+"""``bag_record``: record topics into a new rosbag2 bag (sqlite3 or MCAP) that ``ros2 bag`` reads.
+
+Topics are discovered by name (like ``ros2 bag record``): each is subscribed
+as serialized CDR as soon as it appears in the graph, with a best-effort QoS
+that also connects to reliable publishers. Log time is the receive time.
+"""
+from __future__ import annotations
+
+from rclpy.node import Node
+from rclpy.qos import QoSProfile, ReliabilityPolicy
+
+from imu_driver.bag_play_node import message_class
+from nav_core.bagio import BagWriter
+from nav_core.ros_node import ConfigError, Param, declare_parameters, run_node
+
+PARAMS = (
+    Param("output", "", "path of the new bag folder (must not exist)"),
+    Param("topics", ["imu/data_raw", "gps/fix"], "topics to record"),
+    Param("storage", "sqlite3", "storage plugin", choices=("sqlite3", "mcap")),
+    Param("discovery_period_s", 0.5, "how often to look for the topics, s", 0.05, 60.0),
+)
+
+
+class BagRecorder(Node):
+    """Subscribes to the wanted topics as they appear and writes every message."""
+
+    def __init__(self, **kwargs):
+        super().__init__("bag_record", **kwargs)
+        self.p = declare_parameters(self, PARAMS)
+        if not self.p["output"]:
+            raise ConfigError("parameter 'output': a path for the new bag is required")
+        try:
+            self.writer = BagWriter(self.p["output"], self.p["storage"]).__enter__()
+        except Exception as err:
+            raise ConfigError(f"parameter 'output': cannot create bag {self.p['output']}: {err}") from err
+        self.wanted = {"/" + t.lstrip("/") for t in self.p["topics"] if t}
+        self.counts = {}
+        self._subs = {}
+        self.create_timer(self.p["discovery_period_s"], self._discover)
+        self._discover()
+        self.get_logger().info(f"ready: recording {sorted(self.wanted)} to {self.p['output']}")
+
+    def _discover(self) -> None:
+        for topic, types in self.get_topic_names_and_types():
+            if topic in self.wanted and topic not in self._subs and types:
+                cls = message_class(types[0])
+                if cls is None:
+                    self.get_logger().warning(f"cannot record {topic}: type {types[0]} not installed")
+                    continue
+                qos = QoSProfile(depth=1000, reliability=ReliabilityPolicy.BEST_EFFORT)
+                self._subs[topic] = self.create_subscription(cls, topic, self._writer_for(topic, types[0]), qos,
+                                                             raw=True)
+                self.counts[topic] = 0
+                self.get_logger().info(f"recording {topic} ({types[0]})")
+
+    def _writer_for(self, topic: str, msgtype: str):
+        def write(data: bytes):
+            self.writer.write_cdr(topic, msgtype, self.get_clock().now().nanoseconds, data)
+            self.counts[topic] += 1
+        return write
+
+    def close(self) -> None:
+        """Finish the bag (writes metadata.yaml)."""
+        self.writer.__exit__(None, None, None)
+        self.get_logger().info(f"closed {self.p['output']}: {self.counts}")
+
+
+def main(args=None) -> int:
+    """Entry point of ``bag_record``."""
+    return run_node(BagRecorder, args)
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
