@@ -248,3 +248,40 @@ def test_covariance_stays_symmetric_positive_definite_over_two_hours():
     assert min_eig > 0.0
     assert np.all(np.isfinite(est[-1].position_n))
 
+
+
+def _model_with_gm_gyro():
+    model = _noisy_model()
+    model.gyro.bias_correlation_time[:] = 100.0
+    return em.noise_from_sensor_model(model)
+
+
+def test_compiled_dynamics_match_the_documented_error_equations():
+    from nav_core.frames import skew
+    noise = _model_with_gm_gyro()
+    c = frames.mat_nb_from_euler(0.1, -0.2, 2.0)
+    f_n, w_ie, w_en = np.array([1.5, -0.5, 9.8]), np.array([0, 5e-5, 5e-5]), np.array([1e-6, -2e-6, 3e-6])
+    f, g = em.dynamics(c, f_n, w_ie, w_en, noise)
+    ref = np.zeros((15, 15))
+    ref[em.DP, em.DV] = np.eye(3)
+    ref[em.DV, em.DV], ref[em.DV, em.PHI], ref[em.DV, em.BA] = -skew(2 * w_ie + w_en), skew(f_n), -c
+    ref[em.PHI, em.PHI], ref[em.PHI, em.BG] = -skew(w_ie + w_en), c
+    ref[em.BG, em.BG] = np.diag(-1.0 / noise.gyro_bias_tau)
+    ref[em.BA, em.BA] = np.diag(-1.0 / noise.accel_bias_tau)
+    np.testing.assert_array_equal(f, ref)
+    np.testing.assert_array_equal(g[em.DV, 3:6], c * noise.accel_white)
+    np.testing.assert_array_equal(g[em.PHI, 0:3], -c * noise.gyro_white)
+
+
+def test_compiled_van_loan_series_matches_filterpy():
+    from filterpy.common import van_loan_discretization
+    from ins_gps_kf import kalman
+    f, g = em.dynamics(frames.mat_nb_from_euler(0.1, -0.2, 2.0), np.array([1.5, -0.5, 9.8]),
+                       np.array([0, 5e-5, 5e-5]), np.zeros(3), _model_with_gm_gyro())
+    phi_s, q_s = kalman.van_loan_series(f, g, 0.5)
+    phi_v, q_v = van_loan_discretization(f, g, 0.5)
+    np.testing.assert_allclose(phi_s, phi_v, rtol=1e-12, atol=1e-13)
+    np.testing.assert_allclose(q_s, q_v, rtol=1e-9, atol=1e-12 * np.abs(q_v).max())
+    cov = np.diag(np.linspace(0.1, 3.0, 15))
+    np.testing.assert_allclose(kalman.propagate_series(cov, f, g, 0.5), kalman.propagate(cov, f, g, 0.5),
+                               rtol=1e-10, atol=1e-14)

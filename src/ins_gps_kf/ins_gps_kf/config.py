@@ -59,6 +59,8 @@ PARAMETERS = (
     Spec("max_rejected_fixes", 5, "this many gated-out fixes in a row reset the position to GPS", 1, 1000),
     Spec("reuse_last_fix", False, "paper option: re-use the last GPS fix at intermediate filter epochs"),
     Spec("zupt_enabled", True, "zero-velocity updates when the IMU is stationary"),
+    Spec("zupt_max_gps_speed_mps", 0.1, "no ZUPT while the GPS speed (less 3 sigma of its noise) exceeds this, "
+         "m/s", 0.0, 100.0),
     Spec("zupt_std_mps", 0.02, "zero-velocity measurement std, m/s", 1e-4, 10.0),
     Spec("init_gyro_bias_std_dph", 100.0, "initial gyro bias std after alignment, deg/h", 0.0, 1e6),
     Spec("init_accel_bias_std_mg", 20.0, "initial accel bias std, mg", 0.0, 1e4),
@@ -96,6 +98,7 @@ class FilterConfig:
     max_rejected_fixes: int = 5
     zupt_enabled: bool = True
     zupt_std: float = 0.02
+    zupt_max_gps_speed: float = 0.1
     init_gyro_bias_std: float = 100.0 * DEG_PER_H
     init_accel_bias_std: float = 20.0 * MG
     init_attitude_std: float = 1.0 * DEG
@@ -145,6 +148,7 @@ def from_params(params: dict) -> FilterConfig:
         gate_probability=float(p["gate_probability"]), reuse_last_fix=bool(p["reuse_last_fix"]),
         max_rejected_fixes=int(p["max_rejected_fixes"]),
         zupt_enabled=bool(p["zupt_enabled"]), zupt_std=float(p["zupt_std_mps"]),
+        zupt_max_gps_speed=float(p["zupt_max_gps_speed_mps"]),
         init_gyro_bias_std=p["init_gyro_bias_std_dph"] * DEG_PER_H,
         init_accel_bias_std=p["init_accel_bias_std_mg"] * MG, init_attitude_std=p["init_attitude_std_deg"] * DEG,
         heading_std=p["heading_std_deg"] * DEG, flicker_correlation_time=float(p["flicker_correlation_time_s"]),

@@ -14,9 +14,9 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
+from numba import njit
 
 from nav_core import sensor_model as sm
-from nav_core.frames import skew
 from nav_core.units import DEG, DEG_PER_H, MG
 
 DP, DV, PHI, BG, BA = (slice(0, 3), slice(3, 6), slice(6, 9), slice(9, 12), slice(12, 15))
@@ -66,23 +66,39 @@ def noise_from_sensor_model(model: sm.SensorModel, flicker_tau_s: float = 300.0)
     return NoiseModel(model.gyro.white_noise.copy(), model.accel.white_noise.copy(), g_drive, a_drive, g_tau, a_tau)
 
 
+@njit(cache=True)
+def _skew(v):
+    """nav_core.frames.skew for one vector, compiled (called per epoch inside the kernel below)."""
+    return np.array(((0.0, -v[2], v[1]), (v[2], 0.0, -v[0]), (-v[1], v[0], 0.0)))
+
+
+@njit(cache=True)
+def _dynamics(mat_nb, f_n, w_ie_n, w_en_n, gyro_white, accel_white, gyro_drive, accel_drive, gyro_rate,
+              accel_rate):
+    f = np.zeros((N_STATES, N_STATES))
+    g = np.zeros((N_STATES, N_NOISES))
+    for i in range(3):
+        f[i, 3 + i] = 1.0
+        f[9 + i, 9 + i] = -gyro_rate[i]
+        f[12 + i, 12 + i] = -accel_rate[i]
+        g[9 + i, 6 + i] = gyro_drive[i]
+        g[12 + i, 9 + i] = accel_drive[i]
+    f[3:6, 3:6] = -_skew(2.0 * w_ie_n + w_en_n)
+    f[3:6, 6:9] = _skew(f_n)
+    f[3:6, 12:15] = -mat_nb
+    f[6:9, 6:9] = -_skew(w_ie_n + w_en_n)
+    f[6:9, 9:12] = mat_nb
+    for j in range(3):
+        g[3:6, 3 + j] = mat_nb[:, j] * accel_white[j]
+        g[6:9, j] = -mat_nb[:, j] * gyro_white[j]
+    return f, g
+
+
 def dynamics(mat_nb, f_n, w_ie_n, w_en_n, noise: NoiseModel):
     """Continuous ``F`` (15, 15) and noise input ``G`` (15, 12) at attitude ``mat_nb`` and ENU specific force (m/s^2)."""
-    f = np.zeros((N_STATES, N_STATES))
-    f[DP, DV] = np.eye(3)
-    f[DV, DV] = -skew(2.0 * w_ie_n + w_en_n)
-    f[DV, PHI] = skew(f_n)
-    f[DV, BA] = -mat_nb
-    f[PHI, PHI] = -skew(w_ie_n + w_en_n)
-    f[PHI, BG] = mat_nb
-    f[BG, BG] = np.diag(-1.0 / noise.gyro_bias_tau)
-    f[BA, BA] = np.diag(-1.0 / noise.accel_bias_tau)
-    g = np.zeros((N_STATES, N_NOISES))
-    g[DV, 3:6] = mat_nb * noise.accel_white
-    g[PHI, 0:3] = -mat_nb * noise.gyro_white
-    g[BG, 6:9] = np.diag(noise.gyro_bias_drive)
-    g[BA, 9:12] = np.diag(noise.accel_bias_drive)
-    return f, g
+    return _dynamics(np.ascontiguousarray(mat_nb, dtype=float), np.asarray(f_n, float), np.asarray(w_ie_n, float),
+                     np.asarray(w_en_n, float), noise.gyro_white, noise.accel_white, noise.gyro_bias_drive,
+                     noise.accel_bias_drive, 1.0 / noise.gyro_bias_tau, 1.0 / noise.accel_bias_tau)
 
 
 def initial_covariance(pos_std, vel_std, att_std, gyro_bias_std, accel_bias_std):

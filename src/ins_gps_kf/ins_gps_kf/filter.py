@@ -102,6 +102,7 @@ class InsGpsFilter:
         self.prev_fix: Fix | None = None
         self.heading_history = []  # (fix, INS yaw at its epoch) while the heading is pending
         self.rejected_in_row = 0
+        self.gps_speed = 0.0  # horizontal speed between the last two fixes, m/s, less 3 sigma of its noise
         self.gyro_bias = np.zeros(3)
         self.accel_bias = np.zeros(3)
 
@@ -238,13 +239,16 @@ class InsGpsFilter:
 
     def _epoch(self) -> Estimate:
         t_e = self.t_last
-        f_n, w_rms, f_mean, f_std = strapdown.epoch_motion(self.mem)
+        f_n, w_rms, w_mean, f_mean, f_std = strapdown.epoch_motion(self.mem)
         dt = self.mem[strapdown.M_DT]
         f_cont, g_cont = em.dynamics(self.mat_nb(), f_n, self.w_ie_n, self.w_en_n, self.noise)
-        self.cov = kalman.propagate(self.cov, f_cont, g_cont, dt)
-        stationary = bool(w_rms < self.cfg.stationary_gyro and f_std < self.cfg.stationary_accel
-                          and abs(f_mean - self.gravity) < 3 * self.cfg.stationary_accel)
+        self.cov = kalman.propagate_series(self.cov, f_cont, g_cont, dt)
         gps_used, nis = self._gps_update(t_e)
+        # rms catches vibration, the mean catches a steady turn; the GPS vetoes a smooth cruise
+        stationary = bool(w_rms < self.cfg.stationary_gyro and w_mean < 0.25 * self.cfg.stationary_gyro
+                          and f_std < self.cfg.stationary_accel
+                          and abs(f_mean - self.gravity) < 3 * self.cfg.stationary_accel
+                          and self.gps_speed < self.cfg.zupt_max_gps_speed)
         zupt_used = False
         if self.cfg.zupt_enabled and stationary:
             zupt_used = self._apply(measurements.zero_velocity(self.nav[strapdown.V], self.cfg.zupt_std)) is not None
@@ -262,6 +266,10 @@ class InsGpsFilter:
         """Use the newest pending fix (or, optionally, re-use the last one); returns (used, NIS)."""
         fix, reused = self.pending_fix, False
         self.pending_fix = None
+        if fix is not None and self.prev_fix is not None and fix.t > self.prev_fix.t:
+            dt = fix.t - self.prev_fix.t
+            noise = 3.0 * np.sqrt(fix.cov[0, 0] + self.prev_fix.cov[0, 0]) / dt
+            self.gps_speed = max(float(np.hypot(*(fix.enu - self.prev_fix.enu)[:2])) / dt - noise, 0.0)
         if fix is None:
             max_age = 1.5 / self.cfg.gps_rate_hz
             if not (self.cfg.reuse_last_fix and self.prev_fix is not None and t_e - self.prev_fix.t <= max_age):

@@ -40,7 +40,8 @@ M_N = 12               # samples in the epoch
 M_W2 = 13              # sum of |w|^2 (rad/s)^2, bias-corrected
 M_F = 14               # sum of |f| (m/s^2)
 M_F2 = 15              # sum of |f|^2
-MEM_SIZE = 16
+M_WSUM = slice(16, 19)  # sum of w (rad/s), bias-corrected
+MEM_SIZE = 19
 
 
 @njit(cache=True)
@@ -117,6 +118,7 @@ def integrate(nav, mem, t, gyro, accel, bias_gyro, bias_accel, w_ie_n, w_en_n, g
         mem[M_DT] += dt
         mem[M_N] += 1.0
         mem[M_W2] += np.sum(w * w)
+        mem[M_WSUM] = mem[M_WSUM] + w
         fn = np.sqrt(np.sum(f * f))
         mem[M_F] += fn
         mem[M_F2] += fn * fn
@@ -156,13 +158,15 @@ def reset_accumulators(mem):
 
 
 def epoch_motion(mem):
-    """Mean ENU specific force (m/s^2), rms angular rate (rad/s), mean and std of |f| (m/s^2) over the epoch."""
+    """Over the epoch: mean ENU specific force (m/s^2), rms and mean-vector norm of the angular rate (rad/s),
+    mean and std of |f| (m/s^2)."""
     n = max(mem[M_N], 1.0)
     f_n = mem[M_FN] / mem[M_DT] if mem[M_DT] > 0 else np.zeros(3)
     w_rms = np.sqrt(mem[M_W2] / n)
+    w_mean = float(np.linalg.norm(mem[M_WSUM] / n))
     f_mean = mem[M_F] / n
     f_std = np.sqrt(max(mem[M_F2] / n - f_mean**2, 0.0))
-    return f_n, w_rms, f_mean, f_std
+    return f_n, w_rms, w_mean, f_mean, f_std
 
 
 def warm_up():

@@ -79,9 +79,9 @@ def truth(motion: Motion, rate_hz: float, oversample: int = 10):
     return t, pos[::oversample], v, yaw
 
 
-def ideal_imu(motion: Motion, rate_hz: float) -> ImuRecording:
+def ideal_imu(motion: Motion, rate_hz: float, oversample: int = 10) -> ImuRecording:
     """Ideal gyro (rad/s) and accel (m/s^2) samples, stamped at the end of each interval (first at 1/rate)."""
-    t, pos, _, _ = truth(motion, rate_hz)
+    t, pos, _, _ = truth(motion, rate_hz, oversample)
     t_mid = t[1:] - 0.5 / rate_hz
     v, a, yaw, yaw_rate = _kinematics(motion, t_mid)
     pos_mid = 0.5 * (pos[1:] + pos[:-1])
