@@ -68,7 +68,7 @@ def test_stationary_alignment_estimates_gyro_bias_when_yaw_is_known():
     while not aligner.add(imu.t[k], imu.gyro[k] + bias, imu.accel[k]):
         k += 1
     result = aligner.finish(motion.lat0_deg * DEG, yaw=0.4)
-    assert result.duration_s == pytest.approx(45.0, abs=1.0 / RATE)
+    assert 45.0 <= result.duration_s < 45.0 + 1.1  # judged in 1 s blocks
     np.testing.assert_allclose(result.gyro_bias, bias, atol=1e-9)
     assert not aligner.moving
 
@@ -76,11 +76,11 @@ def test_stationary_alignment_estimates_gyro_bias_when_yaw_is_known():
 def test_alignment_stops_at_motion_and_restarts_if_too_short():
     motion = syn.straight(still_s=20.0, accel_s=5.0, cruise_s=5.0)
     imu = syn.ideal_imu(motion, RATE)
-    aligner = alignment.StationaryAligner(45.0, 5.0, 2 * DEG, 0.05)
+    aligner = alignment.StationaryAligner(45.0, 5.0, 0.5 * DEG, 0.05)
     done = [aligner.add(t, g, a) for t, g, a in zip(imu.t, imu.gyro, imu.accel)]
     first = done.index(True)
-    assert aligner.moving and imu.t[first] == pytest.approx(20.0, abs=0.1)
-    short = alignment.StationaryAligner(45.0, 25.0, 2 * DEG, 0.05)
+    assert aligner.moving and 20.0 <= imu.t[first] < 21.1  # motion shows in the first 1 s block after 20 s
+    short = alignment.StationaryAligner(45.0, 25.0, 0.5 * DEG, 0.05)
     results = [short.add(t, g, a) for t, g, a in zip(imu.t, imu.gyro, imu.accel)]
     assert not any(results) and short.restarts >= 1
 

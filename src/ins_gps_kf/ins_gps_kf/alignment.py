@@ -46,14 +46,17 @@ def gyro_bias_at_rest(mean_gyro, roll, pitch, lat_rad, yaw=None):
 class StationaryAligner:
     """Accumulates IMU samples while they stay stationary; finishes after ``duration_s`` or when motion starts.
 
-    Stationary means: the sample's rate magnitude (rad/s) and its specific-force deviation
-    from the running mean (m/s^2) stay under the thresholds. Motion before
-    ``min_duration_s`` restarts the accumulation (the period was not stationary).
+    Samples are judged in blocks of ``block_s`` s so that sensor noise and engine vibration
+    average out: a block is stationary when its mean rate (rad/s) and mean specific force
+    (m/s^2) stay within ``gyro_threshold`` and ``accel_threshold`` of the mean so far.
+    Motion before ``min_duration_s`` restarts the accumulation (the period was not stationary).
     """
 
-    def __init__(self, duration_s, min_duration_s, gyro_threshold, accel_threshold):
+    def __init__(self, duration_s, min_duration_s, gyro_threshold, accel_threshold, block_s=1.0):
         self.duration_s, self.min_duration_s = duration_s, min_duration_s
         self.gyro_threshold, self.accel_threshold = gyro_threshold, accel_threshold
+        self.block_s = block_s
+        self.restarts = -1
         self.restart()
 
     def restart(self):
@@ -63,30 +66,50 @@ class StationaryAligner:
         self.n = 0
         self.sum_gyro = np.zeros(3)
         self.sum_accel = np.zeros(3)
+        self._new_block(None)
         self.moving = False
-        self.restarts = getattr(self, "restarts", -1) + 1
+        self.restarts += 1
+
+    def _new_block(self, t0):
+        self.block_t0 = t0
+        self.block_n = 0
+        self.block_gyro = np.zeros(3)
+        self.block_accel = np.zeros(3)
 
     @property
     def elapsed_s(self) -> float:
-        """Stationary time accumulated so far, s."""
+        """Stationary time accumulated so far (whole blocks), s."""
         return 0.0 if self.t0 is None else self.t_last - self.t0
 
     def add(self, t, gyro, accel) -> bool:
         """Add one sample (s, rad/s, m/s^2); True when the alignment is ready to be finished."""
-        if self.n >= 10:
-            mean_g, mean_a = self.sum_gyro / self.n, self.sum_accel / self.n
-            if (np.linalg.norm(gyro - mean_g) > self.gyro_threshold
-                    or np.linalg.norm(accel - mean_a) > self.accel_threshold):
+        if self.block_t0 is None:
+            self._new_block(t)
+        self.block_n += 1
+        self.block_gyro += gyro
+        self.block_accel += accel
+        if t - self.block_t0 < self.block_s:
+            return False
+        return self._close_block(t)
+
+    def _close_block(self, t) -> bool:
+        mean_g, mean_a = self.block_gyro / self.block_n, self.block_accel / self.block_n
+        if self.n > 0:
+            ref_g, ref_a = self.sum_gyro / self.n, self.sum_accel / self.n
+            if (np.linalg.norm(mean_g - ref_g) > self.gyro_threshold
+                    or np.linalg.norm(mean_a - ref_a) > self.accel_threshold):
                 if self.elapsed_s >= self.min_duration_s:
                     self.moving = True
                     return True
                 self.restart()
+                return False
         if self.t0 is None:
-            self.t0 = t
+            self.t0 = self.block_t0
         self.t_last = t
-        self.n += 1
-        self.sum_gyro += gyro
-        self.sum_accel += accel
+        self.n += self.block_n
+        self.sum_gyro += self.block_gyro
+        self.sum_accel += self.block_accel
+        self._new_block(None)
         return self.elapsed_s >= self.duration_s
 
     def finish(self, lat_rad, yaw=None) -> Alignment:

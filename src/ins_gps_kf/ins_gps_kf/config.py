@@ -61,6 +61,7 @@ PARAMETERS = (
     Spec("zupt_enabled", True, "zero-velocity updates when the IMU is stationary"),
     Spec("zupt_max_gps_speed_mps", 0.1, "no ZUPT while the GPS speed (less 3 sigma of its noise) exceeds this, "
          "m/s", 0.0, 100.0),
+    Spec("zupt_max_ins_speed_mps", 0.2, "no ZUPT while the INS speed exceeds this, m/s", 0.0, 100.0),
     Spec("zupt_std_mps", 0.02, "zero-velocity measurement std, m/s", 1e-4, 10.0),
     Spec("init_gyro_bias_std_dph", 100.0, "initial gyro bias std after alignment, deg/h", 0.0, 1e6),
     Spec("init_accel_bias_std_mg", 20.0, "initial accel bias std, mg", 0.0, 1e4),
@@ -99,6 +100,7 @@ class FilterConfig:
     zupt_enabled: bool = True
     zupt_std: float = 0.02
     zupt_max_gps_speed: float = 0.1
+    zupt_max_ins_speed: float = 0.2
     init_gyro_bias_std: float = 100.0 * DEG_PER_H
     init_accel_bias_std: float = 20.0 * MG
     init_attitude_std: float = 1.0 * DEG
@@ -149,6 +151,7 @@ def from_params(params: dict) -> FilterConfig:
         max_rejected_fixes=int(p["max_rejected_fixes"]),
         zupt_enabled=bool(p["zupt_enabled"]), zupt_std=float(p["zupt_std_mps"]),
         zupt_max_gps_speed=float(p["zupt_max_gps_speed_mps"]),
+        zupt_max_ins_speed=float(p["zupt_max_ins_speed_mps"]),
         init_gyro_bias_std=p["init_gyro_bias_std_dph"] * DEG_PER_H,
         init_accel_bias_std=p["init_accel_bias_std_mg"] * MG, init_attitude_std=p["init_attitude_std_deg"] * DEG,
         heading_std=p["heading_std_deg"] * DEG, flicker_correlation_time=float(p["flicker_correlation_time_s"]),

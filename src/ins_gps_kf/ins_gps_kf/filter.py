@@ -91,7 +91,8 @@ class InsGpsFilter:
     def _start_over(self):
         cfg = self.cfg
         self.status = WAITING if self.frame is None else ALIGNING
-        self.aligner = StationaryAligner(cfg.alignment_time_s, cfg.min_alignment_time_s, cfg.stationary_gyro,
+        # block means: the per-block noise is far below the per-sample thresholds, hence a quarter
+        self.aligner = StationaryAligner(cfg.alignment_time_s, cfg.min_alignment_time_s, 0.25 * cfg.stationary_gyro,
                                          cfg.stationary_accel)
         self.alignment = None
         self.nav = None
@@ -244,11 +245,13 @@ class InsGpsFilter:
         f_cont, g_cont = em.dynamics(self.mat_nb(), f_n, self.w_ie_n, self.w_en_n, self.noise)
         self.cov = kalman.propagate_series(self.cov, f_cont, g_cont, dt)
         gps_used, nis = self._gps_update(t_e)
-        # rms catches vibration, the mean catches a steady turn; the GPS vetoes a smooth cruise
+        # rms catches vibration, the mean catches a steady turn; GPS and INS speed veto smooth cruising and
+        # braking, which a MEMS IMU cannot tell from rest
         stationary = bool(w_rms < self.cfg.stationary_gyro and w_mean < 0.25 * self.cfg.stationary_gyro
                           and f_std < self.cfg.stationary_accel
                           and abs(f_mean - self.gravity) < 3 * self.cfg.stationary_accel
-                          and self.gps_speed < self.cfg.zupt_max_gps_speed)
+                          and self.gps_speed < self.cfg.zupt_max_gps_speed
+                          and float(np.linalg.norm(self.nav[strapdown.V])) < self.cfg.zupt_max_ins_speed)
         zupt_used = False
         if self.cfg.zupt_enabled and stationary:
             zupt_used = self._apply(measurements.zero_velocity(self.nav[strapdown.V], self.cfg.zupt_std)) is not None

@@ -12,6 +12,7 @@ import os
 os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")  # 15x15 matrices: BLAS threads only cost time
 
 import argparse  # noqa: E402
+import json  # noqa: E402
 import sys  # noqa: E402
 from pathlib import Path  # noqa: E402
 
@@ -141,6 +142,17 @@ def _parse_overrides(pairs) -> dict:
     return out
 
 
+def _evaluate(args) -> int:
+    from ins_gps_kf import evaluate
+    if args.dataset == "paper-sim":
+        figures = evaluate.paper_sim(args.out, seed=args.seed)
+    else:
+        from ins_gps_kf import datasets
+        figures = datasets.evaluate_rover(args.dataset, args.out)
+    print(json.dumps(figures, indent=1, default=float))
+    return 0
+
+
 def main(argv=None) -> int:
     """``ins-gps-kf replay ...`` (see module doc); exit 2 on bad input or config."""
     parser = argparse.ArgumentParser(prog="ins-gps-kf", description=__doc__.splitlines()[0])
@@ -156,7 +168,13 @@ def main(argv=None) -> int:
     rp.add_argument("--gps-topic", help="GNSS topic in a bag (default: the gps_topic parameter)")
     rp.add_argument("--no-plot", action="store_true", help="do not write the PNG next to --out")
     rp.add_argument("--quiet", action="store_true", help="no progress bar")
+    ev = sub.add_parser("evaluate", help="accuracy figures and plots on a simulated or real dataset")
+    ev.add_argument("--dataset", required=True, choices=("paper-sim", "katwijk", "canada"))
+    ev.add_argument("--out", required=True, help="output folder (JSON figures and PNG plots)")
+    ev.add_argument("--seed", type=int, default=0, help="simulation seed (paper-sim)")
     args = parser.parse_args(argv)
+    if args.command == "evaluate":
+        return _evaluate(args)
     try:
         params = kfconfig.load_params_yaml(args.params) if args.params else {}
         params.update(_parse_overrides(args.param))
