@@ -247,7 +247,7 @@ def counts_from_source(source: str, seconds: float, seed: int, fmt: FrameFormat 
     if path.suffix == ".bin":
         from imu_driver.bp3010_codec import StreamDecoder
 
-        dec = StreamDecoder(fmt=fmt)
+        dec = StreamDecoder(fmt=fmt, lookahead=True)  # offline: catch sync-valued drops
         batch = dec.feed(path.read_bytes())
         tail = dec.flush()
         dtheta = np.vstack([batch.dtheta, tail.dtheta])

@@ -14,6 +14,7 @@ from rcl_interfaces.msg import FloatingPointRange, IntegerRange, ParameterDescri
 from rclpy.executors import ExternalShutdownException
 from rclpy.node import Node
 from rclpy.qos import QoSProfile, ReliabilityPolicy, qos_profile_sensor_data
+from geometry_msgs.msg import Vector3
 from sensor_msgs.msg import Imu
 
 SENSOR_QOS = qos_profile_sensor_data
@@ -156,18 +157,25 @@ def imu_to_arrays(msg: Imu):
     return stamp_to_s(msg.header.stamp), np.array((w.x, w.y, w.z)), np.array((a.x, a.y, a.z))
 
 
+_NO_ORIENTATION = np.zeros(9)
+_NO_ORIENTATION[0] = -1.0
+
+
 def imu_from_arrays(t_s: float, gyro, accel, frame_id: str = "imu_link", gyro_var: float = 0.0,
                     accel_var: float = 0.0, stamp=None) -> Imu:
     """An Imu message (no orientation: covariance[0] = -1) from rate (rad/s) and specific force (m/s^2)."""
     msg = Imu()
     msg.header.stamp = stamp if stamp is not None else stamp_from_s(t_s)
     msg.header.frame_id = frame_id
-    msg.orientation_covariance[0] = -1.0
-    msg.angular_velocity.x, msg.angular_velocity.y, msg.angular_velocity.z = (float(v) for v in gyro)
-    msg.linear_acceleration.x, msg.linear_acceleration.y, msg.linear_acceleration.z = (float(v) for v in accel)
-    for i in (0, 4, 8):
-        msg.angular_velocity_covariance[i] = gyro_var
-        msg.linear_acceleration_covariance[i] = accel_var
+    msg.orientation_covariance = _NO_ORIENTATION
+    gx, gy, gz = (float(v) for v in gyro)
+    ax, ay, az = (float(v) for v in accel)
+    msg.angular_velocity = Vector3(x=gx, y=gy, z=gz)
+    msg.linear_acceleration = Vector3(x=ax, y=ay, z=az)
+    if gyro_var:
+        msg.angular_velocity_covariance = np.diag([gyro_var] * 3).ravel()
+    if accel_var:
+        msg.linear_acceleration_covariance = np.diag([accel_var] * 3).ravel()
     return msg
 
 
