@@ -322,15 +322,22 @@ class InsGpsFilter:
     # ------------------------------------------------------------------ heading from course
 
     def _reset_to_fix(self, fix: Fix, t_e):
-        """After too many rejected fixes in a row the INS has diverged: restart position at the fix."""
+        """After too many rejected fixes in a row the INS has diverged: restart at the fix, heading pending.
+
+        Velocity and heading are then taken again from the GPS course (as after alignment),
+        since a diverged solution usually means a wrong heading or velocity.
+        """
         self.counters.gps_resets += 1
         self.rejected_in_row = 0
         self.prev_fix = fix
         self.last_fix_t = fix.t
-        vel = self.nav[strapdown.V]
-        self.nav[strapdown.P] = fix.enu - self.mat_nb() @ self.lever_arm_b + vel * (t_e - fix.t)
-        vel_var = np.maximum(np.diag(self.cov[em.DV, em.DV]), 1.0)
-        self._reset_block(np.r_[0:6], np.concatenate([np.diag(fix.cov), vel_var]))
+        self.nav[strapdown.P] = fix.enu - self.mat_nb() @ self.lever_arm_b
+        self.nav[strapdown.V] = 0.0
+        speed_var = max(float(np.sum(np.diag(self.cov[em.DV, em.DV]))), 1.0)
+        self._reset_block(np.r_[0:6, 8], np.concatenate([np.diag(fix.cov), np.full(3, speed_var),
+                                                         [self.cfg.heading_std**2]]))
+        self.status = HEADING_PENDING
+        self.heading_history = [(fix, float(frames.euler_from_quat_xyzw(self.nav[strapdown.Q])[2]))]
 
     def _reset_block(self, idx, variances):
         """Replace the covariance of states ``idx`` by ``variances``, cutting their correlations."""
@@ -366,7 +373,8 @@ class InsGpsFilter:
         self.nav[strapdown.V] = vel
         self.nav[strapdown.P] = fix.enu - Rotation.from_quat(quat).as_matrix() @ self.lever_arm_b
         self.nav[strapdown.P] += vel * (t_e - fix.t)
-        vel_var = np.diag(fix.cov) * 2.0 / HEADING_HISTORY_S + 0.1**2  # curvature of the chord
+        # the chord speed is a mean over the baseline: while accelerating it lags by up to half the change
+        vel_var = np.diag(fix.cov) * 2.0 + (0.5 * speed) ** 2 + 0.1**2
         self._reset_block(np.r_[0:6, 8], np.concatenate([np.diag(fix.cov), vel_var,
                                                          [self.cfg.heading_std**2 + course_std**2]]))
         self.heading_history = []
