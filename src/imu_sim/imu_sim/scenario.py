@@ -21,7 +21,7 @@ from imu_sim.gnss import GpsConfig
 
 KNOWN_KEYS = {"name", "description", "latitude_deg", "longitude_deg", "height_m", "segments", "trajectory",
               "gnss_track", "static_segments", "yaw0_deg", "duration_s", "rate_hz", "gps", "gps_lever_arm_m",
-              "temperature", "physics", "error_terms", "sensor_model", "seed"}
+              "temperature", "physics", "error_terms", "sensor_model", "seed", "notes"}
 SOURCES = ("segments", "trajectory", "gnss_track", "static_segments")
 BUILTIN_TRAJECTORIES = ("paper_drive",)
 

@@ -111,8 +111,11 @@ def encode_bp3010(dtheta, dv):
 
 
 def simulate(scenario, model=None, seed: int | None = None, rate_hz: float | None = None,
-             terms=None, with_bytes: bool = True) -> SimResult:
-    """Simulate a scenario (a :class:`Scenario` or a YAML path) with a sensor model (object, path or None)."""
+             terms=None, with_bytes: bool = True, temp_c=None) -> SimResult:
+    """Simulate a scenario (a :class:`Scenario` or a YAML path) with a sensor model (object, path or None).
+
+    ``temp_c`` (n,) deg C, when given, replaces the scenario's temperature profile (a logged temperature).
+    """
     sc = scenario if isinstance(scenario, Scenario) else load_scenario(scenario)
     seed = int(seed if seed is not None else (sc.seed if sc.seed is not None else 0))
     rate = float(rate_hz or sc.rate_hz)
@@ -124,7 +127,7 @@ def simulate(scenario, model=None, seed: int | None = None, rate_hz: float | Non
     dt = 1.0 / rate
     t = kinematics.sample_times(traj, rate)
     dtheta0, dv0 = kinematics.increments(traj, t, dt, kinematics.Physics.from_effects(mdl.physics))
-    temp = temperature_profile(sc, t)
+    temp = temperature_profile(sc, t) if temp_c is None else _fit_length(np.asarray(temp_c, float), len(t))
     dtheta, dv = imu_measurements(t, dt, dtheta0, dv0, mdl, mdl.physics, temp, seed, terms)
     t_rel = t - traj.t0
     imu = ImuRecording(t_rel, dtheta / dt, dv / dt, temp, source=f"imu_sim:{sc.name}")
@@ -139,6 +142,13 @@ def simulate(scenario, model=None, seed: int | None = None, rate_hz: float | Non
             "physics": mdl.physics, "bag_epoch_s": BAG_EPOCH_S, "duration_s": float(traj.duration),
             "time_convention": "sample k covers (t_k - dt, t_k]; CSV t from 0, bag stamp = t + bag_epoch_s"}
     return SimResult(truth, imu, gnss, dtheta, dv, data, mdl, mdl.physics, seed, rate, terms, info)
+
+
+def _fit_length(values: np.ndarray, n: int) -> np.ndarray:
+    """``values`` cut or padded (last value held) to length n."""
+    if len(values) >= n:
+        return values[:n]
+    return np.concatenate([values, np.full(n - len(values), values[-1])])
 
 
 def _shift(rec, offset):

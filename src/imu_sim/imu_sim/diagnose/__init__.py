@@ -1,0 +1,11 @@
+"""Sim-versus-real diagnosis: locate a mismatch, name the missing physics, model it, show the fit improve.
+
+Modules: :mod:`case` (inputs, deterministic simulation, residual), :mod:`spectral`
+(GLS by frequency-domain whitening with the model's noise PSD), :mod:`regressors`
+(one regressor set per deterministic effect), :mod:`noise_tests` (vibration line,
+quantization lattice, Gauss-Markov and random-walk bias by Whittle likelihood),
+:mod:`locate` (change points, Allan band), :mod:`engine` (the iterate-until-nothing-
+significant loop), :mod:`report` (JSON, HTML, PNG), :mod:`suite` (concealed-effect
+Monte Carlo), :mod:`real` (real recordings to CSV + scenario).
+"""
+from imu_sim.diagnose.engine import diagnose  # noqa: F401

@@ -1,0 +1,138 @@
+"""Inputs of a diagnosis: recording, scenario, model; the deterministic simulation and the residual.
+
+The residual r = recorded - simulated-deterministic (bias, scale factor, misalignment
+and the model's physics, no stochastic terms) holds the model's noise plus whatever
+physics the model leaves out. Channels are ordered as :data:`CHANNELS`; samples are
+matched by index (recording time rebased to 0, sample k <-> simulated sample k).
+"""
+from __future__ import annotations
+
+import copy
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from nav_core import recording
+from nav_core.recording import GnssRecording, ImuRecording, RecordingError
+from nav_core.sensor_model import SensorModel, load as load_model
+
+from imu_sim import effects, kinematics
+from imu_sim.scenario import Scenario, build_trajectory, load as load_scenario, temperature_profile
+from imu_sim.simulate import simulate
+
+CHANNELS = ("gyro_x", "gyro_y", "gyro_z", "accel_x", "accel_y", "accel_z")
+DETERMINISTIC_TERMS = ("bias", "scale_factor", "misalignment")
+MIN_SAMPLES = 256
+
+
+class DiagnosisInputError(ValueError):
+    """Unusable input for the diagnosis; the message names the file and what is wrong."""
+
+
+@dataclass
+class Case:
+    """A recording matched to its scenario and model (SI units, t from 0 s)."""
+
+    rec: ImuRecording
+    scenario: Scenario
+    model: SensorModel
+    t: np.ndarray
+    dt: float
+    temp_c: np.ndarray | None
+    gyro_true: np.ndarray
+    accel_true: np.ndarray
+    sim_t_abs: np.ndarray
+    gnss: GnssRecording | None = None
+    notes: list = field(default_factory=list)
+
+    @property
+    def n(self) -> int:
+        """Number of samples."""
+        return len(self.t)
+
+    @property
+    def measured(self) -> np.ndarray:
+        """Recorded channels (n, 6): gyro rad/s, accel m/s^2."""
+        return np.column_stack([self.rec.gyro, self.rec.accel])
+
+
+def load_case(rec_path, scenario_path, model_path, gnss_path=None) -> Case:
+    """Read the three (four) input files; errors name the file."""
+    try:
+        rec = recording.read_imu(rec_path)
+    except (RecordingError, OSError) as err:
+        raise DiagnosisInputError(f"{rec_path}: cannot read the recording: {err}") from err
+    sc = load_scenario(scenario_path)
+    model = load_model(model_path)
+    gnss = None
+    if gnss_path is not None:
+        try:
+            gnss = recording.read_gnss(gnss_path)
+        except (RecordingError, OSError) as err:
+            raise DiagnosisInputError(f"{gnss_path}: cannot read the GNSS recording: {err}") from err
+    return make_case(rec, sc, model, gnss, where=str(rec_path))
+
+
+def make_case(rec: ImuRecording, sc: Scenario, model: SensorModel, gnss=None, where: str = "recording") -> Case:
+    """Match a recording to a scenario at the recording's rate; the recording is cut to the scenario span."""
+    if len(rec) < MIN_SAMPLES:
+        raise DiagnosisInputError(f"{where}: {len(rec)} samples; the diagnosis needs at least {MIN_SAMPLES}")
+    if not (np.all(np.isfinite(rec.gyro)) and np.all(np.isfinite(rec.accel))):
+        raise DiagnosisInputError(f"{where}: gyro/accel contain NaN or infinite values")
+    rate = rec.rate_hz
+    sc = copy.deepcopy(sc)
+    sc.rate_hz = rate
+    traj = build_trajectory(sc)
+    t_abs = kinematics.sample_times(traj, rate)
+    n = min(len(rec), len(t_abs))
+    notes = []
+    if n < len(rec):
+        notes.append(f"recording cut from {len(rec)} to {n} samples (the scenario spans {traj.duration:.1f} s)")
+    if n < MIN_SAMPLES:
+        raise DiagnosisInputError(f"{where}: only {n} samples overlap the scenario ({traj.duration:.1f} s)")
+    rec = rec.select(slice(0, n))
+    t = rec.t - rec.t[0] + 1.0 / rate
+    temp = rec.temp_c if rec.temp_c is not None else temperature_profile(sc, t_abs[:n])
+    dth, dv = kinematics.increments(traj, t_abs[:n], 1.0 / rate, kinematics.FULL)
+    return Case(rec, sc, model, t, 1.0 / rate, temp, dth * rate, dv * rate, t_abs[:n], gnss, notes)
+
+
+def deterministic(case: Case, model: SensorModel, stochastic: bool = False, seed: int = 0) -> np.ndarray:
+    """Simulated channels (n, 6) of ``model`` in the case's scenario; noise-free unless ``stochastic``."""
+    terms = None if stochastic else DETERMINISTIC_TERMS
+    res = simulate(case.scenario, model, seed=seed, terms=terms, with_bytes=False,
+                   temp_c=case.temp_c if _needs_temp(model) else None)
+    return np.column_stack([res.imu.gyro, res.imu.accel])[:case.n]
+
+
+def _needs_temp(model: SensorModel) -> bool:
+    return model.has_physics("temperature_bias")
+
+
+def residual(case: Case, model: SensorModel) -> np.ndarray:
+    """Recorded minus simulated-deterministic, (n, 6)."""
+    return case.measured - deterministic(case, model)
+
+
+def kinematic_difference(case: Case, model: SensorModel, effect: str) -> np.ndarray:
+    """True channels (n, 6) with ``effect`` switched on minus without, under the model's other physics."""
+    base = dict(model.physics or {})
+    base.pop(effect, None)
+    with_effect = dict(base, **{effect: {}})
+    traj = build_trajectory(case.scenario)
+    out = []
+    for phys in (with_effect, base):
+        dth, dv = kinematics.increments(traj, case.sim_t_abs, case.dt, kinematics.Physics.from_effects(phys))
+        out.append(np.column_stack([dth, dv]) / case.dt)
+    return out[0] - out[1]
+
+
+def effective_model(model: SensorModel) -> SensorModel:
+    """The model with its physics overrides applied to the triads (what the simulator uses)."""
+    return effects.apply_model_overrides(model)
+
+
+def scenario_path_base(path) -> Path:
+    """The folder relative paths in a scenario resolve against."""
+    return Path(path).resolve().parent

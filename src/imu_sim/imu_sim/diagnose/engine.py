@@ -1,0 +1,432 @@
+"""The diagnosis loop: residual -> test every effect -> fit the strongest -> re-simulate -> repeat.
+
+Each effect of the vocabulary is tested by its own statistic (likelihood ratio, chi-square under
+the null); its threshold is the chi-square quantile at a family-wise level ALPHA shared
+(Bonferroni) across the effects tested and the grid points profiled, times a factor
+calibrated by Monte Carlo on null simulations (``calibration.yaml``, written by
+``imu-sim diagnose-suite``). Among significant effects the one with the largest
+excess (statistic - threshold, an information-criterion-like penalty per parameter)
+is fitted, added to the model, and the model re-simulated; a finding is kept only if
+the held-out statistic improves.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+import yaml
+from scipy import stats
+
+from nav_core.sensor_model import EFFECTS, SensorModel
+
+from imu_sim.diagnose import metrics, noise_tests, regressors
+from imu_sim.diagnose.case import CHANNELS, Case, deterministic, effective_model, residual
+from imu_sim.diagnose.spectral import Whitener, gls
+
+ALPHA = 0.05
+CALIBRATION_FILE = Path(__file__).with_name("calibration.yaml")
+GNSS_EFFECTS = ("gps_lever_arm", "gps_latency", "colored_gps_noise")
+EXPLAIN = {
+    "earth_rotation": "The gyro residual follows the Earth rate rotated into the body frame; the model leaves out "
+                      "Earth rotation (15 deg/h times the attitude-dependent projection).",
+    "gravity_model": "The accelerometer residual is proportional to the specific force with the size of normal "
+                     "gravity at this latitude and height minus 9.80665 m/s^2: the model uses constant gravity.",
+    "coriolis": "The residual follows the Coriolis and transport-rate terms of the truth velocity.",
+    "gyro_g_sensitivity": "Gyro bias proportional to the specific force on the same axis (g-sensitivity), visible "
+                          "because the orientation changes the specific force on each axis.",
+    "temperature_bias": "Biases track the logged temperature linearly; the model has no thermal coefficient.",
+    "warmup_drift": "Biases decay exponentially after switch-on (warm-up); a constant turn-on bias misses it.",
+    "scale_factor": "The residual is proportional to the true rate / specific force on the same axis: a "
+                    "scale-factor error the model does not have.",
+    "axis_misalignment": "The residual on one axis follows the true rate / specific force on the other axes: "
+                         "non-orthogonal or misaligned sensing axes.",
+    "vibration": "A spectral line the model does not produce: a sinusoidal vibration (or its alias) in the "
+                 "sensor output.",
+    "quantization": "The raw values lie on a lattice (a fixed output step); a continuous simulator misses the "
+                    "quantization even where the step is smaller than the noise.",
+    "gauss_markov_bias": "Excess low-frequency power with a corner: a correlated (Gauss-Markov) bias wander "
+                         "beyond the model's noise.",
+    "bias_random_walk": "Excess power rising as 1/f^2 at low frequency: a bias random walk beyond the model's "
+                        "noise.",
+}
+
+
+def load_calibration() -> dict:
+    """Per-effect threshold factors from the null Monte Carlo (1.0 when not calibrated)."""
+    if CALIBRATION_FILE.exists():
+        data = yaml.safe_load(CALIBRATION_FILE.read_text()) or {}
+        return {k: float(v) for k, v in (data.get("factors") or {}).items()}
+    return {}
+
+
+@dataclass
+class Candidate:
+    """One effect's test: statistic against threshold, fit, and how to add it to the model."""
+
+    effect: str
+    stat: float
+    threshold: float
+    statistic: str
+    identifiable: bool = True
+    reason: str = ""
+    channels: list = field(default_factory=list)
+    params: dict = field(default_factory=dict)
+    intervals: dict = field(default_factory=dict)
+    physics: dict | None = None
+    columns: dict | None = None
+    contrib: np.ndarray | None = None
+    kind: str = "regression"
+    block_s: float = 1.0
+    band: dict | None = None
+
+    @property
+    def significant(self) -> bool:
+        """Identifiable and above threshold."""
+        return self.identifiable and self.stat > self.threshold
+
+    def tested_entry(self) -> dict:
+        """What ``tested`` in diagnosis.json lists."""
+        return {"effect": self.effect, "statistic": self.statistic, "value": _r(self.stat),
+                "threshold": _r(self.threshold), "significant": bool(self.significant),
+                "identifiable": bool(self.identifiable), "note": self.reason}
+
+
+def _r(x):
+    return None if x is None or not np.isfinite(x) else float(f"{x:.6g}")
+
+
+def _thr(dof: int, m_tests: int, grid: int = 1, factor: float = 1.0) -> float:
+    return float(stats.chi2.isf(ALPHA / (m_tests * grid), dof) * factor)
+
+
+def _names_values(names, theta, ci):
+    return ({n: float(v) for n, v in zip(names, theta)}, {n: [float(a), float(b)] for n, (a, b) in zip(names, ci)})
+
+
+def _channels_of(columns: dict, theta: np.ndarray, cov: np.ndarray) -> list:
+    out = []
+    for ch, x in columns.items():
+        used = np.flatnonzero(np.any(x != 0, axis=0))
+        z2 = theta[used] @ np.linalg.solve(cov[np.ix_(used, used)], theta[used]) if len(used) else 0.0
+        if z2 > stats.chi2.isf(0.01, max(len(used), 1)):
+            out.append(CHANNELS[ch])
+    return out
+
+
+def _regression(case, model, wh, resid_f, design, m_tests, factors, statistic="GLS likelihood ratio") -> Candidate:
+    res = gls(wh, resid_f, design.columns, design.k)
+    thr = _thr(design.k, m_tests, 1, factors.get(design.effect, 1.0))
+    cand = Candidate(design.effect, res.lr, thr, statistic, res.identifiable, res.why, columns=design.columns)
+    if not res.identifiable:
+        return cand
+    ci = res.interval()
+    cand.params, cand.intervals = _names_values(design.names, res.theta, ci)
+    cand.physics = design.to_physics(res.theta)
+    cand.channels = _channels_of(design.columns, res.theta, res.cov)
+    cand.contrib = np.zeros((case.n, 6))
+    for ch, x in design.columns.items():
+        cand.contrib[:, ch] = x @ res.theta
+    if design.effect in ("earth_rotation", "gravity_model", "coriolis"):
+        cand.params, cand.intervals = regressors.physical_value(design.effect, res.theta, ci, case)
+    return cand
+
+
+def _warmup(case, model, wh, resid_f, m_tests, factors) -> Candidate:
+    taus = regressors.warmup_taus(case.t[-1] - case.t[0], case.dt)
+    fits = [(tau, gls(wh, resid_f, regressors.design_warmup(case, model, tau).columns, 6)) for tau in taus]
+    lrs = np.array([f.lr for _, f in fits])
+    best = int(np.argmax(lrs))
+    design = regressors.design_warmup(case, model, taus[best])
+    cand = _regression(case, model, wh, resid_f, design, m_tests, factors,
+                       "GLS likelihood ratio, time constant profiled")
+    cand.threshold = _thr(6, m_tests, len(taus), factors.get("warmup_drift", 1.0))
+    inside = taus[lrs >= lrs[best] - 3.84]
+    cand.params["time_constant_s"] = float(taus[best])
+    cand.intervals["time_constant_s"] = [float(inside.min()), float(inside.max())]
+    cand.block_s = min(1.0, float(taus[best]) / 5)
+    return cand
+
+
+def _vibration(case, model, wh, resid, resid_f, m_tests, factors) -> Candidate:
+    f_min = 10.0 / (case.n * case.dt)
+    lr, ch, f0, n_bins = noise_tests.vibration_scan(wh, resid_f, f_min)
+    thr = 2.0 * np.log(m_tests * n_bins / ALPHA) * factors.get("vibration", 1.0)
+    cand = Candidate("vibration", lr, thr, "max whitened periodogram ordinate (chi-square 2 per bin)",
+                     kind="vibration", block_s=case.dt)
+    if lr <= thr:
+        cand.params = {"frequency_hz": f0}
+        return cand
+    freq = noise_tests.refine_frequency(resid[:, ch] - resid[:, ch].mean(), case.dt, f0)
+    amps, sds, lrs, phase, f_sd = noise_tests.vibration_fit(wh, resid, case.sim_t_abs, freq, ch, gls)
+    cand.channels = [CHANNELS[c] for c in range(6) if lrs[c] > stats.chi2.isf(0.01, 2)]
+    names = [f"gyro_amplitude_rad_per_s[{a}]" for a in "xyz"] + [f"accel_amplitude_mps2[{a}]" for a in "xyz"]
+    cand.params = {"frequency_hz": freq, "phase_rad": phase, **{n: float(a) for n, a in zip(names, amps)}}
+    cand.intervals = {"frequency_hz": [freq - 1.96 * f_sd, freq + 1.96 * f_sd],
+                      **{n: [float(a - 1.96 * s), float(a + 1.96 * s)] for n, a, s in zip(names, amps, sds)}}
+    old = list((model.physics or {}).get("vibration", {}).get("sinusoids", []))
+    cand.physics = {**(model.physics or {}).get("vibration", {}),
+                    "sinusoids": old + [{"frequency_hz": freq, "phase_rad": phase,
+                                         "gyro_amplitude_rad_per_s": amps[:3].tolist(),
+                                         "accel_amplitude_mps2": amps[3:].tolist()}]}
+    s = noise_tests._mean_sin(case.sim_t_abs, case.dt, freq, phase)
+    cand.contrib = s[:, None] * amps[None, :]
+    cand.columns = {c: s[:, None] * (np.arange(6) == c)[None, :] for c in range(6)}
+    df = 1.0 / (case.n * case.dt)
+    cand.band = {"frequency_hz": [freq - max(2 * f_sd, df), freq + max(2 * f_sd, df)]}
+    return cand
+
+
+def _quantization(case, model, m_tests, factors) -> Candidate:
+    out = [noise_tests.lattice(case.measured[:, c]) for c in range(6)]
+    z = np.array([o[2] for o in out])
+    thr = 2.0 * np.log(6 * m_tests / ALPHA) * factors.get("quantization", 1.0)
+    cand = Candidate("quantization", float(2 * z.max()), thr,
+                     "Rayleigh lattice statistic 2z of raw values (chi-square 2 for continuous values)",
+                     kind="quantization")
+    if cand.stat <= thr:
+        return cand
+    mdl = effective_model(model)
+    lsb = {"gyro": (mdl.gyro.quantization * np.sqrt(12)).copy(), "accel": (mdl.accel.quantization * np.sqrt(12)).copy()}
+    for c, (q, se, zc, frac) in enumerate(out):
+        tri, i = ("gyro", "accel")[c // 3], c % 3
+        key = ("gyro_lsb_rad" if tri == "gyro" else "accel_lsb_mps") + f"[{'xyz'[i]}]"
+        if 2 * zc > thr:
+            lsb[tri][i] = q * case.dt
+            half = max(1.96 * se, 1e-9 * q) * case.dt
+            cand.params[key] = float(q * case.dt)
+            cand.intervals[key] = [float(q * case.dt - half), float(q * case.dt + half)]
+            cand.params[key.replace("lsb", "output_step").replace("_rad[", "_rad_per_s[").replace("_mps[", "_mps2[")] = float(q)
+            cand.channels.append(CHANNELS[c])
+    cand.physics = {"gyro_lsb_rad": lsb["gyro"].tolist(), "accel_lsb_mps": lsb["accel"].tolist()}
+    return cand
+
+
+def _noise(case, model, resid, effect, m_tests, factors) -> Candidate:
+    m = max(1, int(np.ceil(case.n / noise_tests.MAX_BLOCKS)))
+    tb = m * case.dt
+    xb = noise_tests.block_means(resid, m)
+    freqs, pgram = noise_tests.periodogram(xb, tb)
+    s0 = noise_tests.noise_model_psd(model, freqs, tb)
+    if effect == "bias_random_walk":
+        grids = [(None, noise_tests.rw_extra(freqs))]
+    else:
+        span = len(xb) * tb
+        grids = [(tc, noise_tests.gm_extra(freqs, tc)) for tc in np.logspace(np.log10(5 * tb), np.log10(span / 5), 12)]
+    lr_ch, best = np.zeros(6), [None] * 6
+    for c in range(6):
+        for tc, extra in grids:
+            lr, lev, ci, _, _ = noise_tests.whittle_extra(pgram[:, c], s0[c], extra)
+            if best[c] is None or lr > best[c][0]:
+                best[c] = (lr, lev, ci, tc)
+        lr_ch[c] = best[c][0]
+    dof = 6 if effect == "bias_random_walk" else 12
+    thr = _thr(dof, m_tests, len(grids), factors.get(effect, 1.0))
+    cand = Candidate(effect, float(lr_ch.sum()), thr, "Whittle likelihood ratio of the block-averaged residual"
+                     + (", correlation time profiled" if len(grids) > 1 else ""), kind="noise")
+    cand.channels = [CHANNELS[c] for c in range(6) if lr_ch[c] > stats.chi2.isf(0.01, dof // 6 + 1)]
+    mdl = effective_model(model)
+    phys = {}
+    for c in range(6):
+        tri, i, ax = ("gyro", "accel")[c // 3], c % 3, "xyz"[c % 3]
+        lr, lev, ci, tc = best[c]
+        if effect == "bias_random_walk":
+            unit = "rad_per_s_per_sqrt_s" if tri == "gyro" else "mps2_per_sqrt_s"
+            key = f"{tri}_{unit}[{ax}]"
+            k_old2 = mdl.triad(tri).rate_random_walk[i] ** 2
+            cand.params[key] = float(np.sqrt(k_old2 + lev))
+            cand.intervals[key] = [float(np.sqrt(k_old2 + ci[0])), float(np.sqrt(k_old2 + ci[1]))]
+            phys.setdefault(f"{tri}_{unit}", [0.0] * 3)[i] = cand.params[key]
+        else:
+            unit = "sigma_rad_per_s" if tri == "gyro" else "sigma_mps2"
+            key = f"{tri}_{unit}[{ax}]"
+            sig_ch = CHANNELS[c] in cand.channels
+            sigma = float(np.sqrt(lev)) if sig_ch else float(mdl.triad(tri).bias_instability[i])
+            tcv = float(tc) if sig_ch else float(mdl.triad(tri).bias_correlation_time[i])
+            cand.params[key] = sigma
+            cand.intervals[key] = [float(np.sqrt(ci[0])), float(np.sqrt(ci[1]))]
+            cand.params[f"{tri}_correlation_time_s[{ax}]"] = tcv
+            phys.setdefault(f"{tri}_{unit}", [0.0] * 3)[i] = sigma
+            phys.setdefault(f"{tri}_correlation_time_s", [0.0] * 3)[i] = tcv
+    cand.physics = phys
+    return cand
+
+
+def _not_testable(effect, why) -> Candidate:
+    return Candidate(effect, np.nan, np.nan, "-", identifiable=False, reason=why)
+
+
+def evaluate(case: Case, model: SensorModel, resid: np.ndarray, exclude=()) -> list:
+    """Test every effect of the vocabulary not in ``exclude``; list of :class:`Candidate`."""
+    factors = load_calibration()
+    wh = Whitener.from_model(model, resid, case.dt)
+    resid_f = np.fft.rfft(resid, axis=0)
+    m_tests = len(EFFECTS)
+    out = []
+    phys = model.physics or {}
+    for effect in EFFECTS:
+        if effect in exclude:
+            continue
+        if effect in GNSS_EFFECTS:
+            out.append(_not_testable(effect, "GNSS-side effects are not tested by this version (IMU residual only)"
+                                     if case.gnss is not None else "no GNSS recording given (--gnss)"))
+        elif effect in phys and effect in ("earth_rotation", "gravity_model", "coriolis"):
+            out.append(_not_testable(effect, "already in the model's physics"))
+        elif effect in ("earth_rotation", "gravity_model", "coriolis"):
+            out.append(_regression(case, model, wh, resid_f, regressors.design_kinematic(case, model, effect),
+                                   m_tests, factors))
+        elif effect == "gyro_g_sensitivity":
+            out.append(_regression(case, model, wh, resid_f, regressors.design_g_sensitivity(case, model),
+                                   m_tests, factors))
+        elif effect == "temperature_bias":
+            design = regressors.design_temperature(case, model)
+            out.append(_not_testable(effect, "no temperature in the recording or the scenario") if design is None
+                       else _regression(case, model, wh, resid_f, design, m_tests, factors))
+        elif effect == "warmup_drift":
+            out.append(_warmup(case, model, wh, resid_f, m_tests, factors))
+        elif effect == "scale_factor":
+            out.append(_regression(case, model, wh, resid_f, regressors.design_scale_factor(case, model),
+                                   m_tests, factors))
+        elif effect == "axis_misalignment":
+            out.append(_regression(case, model, wh, resid_f, regressors.design_misalignment(case, model),
+                                   m_tests, factors))
+        elif effect == "vibration":
+            out.append(_vibration(case, model, wh, resid, resid_f, m_tests, factors))
+        elif effect == "quantization":
+            out.append(_quantization(case, model, m_tests, factors))
+        elif effect in ("gauss_markov_bias", "bias_random_walk"):
+            out.append(_noise(case, model, resid, effect, m_tests, factors))
+        elif effect == "coning_sculling":
+            out.append(_not_testable(effect, "its rectified part is a constant (collinear with the turn-on bias) "
+                                     "and its oscillation is tested as vibration"))
+    for cand in out:
+        if cand.effect == "coriolis" and cand.identifiable is False and "constant" in cand.reason:
+            cand.reason = "the truth has no velocity here (static): Coriolis cannot show"
+    return out
+
+
+def add_effect(model: SensorModel, cand: Candidate) -> SensorModel:
+    """The model with the candidate's physics entry added."""
+    return model.with_physics(cand.effect, **(cand.physics or {}))
+
+
+def evidence(cand: Candidate) -> float:
+    """Ranking key: statistic minus threshold."""
+    return cand.stat - cand.threshold
+
+
+def fit_metric(case: Case, cand: Candidate, model_before: SensorModel, model_after: SensorModel,
+               resid: np.ndarray, seed: int = 0):
+    """(metric name, before, after) on held-out data."""
+    if cand.kind in ("regression", "vibration"):
+        cols = {c: x for c, x in cand.columns.items() if CHANNELS[c] in cand.channels} or cand.columns
+        b, a = metrics.heldout_rms(resid, cols, case.dt, cand.block_s)
+        what = "1-s block means" if cand.kind == "regression" else "samples"
+        return f"RMS of held-out {what} over their scatter (odd tenths of the run, fit on even tenths)", b, a
+    if cand.kind == "quantization":
+        half = case.n // 2
+        real = case.measured[half:]
+        vals = []
+        for mdl in (model_before, model_after):
+            sim = deterministic(case, mdl, stochastic=True, seed=seed + 1)[half:]
+            ratio = [np.log10(len(np.unique(real[:, c])) / len(np.unique(sim[:, c])))
+                     for c in range(6) if CHANNELS[c] in cand.channels]
+            vals.append(float(np.sqrt(np.mean(np.square(ratio)))))
+        return "RMS log10 ratio of distinct-value counts, real vs simulated (second half held out)", vals[0], vals[1]
+    return _allan_metric(case, cand, model_before, model_after, resid)
+
+
+def _allan_metric(case, cand, model_before, model_after, resid):
+    """Allan chi-square per point of the second half's residual against each model's predicted Allan variance."""
+    from imu_calib.allan import overlapping_adev
+    from imu_sim.diagnose.spectral import noise_psd
+    half = resid[case.n // 2:]
+    rate = 1.0 / case.dt
+    adev = overlapping_adev(half, rate)
+    chans = [CHANNELS.index(c) for c in cand.channels] or list(range(6))
+    out = []
+    for mdl in (model_before, model_after):
+        tot = []
+        for c in chans:
+            pred = noise_tests.predicted_avar(lambda f, c=c, mdl=mdl: noise_psd(mdl, np.concatenate([[1e-12], f]),
+                                                                           case.dt)[c, 1:], adev.taus)
+            pred = pred * _level(half[:, c], mdl, c, case.dt)
+            edf = adev.edf[:, c]
+            tot.append(np.log(adev.avar[:, c] / pred) ** 2 * edf / 2)
+        out.append(float(np.mean(np.concatenate(tot))))
+    return ("Allan chi-square per cluster time of the held-out second half against the model "
+            "(white level matched at the shortest cluster time)"), out[0], out[1]
+
+
+def _level(x, mdl, c, dt):
+    from imu_sim.diagnose.spectral import noise_psd
+    white = noise_psd(mdl, np.array([0.0, 0.25 / dt]), dt)[c, 1]
+    return robust_var(x) * dt / max(white, 1e-300)
+
+
+def robust_var(x):
+    """Variance of the white part of x."""
+    return metrics.robust_var(x)
+
+
+@dataclass
+class Diagnosis:
+    """The result: JSON-ready dict plus arrays for the report."""
+
+    result: dict
+    model_updated: SensorModel
+    case: Case
+    resid_before: np.ndarray
+    resid_after: np.ndarray
+    findings_detail: list
+
+
+def diagnose(case: Case, max_effects: int = 4, seed: int = 0, progress=None) -> Diagnosis:
+    """Locate, attribute, model and iterate (see module docstring)."""
+    model = case.model.copy()
+    resid0 = residual(case, model)
+    resid = resid0
+    findings, details, tested, accepted = [], [], None, set()
+    for _ in range(max_effects + 2):
+        cands = evaluate(case, model, resid, exclude=accepted)
+        if tested is None:
+            tested = cands
+        if progress:
+            progress.update()
+        sig = sorted([c for c in cands if c.significant], key=evidence, reverse=True)
+        if not sig or len(findings) >= max_effects:
+            break
+        best = sig[0]
+        accepted.add(best.effect)
+        new_model = add_effect(model, best)
+        name, before, after = fit_metric(case, best, model, new_model, resid, seed)
+        new_resid = residual(case, new_model)
+        if not after < before:
+            best.reason = f"significant but no held-out improvement ({before:.4g} -> {after:.4g}); not kept"
+            continue
+        band = best.band or _band(case, resid, new_resid, best)
+        contrib = best.contrib if best.contrib is not None else resid - new_resid
+        findings.append({
+            "effect": best.effect, "channels": best.channels or list(CHANNELS),
+            "time_span_s": metrics.time_span(resid, contrib, case.t) if best.kind != "quantization"
+            else [0.0, float(case.t[-1])],
+            "band": band, "parameters": best.params, "intervals": best.intervals,
+            "metric": name, "fit_before": before, "fit_after": after,
+            "statistic": {"name": best.statistic, "value": _r(best.stat), "threshold": _r(best.threshold)},
+            "explanation": EXPLAIN.get(best.effect, best.effect)})
+        details.append((best, resid, new_resid))
+        model, resid = new_model, new_resid
+    tested_out = [c.tested_entry() for c in tested]
+    for entry in tested_out:
+        if entry["effect"] in accepted and entry["effect"] not in [f["effect"] for f in findings]:
+            entry["note"] = (entry["note"] + "; " if entry["note"] else "") + "not kept (no held-out improvement)"
+    result = {"mismatch": bool(findings), "findings": findings, "tested": tested_out,
+              "channels": list(CHANNELS), "samples": case.n, "rate_hz": 1.0 / case.dt, "notes": case.notes,
+              "alpha_familywise": ALPHA, "calibration": load_calibration() or "uncalibrated (chi-square, Bonferroni)"}
+    return Diagnosis(result, model, case, resid0, resid, details)
+
+
+def _band(case, resid, new_resid, cand) -> dict:
+    chans = [CHANNELS.index(c) for c in cand.channels] or list(range(6))
+    band, _, _ = metrics.allan_band(resid[:, chans], new_resid[:, chans], 1.0 / case.dt)
+    return band

@@ -1,0 +1,178 @@
+"""Tests that are not a linear regression on the truth: vibration line, quantization lattice, GM and RW bias.
+
+* vibration: the largest line of the whitened periodogram (above 10 cycles per run),
+  chi-square(2) per bin under the null; the frequency is refined on the DTFT.
+* quantization: raw recorded values lie on a lattice: Rayleigh statistic
+  z = n |mean exp(2 pi i x / q)|^2 at the lattice step q found from the gaps between
+  distinct values (z ~ Exp(1) for continuous values).
+* gauss_markov_bias / bias_random_walk: Whittle likelihood of the block-averaged
+  residual under the model PSD (level free) against the PSD plus the extra term,
+  its level and (GM) correlation time profiled.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+from scipy import optimize
+
+from nav_core.sensor_model import SensorModel
+
+from imu_sim.diagnose.spectral import noise_psd
+
+MAX_BLOCKS = 16384
+"""Block-averaged series length for the Whittle tests."""
+
+
+@dataclass
+class NoiseFinding:
+    """Statistic, per-channel statistics, parameters with intervals and the physics entry."""
+
+    lr: float
+    lr_channels: np.ndarray
+    params: dict = field(default_factory=dict)
+    intervals: dict = field(default_factory=dict)
+    physics: dict = field(default_factory=dict)
+    extra: dict = field(default_factory=dict)
+
+
+def _mean_sin(t, dt, f, phase=0.0):
+    w = 2 * np.pi * f
+    return (np.cos(w * (t - dt) + phase) - np.cos(w * t + phase)) / (w * dt)
+
+
+def _mean_cos(t, dt, f, phase=0.0):
+    w = 2 * np.pi * f
+    return (np.sin(w * t + phase) - np.sin(w * (t - dt) + phase)) / (w * dt)
+
+
+def vibration_scan(wh, resid_f: np.ndarray, f_min_hz: float):
+    """Largest whitened periodogram ordinate: (lr, channel, bin frequency Hz, number of bins searched)."""
+    freqs = np.fft.rfftfreq(wh.n, wh.dt)
+    sel = (freqs >= f_min_hz) & (freqs < 0.5 / wh.dt)
+    power = np.abs(resid_f.T) ** 2 * wh.weights / (wh.n * wh.scale2[:, None])
+    power[:, ~sel] = 0.0
+    ch, k = np.unravel_index(np.argmax(power), power.shape)
+    return float(power[ch, k]), int(ch), float(freqs[k]), int(sel.sum()) * 6
+
+
+def refine_frequency(x: np.ndarray, dt: float, f0: float) -> float:
+    """Frequency (Hz) maximising |DTFT|^2 of x within one bin of f0."""
+    n = len(x)
+    t = np.arange(n) * dt
+    df = 1.0 / (n * dt)
+
+    def neg_power(f):
+        return -np.abs(np.sum(x * np.exp(-2j * np.pi * f * t))) ** 2
+    res = optimize.minimize_scalar(neg_power, bounds=(f0 - df, f0 + df), method="bounded",
+                                   options={"xatol": df * 1e-4})
+    return float(res.x)
+
+
+def vibration_fit(wh, resid: np.ndarray, t_abs: np.ndarray, freq: float, ch_peak: int, gls_fn):
+    """Per-channel interval-mean sinusoid at ``freq`` with a common phase; amplitudes signed, SI units."""
+    dt = wh.dt
+    s, c = _mean_sin(t_abs, dt, freq), _mean_cos(t_abs, dt, freq)
+    resid_f = np.fft.rfft(resid, axis=0)
+    per = []
+    for ch in range(6):
+        per.append(gls_fn(wh, resid_f, {ch: np.column_stack([s, c])}, 2))
+    a, b = per[ch_peak].theta
+    phase = float(np.arctan2(b, a))
+    u = np.array([np.cos(phase), np.sin(phase)])
+    amps = np.array([p.theta @ u for p in per])
+    sds = np.array([np.sqrt(u @ p.cov @ u) for p in per])
+    lrs = np.array([p.lr for p in per])
+    amp_peak = np.hypot(a, b)
+    sigma = np.sqrt(wh.scale2[ch_peak] * 1.0)
+    n = wh.n
+    # Cramer-Rao bound of a sinusoid's frequency in white noise: var(w) = 12 s^2 / (A^2 n^3) (rad/sample)^2
+    noise_sd = np.std(resid[:, ch_peak] - (s * a + c * b))
+    f_sd = np.sqrt(12.0) * noise_sd / (max(amp_peak, 1e-300) * n**1.5) / (2 * np.pi * dt)
+    del sigma
+    return amps, sds, lrs, phase, f_sd
+
+
+def lattice(x: np.ndarray):
+    """Lattice step q, its standard error and Rayleigh z of values x (n,); q = 0 if no step is found."""
+    u = np.unique(x)
+    n = len(x)
+    if len(u) < 3:
+        return 0.0, 0.0, 0.0, len(u) / n
+    d = np.diff(u)
+    d = d[d > 1e-12 * max(np.max(np.abs(u)), 1e-300)]
+    if len(d) == 0:
+        return 0.0, 0.0, 0.0, len(u) / n
+    q0 = np.min(d)
+    k = np.round(d / q0)
+    q = float(np.sum(d * k) / np.sum(k * k))
+    phase = 2 * np.pi * (x - u[0]) / q
+    z = float(n * np.abs(np.mean(np.exp(1j * phase))) ** 2)
+    idx = np.round((u - u[0]) / q)
+    if len(u) > 2 and np.ptp(idx) > 0:
+        coef = np.polyfit(idx, u, 1)
+        fit = np.polyval(coef, idx)
+        s2 = np.sum((u - fit) ** 2) / max(len(u) - 2, 1)
+        se = float(np.sqrt(s2 / np.sum((idx - idx.mean()) ** 2)))
+        q = float(coef[0])
+    else:
+        se = 0.0
+    return q, se, z, len(u) / n
+
+
+def block_means(x: np.ndarray, m: int) -> np.ndarray:
+    """Means of consecutive blocks of m rows (the tail that does not fill a block is dropped)."""
+    nb = len(x) // m
+    return x[:nb * m].reshape(nb, m, *x.shape[1:]).mean(axis=1)
+
+
+def periodogram(xb: np.ndarray, tb: float):
+    """Two-sided periodogram (unit^2/Hz) per column without DC: freqs (nf,), I (nf, k)."""
+    nb = len(xb)
+    spec = np.fft.rfft(xb - xb.mean(axis=0), axis=0)[1:]
+    return np.fft.rfftfreq(nb, tb)[1:], np.abs(spec) ** 2 * tb / nb
+
+
+def _whittle_profile(i_f, s0, extra, ratios):
+    """Whittle log-likelihood (level profiled) for S = a (s0 + r extra), each r; shape (len(ratios),)."""
+    s = s0[None, :] + ratios[:, None] * extra[None, :]
+    a = np.mean(i_f[None, :] / s, axis=1)
+    return -np.sum(np.log(a[:, None] * s), axis=1) - len(i_f), a
+
+
+def whittle_extra(i_f: np.ndarray, s0: np.ndarray, extra: np.ndarray):
+    """Best level c of ``extra`` added to a free-level ``s0``: (lr, c, c interval 95 %, loglik by c)."""
+    ref = np.median(s0[:8]) / max(np.median(extra[:8]), 1e-300)
+    ratios = np.concatenate([[0.0], ref * np.logspace(-5, 4, 91)])
+    ll, a = _whittle_profile(i_f, s0, extra, ratios)
+    best = int(np.argmax(ll))
+    lr = 2 * (ll[best] - ll[0])
+    c = a * ratios
+    inside = 2 * (ll[best] - ll) <= 3.84
+    return float(max(lr, 0.0)), float(c[best]), (float(c[inside].min()), float(c[inside].max())), ll, c
+
+
+def noise_model_psd(model: SensorModel, freqs: np.ndarray, tb: float) -> np.ndarray:
+    """The model's two-sided PSD at block level (6, nf)."""
+    return noise_psd(model, np.concatenate([[0.0], freqs]), tb)[:, 1:]
+
+
+def rw_extra(freqs: np.ndarray) -> np.ndarray:
+    """Two-sided PSD of a rate random walk with K = 1: 1 / (2 pi f)^2."""
+    return 1.0 / (2 * np.pi * freqs) ** 2
+
+
+def gm_extra(freqs: np.ndarray, tc: float) -> np.ndarray:
+    """Two-sided PSD of a Gauss-Markov process with sigma = 1, correlation time tc s."""
+    return 2 * tc / (1 + (2 * np.pi * freqs * tc) ** 2)
+
+
+def predicted_avar(psd_fn, taus: np.ndarray) -> np.ndarray:
+    """Allan variance of a two-sided PSD: 4 int_0^inf S(f) sin^4(pi f tau) / (pi f tau)^2 df."""
+    f = np.logspace(-7, 3, 6000)
+    s = psd_fn(f)
+    out = []
+    for tau in taus:
+        kern = np.sin(np.pi * f * tau) ** 4 / (np.pi * f * tau) ** 2
+        out.append(4 * np.trapezoid(s * kern, f))
+    return np.array(out)
