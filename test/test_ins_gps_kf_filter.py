@@ -96,7 +96,7 @@ def test_heading_from_gps_course_then_filter_beats_raw_gps():
     assert t[first] < 70.0  # heading found within ~10 s of the start of motion
     yaw_est = np.array([frames.euler_from_quat_xyzw(e.quat_xyzw)[2] for e in est])
     yaw_err = frames.wrap_angle(yaw_est - yaw)[nav]
-    assert np.sqrt(np.mean(yaw_err[20:] ** 2)) < 3 * DEG
+    assert np.sqrt(np.mean(yaw_err[120:] ** 2)) < 3 * DEG  # converged a minute after the course fix
     p_est = np.array([e.position_n for e in est])
     later = nav & (t > 100.0)
     filt_rms = np.sqrt(np.mean(np.sum((p_est[later] - pos[later])[:, :2] ** 2, axis=1)))
