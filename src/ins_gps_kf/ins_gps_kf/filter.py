@@ -374,7 +374,7 @@ class InsGpsFilter:
         self.nav[strapdown.P] = fix.enu - Rotation.from_quat(quat).as_matrix() @ self.lever_arm_b
         self.nav[strapdown.P] += vel * (t_e - fix.t)
         # the chord speed is a mean over the baseline: while accelerating it lags by up to half the change
-        vel_var = np.diag(fix.cov) * 2.0 + (0.5 * speed) ** 2 + 0.1**2
+        vel_var = np.diag(fix.cov) * 2.0 + (0.2 * speed) ** 2 + 0.1**2
         self._reset_block(np.r_[0:6, 8], np.concatenate([np.diag(fix.cov), vel_var,
                                                          [self.cfg.heading_std**2 + course_std**2]]))
         self.heading_history = []
