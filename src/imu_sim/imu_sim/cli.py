@@ -1,4 +1,4 @@
-"""``imu-sim``: the simulator's command line (subcommands; ``diagnose`` comes with the diagnosis issue)."""
+"""``imu-sim``: the simulator's command line: ``simulate``, ``diagnose`` (sim versus real), ``prepare-real``."""
 from __future__ import annotations
 
 import argparse
@@ -27,7 +27,50 @@ def _parser() -> argparse.ArgumentParser:
     sim.add_argument("--rate-hz", type=float, default=None, help="IMU rate, Hz (default: scenario's, else 64)")
     sim.add_argument("--format", choices=FORMATS, default="all", help="bag, csv or all")
     sim.add_argument("--storage", choices=("sqlite3", "mcap"), default="sqlite3", help="rosbag2 storage")
+    diag = sub.add_parser("diagnose", help="sim versus real: locate the mismatch, name and model the missing physics")
+    diag.add_argument("--recording", required=True, help="rosbag2 bag or recording CSV (t, gx..az[, temp_c], SI)")
+    diag.add_argument("--scenario", required=True, help="scenario YAML (trajectory or static_segments)")
+    diag.add_argument("--model", required=True, help="sensor-model YAML: what the simulation believes")
+    diag.add_argument("--out", required=True, help="output folder (diagnosis.json, model_updated.yaml, report.html)")
+    diag.add_argument("--gnss", default=None, help="GNSS CSV (t, lat_deg, lon_deg, h_m, std_e, std_n, std_u)")
+    diag.add_argument("--max-effects", type=int, default=4, help="most effects to add (iterations)")
+    prep = sub.add_parser("prepare-real", help="write recording CSV + scenario + noise model for a real data set")
+    prep.add_argument("--dataset", choices=("adis16405", "ucalgary_updown"), required=True)
+    prep.add_argument("--data-dir", required=True, help="folder of the data set (../shared/data/<name>)")
+    prep.add_argument("--run", default="imu1", help="ADIS16405 run name (imu1..imu6)")
+    prep.add_argument("--duration-s", type=float, default=None, help="crop (s)")
+    prep.add_argument("--out", required=True)
     return parser
+
+
+def _diagnose(args) -> int:
+    from imu_sim.diagnose.case import load_case
+    from imu_sim.diagnose.engine import diagnose
+    from imu_sim.diagnose.report import write_all
+    case = load_case(args.recording, args.scenario, args.model, args.gnss)
+    steps = tqdm(desc="imu-sim diagnose", unit="pass", file=sys.stderr)
+    diag = diagnose(case, max_effects=args.max_effects, progress=steps)
+    steps.close()
+    paths = write_all(diag, args.out, {"recording": args.recording, "scenario": args.scenario, "model": args.model})
+    res = diag.result
+    print("mismatch: " + ("yes" if res["mismatch"] else "no"))
+    for f in res["findings"]:
+        print(f"  {f['effect']}: channels {', '.join(f['channels'])}; fit {f['fit_before']:.4g} -> {f['fit_after']:.4g}")
+    for name, path in paths.items():
+        print(f"  {name}: {path}")
+    return 0
+
+
+def _prepare_real(args) -> int:
+    from imu_sim.diagnose import real
+    data = Path(args.data_dir)
+    if args.dataset == "adis16405":
+        paths = real.prepare_adis(data / f"{args.run}.npz", args.out, args.duration_s)
+    else:
+        paths = real.prepare_updown(data / "x_adi_up.txt", data / "x_adi_down.txt", args.out)
+    for name, path in paths.items():
+        print(f"  {name}: {path}")
+    return 0
 
 
 def _simulate(args) -> int:
@@ -54,10 +97,13 @@ def _simulate(args) -> int:
 
 def main(argv=None) -> int:
     """Entry point of the ``imu-sim`` console script."""
+    from nav_core.recording import RecordingError
     args = _parser().parse_args(argv)
+    run = {"simulate": _simulate, "diagnose": _diagnose, "prepare-real": _prepare_real}[args.command]
     try:
-        return _simulate(args)
-    except (ScenarioError, SensorModelError, EffectError, FileExistsError, ValueError) as err:
+        return run(args)
+    except (ScenarioError, SensorModelError, EffectError, FileExistsError, RecordingError, OSError,
+            ValueError) as err:
         print(f"imu-sim: error: {err}", file=sys.stderr)
         return 2
 

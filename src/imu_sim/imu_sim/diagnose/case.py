@@ -45,6 +45,7 @@ class Case:
     sim_t_abs: np.ndarray
     gnss: GnssRecording | None = None
     notes: list = field(default_factory=list)
+    cache: dict = field(default_factory=dict)
 
     @property
     def n(self) -> int:
@@ -120,11 +121,14 @@ def kinematic_difference(case: Case, model: SensorModel, effect: str) -> np.ndar
     base = dict(model.physics or {})
     base.pop(effect, None)
     with_effect = dict(base, **{effect: {}})
-    traj = build_trajectory(case.scenario)
     out = []
     for phys in (with_effect, base):
-        dth, dv = kinematics.increments(traj, case.sim_t_abs, case.dt, kinematics.Physics.from_effects(phys))
-        out.append(np.column_stack([dth, dv]) / case.dt)
+        key = kinematics.Physics.from_effects(phys)
+        if key not in case.cache:
+            traj = case.cache.setdefault("traj", build_trajectory(case.scenario))
+            dth, dv = kinematics.increments(traj, case.sim_t_abs, case.dt, key)
+            case.cache[key] = np.column_stack([dth, dv]) / case.dt
+        out.append(case.cache[key])
     return out[0] - out[1]
 
 

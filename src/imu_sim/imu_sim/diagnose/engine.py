@@ -212,7 +212,7 @@ def _noise(case, model, resid, effect, m_tests, factors) -> Candidate:
         grids = [(None, noise_tests.rw_extra(freqs))]
     else:
         span = len(xb) * tb
-        grids = [(tc, noise_tests.gm_extra(freqs, tc)) for tc in np.logspace(np.log10(5 * tb), np.log10(span / 5), 12)]
+        grids = [(tc, noise_tests.gm_extra(freqs, tc)) for tc in np.logspace(np.log10(5 * tb), np.log10(span / 5), 8)]
     lr_ch, best = np.zeros(6), [None] * 6
     for c in range(6):
         for tc, extra in grids:
@@ -388,10 +388,12 @@ def diagnose(case: Case, max_effects: int = 4, seed: int = 0, progress=None) -> 
     resid = resid0
     findings, details, tested, accepted = [], [], None, set()
     for _ in range(max_effects + 2):
+        if len(findings) >= max_effects:
+            break
         cands = evaluate(case, model, resid, exclude=accepted)
         if tested is None:
             tested = cands
-        if progress:
+        if progress is not None:
             progress.update()
         sig = sorted([c for c in cands if c.significant], key=evidence, reverse=True)
         if not sig or len(findings) >= max_effects:

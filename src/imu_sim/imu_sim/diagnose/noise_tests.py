@@ -20,7 +20,7 @@ from nav_core.sensor_model import SensorModel
 
 from imu_sim.diagnose.spectral import noise_psd
 
-MAX_BLOCKS = 16384
+MAX_BLOCKS = 4096
 """Block-averaged series length for the Whittle tests."""
 
 
@@ -143,7 +143,7 @@ def _whittle_profile(i_f, s0, extra, ratios):
 def whittle_extra(i_f: np.ndarray, s0: np.ndarray, extra: np.ndarray):
     """Best level c of ``extra`` added to a free-level ``s0``: (lr, c, c interval 95 %, loglik by c)."""
     ref = np.median(s0[:8]) / max(np.median(extra[:8]), 1e-300)
-    ratios = np.concatenate([[0.0], ref * np.logspace(-5, 4, 91)])
+    ratios = np.concatenate([[0.0], ref * np.logspace(-5, 4, 46)])
     ll, a = _whittle_profile(i_f, s0, extra, ratios)
     best = int(np.argmax(ll))
     lr = 2 * (ll[best] - ll[0])

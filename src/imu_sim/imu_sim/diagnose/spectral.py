@@ -102,11 +102,15 @@ def gls(wh: Whitener, resid_f: np.ndarray, design: dict, k: int) -> GlsResult:
     raw = np.zeros(k)
     ac = np.zeros(k)
     for ch, x in design.items():
-        xf = wh.spectrum(x)
-        a += wh.gram(ch, xf, xf)
-        b += wh.gram(ch, xf, resid_f[:, ch])
-        raw += np.sum(x**2, axis=0)
-        ac += np.sum((x - x.mean(axis=0)) ** 2, axis=0)
+        used = np.flatnonzero(np.any(x != 0, axis=0))
+        if len(used) == 0:
+            continue
+        xu = x[:, used]
+        xf = wh.spectrum(xu)
+        a[np.ix_(used, used)] += wh.gram(ch, xf, xf)
+        b[used] += wh.gram(ch, xf, resid_f[:, ch])
+        raw[used] += np.sum(xu**2, axis=0)
+        ac[used] += np.sum((xu - xu.mean(axis=0)) ** 2, axis=0)
     frac = ac / np.maximum(raw, 1e-300)
     if np.any(frac < 1e-10):
         return GlsResult(np.zeros(k), np.full((k, k), np.nan), 0.0, k, False,

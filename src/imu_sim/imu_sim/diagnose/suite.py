@@ -104,7 +104,7 @@ def make_recording(effect: str, seed: int):
 def run_case(effect: str, seed: int) -> dict:
     """Diagnose one case; the row of the table."""
     rec, sc, model = make_recording(effect, seed)
-    diag = diagnose(make_case(rec, sc, model), max_effects=2, seed=seed)
+    diag = diagnose(make_case(rec, sc, model), max_effects=1, seed=seed)
     res = diag.result
     first = res["findings"][0] if res["findings"] else None
     row = {"effect": effect, "seed": seed, "first": first["effect"] if first else None,
