@@ -174,7 +174,11 @@ def main(argv=None) -> int:
     ev.add_argument("--seed", type=int, default=0, help="simulation seed (paper-sim)")
     args = parser.parse_args(argv)
     if args.command == "evaluate":
-        return _evaluate(args)
+        try:
+            return _evaluate(args)
+        except recording.RecordingError as err:
+            print(f"ins-gps-kf: error: {err}", file=sys.stderr)
+            return 2
     try:
         params = kfconfig.load_params_yaml(args.params) if args.params else {}
         params.update(_parse_overrides(args.param))
