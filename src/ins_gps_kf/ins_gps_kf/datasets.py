@@ -92,39 +92,121 @@ def load_katwijk(axes_name="x_fwd", data=DATA):
     return imu, gnss, ref, {"imu_onset_s": imu_on, "reference_onset_s": ref_on, "axes": axes_name}
 
 
+Z_DOWN = np.diag([1.0, -1.0, -1.0])  # a 180 deg turn about x: z-down file axes to z up
+
+
+def read_canada_gps(path) -> GnssRecording:
+    """UTIAS GPS text: unix time (s), lat (deg), lon (deg), altitude (m); no std (configure gps_std_m)."""
+    path = Path(path)
+    try:
+        a = np.loadtxt(path, delimiter=",", comments="#", ndmin=2)
+    except ValueError as err:
+        raise RecordingError(f"{path}: {err}") from err
+    return GnssRecording(a[:, 0], a[:, 1] * DEG, a[:, 2] * DEG, a[:, 3], np.zeros((len(a), 3)), source=str(path))
+
+
+def read_canada_truth_utm(path):
+    """UTIAS reference ``frame;child;seq;sec;nanosec;E;N;U;qx;qy;qz;qw`` (UTM 18T, m): (t unix s, (n, 3) ENU m)."""
+    path = Path(path)
+    rows = []
+    for line_no, line in enumerate(path.read_text().splitlines(), start=1):
+        parts = line.strip().split(";")
+        if len(parts) < 12:
+            continue
+        try:
+            rows.append([int(parts[3]) + 1e-9 * int(parts[4]), *map(float, parts[5:8])])
+        except ValueError as err:
+            raise RecordingError(f"{path}: line {line_no}: {err}") from err
+    a = np.asarray(rows)
+    return a[:, 0], a[:, 1:4]
+
+
+def _fit_plane_transform(src_xy, dst_xy):
+    """Rotation + translation (2-D least squares, Kabsch) mapping ``src_xy`` onto ``dst_xy``."""
+    sc, dc = src_xy.mean(axis=0), dst_xy.mean(axis=0)
+    u, _, vt = np.linalg.svd((src_xy - sc).T @ (dst_xy - dc))
+    rot = (u @ vt).T
+    if np.linalg.det(rot) < 0:
+        vt[-1] *= -1
+        rot = (u @ vt).T
+    return rot, dc - rot @ sc
+
+
+def load_canada(axes_name="x_fwd", data=DATA):
+    """(imu, gnss, truth, info): times from the first GPS fix; the UTM truth mapped to geodetic through a
+    rotation + translation fitted to the GPS (so its datum inherits the GPS bias; relative errors only)."""
+    from nav_core.earth import LocalFrame
+
+    imu = read_navego_imu(data / "canada_imu_planetary.mat", axes=AXIS_CHOICES[axes_name] @ Z_DOWN)
+    gnss = read_canada_gps(data / "canada_gps-latlong.txt")
+    t_truth, utm = read_canada_truth_utm(data / "canada_posecov_gt_data.csv")
+    t0 = gnss.t[0]
+    gnss.t = gnss.t - t0
+    t_truth = t_truth - t0
+    frame = LocalFrame(gnss.lat[0] / DEG, gnss.lon[0] / DEG, float(gnss.h[0]))
+    g_enu = frame.to_enu(gnss.lat / DEG, gnss.lon / DEG, gnss.h)
+    inside = (gnss.t >= t_truth[0]) & (gnss.t <= t_truth[-1])
+    utm_at_g = np.column_stack([np.interp(gnss.t[inside], t_truth, utm[:, i]) for i in range(3)])
+    rot, shift = _fit_plane_transform(utm_at_g[:, :2], g_enu[inside, :2])
+    enu = np.column_stack([utm[:, :2] @ rot.T + shift, utm[:, 2] - np.mean(utm_at_g[:, 2] - g_enu[inside, 2])])
+    lat, lon, h = frame.to_geodetic(enu)
+    vel = np.gradient(enu, t_truth, axis=0)
+    nan = np.full(len(t_truth), np.nan)
+    truth = Trajectory(t_truth, lat * DEG, lon * DEG, h, nan, nan, nan, vel)
+    # the truth starts moving; the GPS shows the start of motion: align the IMU onset to the GPS onset
+    imu_on = motion_onset(imu.t, np.abs(imu.gyro[:, 2]), imu.rate_hz, factor=5.0)
+    g_speed = np.hypot(*np.gradient(g_enu[:, :2], gnss.t, axis=0).T)
+    k = max(int(round(gnss.t.size / (gnss.t[-1] - gnss.t[0]))), 1)  # fixes per second
+    smooth = np.convolve(g_speed, np.ones(k) / k, mode="same")
+    ref_on = float(gnss.t[np.argmax(smooth > 0.1)])
+    imu.t = imu.t - imu_on + ref_on
+    return imu, gnss, truth, {"imu_onset_s": imu_on, "reference_onset_s": ref_on, "axes": axes_name,
+                              "utm_to_enu_rotation_deg": float(np.degrees(np.arctan2(rot[1, 0], rot[0, 0])))}
+
+
 def evaluate_rover(name, out_dir) -> dict:
     """Katwijk: the filter with each axis choice, the best (by GPS NIS) reported against the reference."""
     from ins_gps_kf import evaluate
     from ins_gps_kf.filter import NAVIGATING
     from ins_gps_kf.replay import plot_north_east, to_trajectory
 
-    if name != "katwijk":
-        raise RecordingError(f"dataset {name!r}: loader not written yet (only 'katwijk')")
+    if name not in ("katwijk", "canada"):
+        raise RecordingError(f"dataset {name!r}: no loader (katwijk, canada)")
     out_dir = Path(out_dir)
     out_dir.mkdir(parents=True, exist_ok=True)
-    params = {"imu_rate_hz": 125.0, "gps_rate_hz": 1.0 / 3.0, "alignment_time_s": 15.0,
-              "heading_min_speed_mps": 0.1, "stationary_gyro_dps": 2.0}
+    if name == "katwijk":
+        loader, outage_period = load_katwijk, 90.0
+        params = {"imu_rate_hz": 125.0, "gps_rate_hz": 1.0 / 3.0, "alignment_time_s": 15.0,
+                  "heading_min_speed_mps": 0.1, "stationary_gyro_dps": 2.0}
+    else:
+        loader, outage_period = load_canada, 90.0
+        # the run turns after ~4 s of rest: a short alignment is all there is
+        params = {"imu_rate_hz": 200.0, "gps_rate_hz": 20.0, "alignment_time_s": 3.0, "min_alignment_time_s": 2.0,
+                  "gps_std_m": 1.0,
+                  "gps_std_up_m": 2.0, "heading_min_speed_mps": 0.1, "stationary_gyro_dps": 2.0}
     results = {}
     for axes_name in AXIS_CHOICES:
-        imu, gnss, ref, info = load_katwijk(axes_name)
+        imu, gnss, ref, info = loader(axes_name)
         est, filt = evaluate.run_case(imu, gnss, None, params)
         nis = [e.nis for e in est if e.gps_used and np.isfinite(e.nis)]
         results[axes_name] = (float(np.mean(nis)) if nis else np.inf, est, filt, imu, gnss, ref, info)
     best = min(results, key=lambda k: results[k][0])
     _, est, filt, imu, gnss, ref, info = results[best]
     t_from = next((e.t for e in est if e.status == NAVIGATING), 0.0) + 10.0
-    figures = {"source": "NaveGo examples/planetary-rovers: ESA Katwijk beach (LGPL-3 code; data licence not "
-                         "stated); reference = the source's 20 Hz interpolation of the same RTK fixes",
+    source = {"katwijk": "ESA Katwijk beach; reference = the source's 20 Hz interpolation of the same RTK fixes",
+              "canada": "UTIAS Canadian planetary run 3; reference = its pose ground truth (UTM), placed on the "
+                        "GPS by a fitted rotation + translation (relative errors only)"}[name]
+    figures = {"source": f"NaveGo examples/planetary-rovers (LGPL-3 code; data licence not stated): {source}",
                "params": params, "alignment": info, "mean_nis_by_axes": {k: v[0] for k, v in results.items()},
                "errors": evaluate.error_figures(est, ref, filt.frame, None, t_from),
                "consistency": evaluate.consistency(est, ref, filt.frame, t_from),
                "counters": {"fixes": filt.counters.fixes, "rejected": filt.counters.fixes_rejected,
                             "zupts": filt.counters.zupts, "gps_resets": filt.counters.gps_resets}}
-    windows = evaluate.outage_windows(t_from, gnss.t[-1], 90.0, 30.0, t_from + 20.0)
+    windows = evaluate.outage_windows(t_from, min(gnss.t[-1], ref.t[-1]), outage_period, 30.0, t_from + 20.0)
     est_o, filt_o, = evaluate.run_case(imu, evaluate.drop_fixes(gnss, windows), None, params)
     figures["outage_30s_every_90s"] = evaluate.outage_drift(est_o, ref, filt_o.frame, windows)
     ref_enu = filt.frame.to_enu(ref.lat / DEG, ref.lon / DEG, ref.h)
-    plot_north_east(out_dir / "katwijk.png", to_trajectory(est, filt.frame), gnss, filt.frame, ref_enu,
-                    title="Katwijk beach rover: filter, RTK GPS (every 3 s), reference")
-    evaluate.write_report(out_dir / "katwijk.json", figures)
+    plot_north_east(out_dir / f"{name}.png", to_trajectory(est, filt.frame), gnss, filt.frame, ref_enu,
+                    title=f"{name} rover: filter, GPS, reference")
+    evaluate.write_report(out_dir / f"{name}.json", figures)
     return figures

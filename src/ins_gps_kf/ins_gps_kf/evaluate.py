@@ -49,6 +49,8 @@ def error_figures(est: list[Estimate], truth: Trajectory, frame, gnss: GnssRecor
                   t_from: float = 0.0) -> dict:
     """Position (horizontal, vertical), velocity and attitude error RMS after ``t_from`` s; raw GPS error RMS."""
     nav = [e for e in est if e.status == NAVIGATING and e.t >= t_from]
+    if not nav:
+        return {"epochs": 0, "note": "never navigating (no heading) after t_from"}
     t = np.array([e.t for e in nav])
     ref = truth_at(truth, frame, t)
     pos = np.array([e.position_n for e in nav])
