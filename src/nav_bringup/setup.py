@@ -9,6 +9,11 @@ setup(
     data_files=[
         ("share/ament_index/resource_index/packages", ["resource/" + PACKAGE]),
         ("share/" + PACKAGE, ["package.xml"]),
+        ("share/" + PACKAGE + "/launch", ["launch/navigation.launch.py"]),
+        # config/ is a link to the workspace's top-level config/: one params file for runner and launch.
+        ("share/" + PACKAGE + "/config", ["config/navigation.yaml"]),
+        ("share/" + PACKAGE + "/config/sensor_models", ["config/sensor_models/bp3010.yaml"]),
+        ("share/" + PACKAGE + "/config/scenarios", ["config/scenarios/paper_drive.yaml"]),
     ],
     install_requires=["setuptools"],
     zip_safe=True,
@@ -16,7 +21,8 @@ setup(
     license="Apache-2.0",
     entry_points={
         "console_scripts": [
-            "nav-demo = nav_bringup.demo:main"
+            "nav-demo = nav_bringup.demo:main",
+            "scenario_player = nav_bringup.scenario_player_node:main"
         ],
     },
 )

@@ -22,7 +22,7 @@ from sensor_msgs.msg import Imu
 from imu_calib.allan import AllanError
 from imu_calib.characterise import characterise, write_outputs
 from nav_core.recording import IMU_TOPIC, ImuRecording, RecordingError, read_imu
-from nav_core.ros_node import SENSOR_QOS, ConfigError, Diagnostics, Param, declare_parameters, imu_to_arrays, run_node
+from nav_core.ros_node import SENSOR_QOS, SENSOR_QOS_IN, ConfigError, Diagnostics, Param, declare_parameters, imu_to_arrays, run_node
 
 PARAMS = (
     Param("recording", "", "rosbag2 bag or recording CSV to characterise; empty = subscribe to topic live"),
@@ -51,7 +51,7 @@ class AllanNode(Node):
         if self.values["recording"]:
             self.create_timer(0.1, self._run_offline_once)
         else:
-            self.sub = self.create_subscription(Imu, self.values["topic"], self._on_imu, SENSOR_QOS)
+            self.sub = self.create_subscription(Imu, self.values["topic"], self._on_imu, SENSOR_QOS_IN)
             self.get_logger().info(f"collecting {self.values['duration_s']} s of {self.values['topic']}")
         self.create_timer(self.values["diagnostics_period_s"], self._on_diag_timer)
 

@@ -55,6 +55,7 @@ class Bp3010Driver(Node):
         self.diag = Diagnostics(self, "BP3010", hardware_id=self.p["port"])
         self.port_state = "connecting"
         self.reconnects = 0
+        self.frames_before_clock = 0
         self.last_error = ""
         self._serial = None
         self._frames_at_last_diag = 0
@@ -118,8 +119,12 @@ class Bp3010Driver(Node):
             self._publish(data)
 
     def _publish(self, data: bytes) -> None:
-        now_s = self.get_clock().now().nanoseconds * 1e-9
-        samples = self.core.feed(data, now_s)
+        now_ns = self.get_clock().now().nanoseconds
+        if now_ns == 0:  # use_sim_time and no /clock yet: no stamp to give, so nothing to publish
+            self.frames_before_clock += len(self.core.feed(data, 0.0).t)
+            self.core.clock.reset()
+            return
+        samples = self.core.feed(data, now_ns * 1e-9)
         for i in range(len(samples.t)):
             self.pub.publish(imu_from_arrays(samples.t[i], samples.gyro[i], samples.accel[i], self.p["frame_id"],
                                              self._gyro_var, self._accel_var))
@@ -144,6 +149,7 @@ class Bp3010Driver(Node):
                   "bytes_discarded": stats.bytes_discarded, "actual_rate_hz": rate,
                   "nominal_rate_hz": self.p["rate_hz"], "port": self.p["port"], "port_state": self.port_state,
                   "reconnects": self.reconnects, "clock_reanchors": self.core.clock.reanchors,
+                  "frames_before_clock": self.frames_before_clock,
                   "last_error": self.last_error}
         if self.port_state != "connected":
             level, msg = "ERROR", f"port {self.port_state}"

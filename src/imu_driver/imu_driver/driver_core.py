@@ -14,8 +14,9 @@ class FrameClock:
 
     The anchor is the host time of the first frame; it is set again (re-anchored)
     after a gap in the counter, after a reconnect, and when the prediction
-    drifts more than ``max_offset_s`` from host time (clock drift) or runs
-    ahead of it (a frame cannot be received before it was made).
+    drifts more than ``max_offset_s`` from host time either way (clock drift,
+    or a stall). ``max_offset_s`` must exceed the read jitter, which under
+    simulated time grows with the playback rate.
     """
 
     period_s: float
@@ -39,8 +40,7 @@ class FrameClock:
             step = (counter - self._last_counter) % self.modulo
             self._frames_since_anchor += step
             predicted = self._anchor_time + self._frames_since_anchor * self.period_s
-            if step == 1 and -self.max_offset_s <= host_time_s - predicted <= self.max_offset_s \
-                    and predicted <= host_time_s + self.period_s:
+            if step == 1 and abs(host_time_s - predicted) <= self.max_offset_s:
                 self._last_counter = counter
                 return predicted
             self.reanchors += 1

@@ -1,22 +1,31 @@
-"""``nav-demo``: the main job on the built-in default scenario, no hardware needed.
+"""``nav-demo``: the main job on the built-in default scenario (no hardware needed), or on a recording.
 
-Simulates the paper's drive (imu_sim), streams its BP3010 bytes from the
-emulator through a real pseudo-terminal into ``bp3010_driver`` (a separate
-process on DDS) and prints what the driver publishes, once a second.
+Simulates the paper's drive with BP3010-grade errors (cached per seed), then runs
+the live graph, each node its own process on DDS::
+
+    scenario_player (emulator -> pty, GPS, /clock) -> bp3010_driver -> wmra_node -> ins_gps_kf_node
+                                                     allan_node (stationary head)   bag_record (everything)
+
+and ends with a report (HTML with PNG plots, and a summary on the terminal).
+``--recording BAG`` replays a bag through bag_play -> wmra_node -> ins_gps_kf_node instead.
 """
 from __future__ import annotations
 
 import argparse
 import os
 import random
+import shutil
 import sys
 import time
 from pathlib import Path
 
 import numpy as np
+import yaml
 
-REPO = Path(__file__).resolve().parents[3]
+from nav_bringup.graph import PARAMS_FILE, REPO, Graph, GraphError, NodeSpec
+
 DEFAULT_SCENARIO = REPO / "config" / "scenarios" / "paper_drive.yaml"
+DEFAULT_MODEL = REPO / "config" / "sensor_models" / "bp3010.yaml"
 DEFAULT_OUT = REPO / "out" / "demo"
 
 
@@ -24,111 +33,87 @@ def parse_args(argv=None):
     """Command-line options."""
     p = argparse.ArgumentParser(prog="nav-demo", description=__doc__,
                                 formatter_class=argparse.RawDescriptionHelpFormatter)
+    p.add_argument("--rate", type=float, default=1.0, help="speed: 4 runs four times faster than real time")
+    p.add_argument("--duration", type=float, default=0.0, help="stop after this much simulated time, s (0: all)")
     p.add_argument("--scenario", type=Path, default=DEFAULT_SCENARIO, help="simulator scenario YAML")
-    p.add_argument("--seconds", type=float, default=30.0, help="how much of the drive to stream, s of drive time")
-    p.add_argument("--rate", type=float, default=1.0, help="speed: 2 streams twice as fast as real time")
+    p.add_argument("--model", type=Path, default=DEFAULT_MODEL, help="sensor-model YAML (simulation and nodes)")
     p.add_argument("--seed", type=int, default=1)
-    p.add_argument("--out", type=Path, default=DEFAULT_OUT, help="where the simulation and logs go")
+    p.add_argument("--recording", type=Path, default=None, help="replay this rosbag2 bag instead of simulating")
+    p.add_argument("--truth", type=Path, default=None, help="truth CSV for --recording (else compared with GPS)")
+    p.add_argument("--out", type=Path, default=DEFAULT_OUT, help="folder for the simulation, bag, logs, report")
+    p.add_argument("--params", type=Path, default=PARAMS_FILE, help="the graph's params file")
     return p.parse_args(argv)
 
 
-def simulate_once(scenario: Path, seed: int, out: Path) -> Path:
-    """Simulate the scenario (cached by seed) and return its BP3010 byte stream."""
+def simulate_once(scenario: Path, model: Path, seed: int, out: Path) -> Path:
+    """Simulate the scenario with the model (cached by seed); return the simulation folder."""
     from imu_sim.simulate import simulate, write_outputs
+    from nav_core import sensor_model
 
     sim_dir = out / f"sim_seed{seed}"
-    stream = sim_dir / "bp3010.bin"
-    if stream.exists() and stream.stat().st_mtime > scenario.stat().st_mtime:
+    newest_input = max(scenario.stat().st_mtime, model.stat().st_mtime)
+    if (sim_dir / "bp3010.bin").exists() and (sim_dir / "bp3010.bin").stat().st_mtime > newest_input:
         print(f"[demo] using the simulation in {sim_dir}")
-        return stream
-    print(f"[demo] simulating {scenario.name} (seed {seed}) into {sim_dir} ...")
-    write_outputs(simulate(scenario, seed=seed), sim_dir, fmt="all")
-    return stream
+        return sim_dir
+    print(f"[demo] simulating {scenario.name} with {model.name} (seed {seed}) into {sim_dir}")
+    shutil.rmtree(sim_dir, ignore_errors=True)
+    write_outputs(simulate(scenario, model=sensor_model.load(model), seed=seed), sim_dir, fmt="all")
+    return sim_dir
+
+
+def graph_specs(args, run_dir: Path, sim_dir: Path | None) -> list:
+    """The nodes of this run, in start order (the player last: it waits for the graph)."""
+    sim = {"use_sim_time": True}
+    model = {"sensor_model_path": str(args.model.resolve())}
+    kf = dict(sim, **model)
+    if sim_dir is not None:
+        scen = yaml.safe_load(args.scenario.read_text())
+        kf.update(datum_lat_deg=float(scen["latitude_deg"]), datum_lon_deg=float(scen["longitude_deg"]),
+                  datum_h_m=float(scen["height_m"]))
+    specs = [NodeSpec("wmra_node", dict(sim, **model)), NodeSpec("ins_gps_kf_node", kf),
+             NodeSpec("allan_node", dict(sim, out_dir=str(run_dir / "allan")), ready="collecting"),
+             NodeSpec("bag_record", dict(sim, output=str(run_dir / "bag")))]
+    if sim_dir is None:
+        return specs + [NodeSpec("bag_play", {"bag": str(args.recording.resolve()), "rate": args.rate})]
+    link = run_dir / "bp3010_port"
+    # Under simulated time the serial read jitter grows with the rate: widen the stamp tolerance with it.
+    driver = dict(sim, port=str(link), reconnect_period_s=0.2, max_stamp_offset_s=0.1 * max(1.0, args.rate))
+    return ([NodeSpec("bp3010_driver", driver)] + specs +
+            [NodeSpec("scenario_player", {"sim_dir": str(sim_dir), "link": str(link), "rate": args.rate,
+                                          "duration_s": args.duration})])
 
 
 def main(argv=None) -> int:
-    """Run the emulator -> pty -> driver chain and print a live summary."""
+    """Simulate (or take the recording), run the graph, write the report."""
     args = parse_args(argv)
-    os.environ.setdefault("ROS_DOMAIN_ID", str(random.randint(1, 99)))
-    os.environ.setdefault("ROS_AUTOMATIC_DISCOVERY_RANGE", "LOCALHOST")
-    args.out.mkdir(parents=True, exist_ok=True)
-    stream = simulate_once(args.scenario, args.seed, args.out)
-
-    import rclpy
-    from diagnostic_msgs.msg import DiagnosticArray
-    from sensor_msgs.msg import Imu
-
-    from nav_core.processes import NodeProcess
-    from nav_core.ros_node import Probe
-
-    link = args.out / "bp3010_port"
-    frames = int(args.seconds * 64)
-    drv = NodeProcess("bp3010_driver", params_file=REPO / "config" / "bp3010_driver.yaml",
-                      ros_args={"port": str(link), "reconnect_period_s": 0.2})
-    rclpy.init()
-    probe = Probe({"imu/data_raw": Imu})
-    diags = []
-    probe.create_subscription(DiagnosticArray, "/diagnostics", diags.append, 10)
-    # The driver waits for its port; start streaming once the probe sees the driver on DDS.
-    if not probe.spin_until(lambda p: p.count_publishers("imu/data_raw") > 0, 30):
-        print(drv.output, file=sys.stderr)
-        return 1
-    emu = NodeProcess("bp3010_emulator", ["--source", stream, "--link", link, "--speed", args.rate,
-                                          "--max-frames", frames])
-    print(f"[demo] emulator on {link} -> bp3010_driver -> imu/data_raw (ROS_DOMAIN_ID={os.environ['ROS_DOMAIN_ID']})")
-    print(f"{'time':>6} {'msgs':>6} {'rate':>6} {'gyro z':>10} {'accel x':>9} {'accel z':>9}  driver diagnostics")
-    print(f"{'s':>6} {'':>6} {'Hz':>6} {'deg/s':>10} {'m/s^2':>9} {'m/s^2':>9}")
-    status = 0
+    env = dict(os.environ)
+    env.setdefault("ROS_DOMAIN_ID", str(random.randint(1, 99)))
+    env.setdefault("ROS_AUTOMATIC_DISCOVERY_RANGE", "LOCALHOST")
+    os.environ.update({k: env[k] for k in ("ROS_DOMAIN_ID", "ROS_AUTOMATIC_DISCOVERY_RANGE")})
+    sim_dir = None if args.recording else simulate_once(args.scenario, args.model, args.seed, args.out)
+    run_dir = args.out / time.strftime("run_%Y%m%d_%H%M%S")
+    run_dir.mkdir(parents=True)
+    graph = Graph(graph_specs(args, run_dir, sim_dir), env, args.params, log_dir=run_dir / "logs")
+    player = "bag_play" if args.recording else "scenario_player"
+    print(f"[demo] starting the graph (ROS_DOMAIN_ID={env['ROS_DOMAIN_ID']}); output in {run_dir}")
     try:
-        status = _watch(probe, diags, emu, frames, args.rate)
+        graph.start()
+        from nav_bringup.live_status import watch
+
+        watch(graph, player, sim_dir)
+    except GraphError as err:
+        print(f"[demo] {err}", file=sys.stderr)
+        graph.stop()
+        return 1
     except KeyboardInterrupt:
-        pass
-    finally:
-        probe.destroy_node()
-        rclpy.try_shutdown()
-        drv_code, _ = drv.stop(), emu.stop()
-    print(f"[demo] driver exited with {drv_code}; logs in {args.out}")
-    (args.out / "driver.log").write_text(drv.output)
-    (args.out / "emulator.log").write_text(emu.output)
-    return status or drv_code
+        print("[demo] interrupted")
+    codes = graph.stop()
+    print("[demo] exit codes: " + ", ".join(f"{k} {v}" for k, v in codes.items()))
+    from nav_bringup.report import write_report
 
-
-def _watch(probe, diags, emu, frames: int, rate: float) -> int:
-    start = time.monotonic()
-    last_n = 0
-    deadline = start + frames / 64 / rate + 20
-    while time.monotonic() < deadline:
-        tick = time.monotonic()
-        probe.spin_until(lambda p: False, 1.0)
-        msgs = probe.received["imu/data_raw"]
-        n = len(msgs)
-        if n:
-            m = msgs[-1][1]
-            window = [x[1] for x in msgs[last_n:]] or [m]
-            gz = np.degrees(np.mean([w.angular_velocity.z for w in window]))
-            ax = np.mean([w.linear_acceleration.x for w in window])
-            az = np.mean([w.linear_acceleration.z for w in window])
-            d = _driver_diag(diags)
-            rate_hz = (n - last_n) / (time.monotonic() - tick)
-            print(f"{time.monotonic() - start:6.1f} {n:6d} {rate_hz:6.1f} {gz:10.3f} {ax:9.3f} {az:9.3f}  {d}",
-                  flush=True)
-        finished = n >= frames or (emu.proc.poll() is not None and n == last_n)
-        last_n = n
-        if finished:
-            break
-    received = len(probe.received["imu/data_raw"])
-    print(f"[demo] received {received} of {frames} frames as sensor_msgs/Imu on imu/data_raw")
-    return 0 if received >= 0.95 * frames else 1
-
-
-def _driver_diag(diags) -> str:
-    for arr in reversed(diags):
-        for st in arr.status:
-            if "bp3010_driver" in st.name:
-                v = {kv.key: kv.value for kv in st.values}
-                return (f"{st.message}; frames {v['frames_received']}, checksum errors {v['checksum_errors']}, "
-                        f"lost {v['lost_frames']}, port {v['port_state']}")
-    return "(waiting)"
+    summary = write_report(run_dir, sim_dir=sim_dir, truth_csv=args.truth, exit_codes=codes)
+    print(summary)
+    return 0 if all(c == 0 for c in codes.values()) else 1
 
 
 if __name__ == "__main__":

@@ -319,6 +319,51 @@ def write_bag(path, imu: ImuRecording | None = None, gnss: GnssRecording | None 
     return Path(path)
 
 
+@dataclass
+class OdometryRecording:
+    """``nav_msgs/Odometry``: ``t`` s, ``position`` (n, 3) m in the pose frame, ``quat_xyzw`` (n, 4),
+    ``velocity_body`` (n, 3) m/s in the child frame, ``pose_std`` (n, 6) and ``twist_std`` (n, 6)
+    (sqrt of the covariance diagonals: m and rad, m/s and rad/s)."""
+
+    t: np.ndarray
+    position: np.ndarray
+    quat_xyzw: np.ndarray
+    velocity_body: np.ndarray
+    pose_std: np.ndarray
+    twist_std: np.ndarray
+    frame_id: str = "odom"
+    child_frame_id: str = "base_link"
+    source: str = ""
+    damage: str | None = None
+
+    def __len__(self):
+        return len(self.t)
+
+
+def read_odometry(path, topic: str = "odometry/filtered", strict: bool = False) -> OdometryRecording:
+    """``nav_msgs/Odometry`` messages of ``topic`` from a bag."""
+    from nav_core import bagio
+
+    path = Path(path)
+    rows, frames, damage = [], ("odom", "base_link"), None
+    try:
+        for _, _, msg in bagio.iter_messages(path, [topic]):
+            pose, twist = msg.pose.pose, msg.twist.twist
+            rows.append([bagio.stamp_to_s(msg.header.stamp), pose.position.x, pose.position.y, pose.position.z,
+                         pose.orientation.x, pose.orientation.y, pose.orientation.z, pose.orientation.w,
+                         twist.linear.x, twist.linear.y, twist.linear.z,
+                         *np.sqrt(np.clip(np.diag(np.reshape(msg.pose.covariance, (6, 6))), 0, None)),
+                         *np.sqrt(np.clip(np.diag(np.reshape(msg.twist.covariance, (6, 6))), 0, None))])
+            frames = (msg.header.frame_id, msg.child_frame_id)
+    except bagio.BagDamage as err:
+        damage = _damage_or_raise(err, strict)
+    if not rows and damage is None:
+        raise RecordingError(f"{path}: no messages on topic {topic!r}; the bag has {bagio.topics(path)}")
+    a = np.asarray(rows, dtype=float).reshape(-1, 23)
+    return OdometryRecording(a[:, 0], a[:, 1:4], a[:, 4:8], a[:, 8:11], a[:, 11:17], a[:, 17:23],
+                             frames[0], frames[1], str(path), damage)
+
+
 # ----------------------------------------------------------------------------- dispatch
 
 

@@ -20,6 +20,10 @@ from sensor_msgs.msg import Imu
 SENSOR_QOS = qos_profile_sensor_data
 """Best-effort QoS of sensor topics: a reliable subscriber will not connect to them."""
 
+SENSOR_QOS_IN = QoSProfile(depth=500, reliability=ReliabilityPolicy.BEST_EFFORT)
+"""Subscriptions to sensor topics: best effort like the publishers, but a deep queue, so a node that
+falls behind for a moment (a GC pause, a busy core) catches up instead of dropping samples."""
+
 DIAG_LEVELS = {"OK": DiagnosticStatus.OK, "WARN": DiagnosticStatus.WARN,
                "ERROR": DiagnosticStatus.ERROR, "STALE": DiagnosticStatus.STALE}
 

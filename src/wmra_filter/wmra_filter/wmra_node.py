@@ -14,7 +14,7 @@ import numpy as np
 from sensor_msgs.msg import Imu
 
 from nav_core import sensor_model
-from nav_core.ros_node import (SENSOR_QOS, ConfigError, Diagnostics, Param, declare_parameters, imu_from_arrays,
+from nav_core.ros_node import (SENSOR_QOS, SENSOR_QOS_IN, ConfigError, Diagnostics, Param, declare_parameters, imu_from_arrays,
                                imu_to_arrays, run_node)
 from rclpy.node import Node
 from wmra_filter import levels, thresholds as thr
@@ -85,7 +85,7 @@ class WmraNode(Node):
                       "busy_s": 0.0, "busy_max_s": 0.0}
         self._last_t = None
         self.pub = self.create_publisher(Imu, "imu/data_corrected", SENSOR_QOS)
-        self.create_subscription(Imu, "imu/data_raw", self.on_imu, SENSOR_QOS)
+        self.create_subscription(Imu, "imu/data_raw", self.on_imu, SENSOR_QOS_IN)
         self.diagnostics = Diagnostics(self, "wmra", hardware_id=values["sensor_model_path"])
         self.create_timer(values["diagnostics_period_s"], self.publish_diagnostics)
         self.get_logger().info(f"ready: level {self.cfg.level}, window {self.cfg.window_samples}, "

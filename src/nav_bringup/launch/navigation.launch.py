@@ -1,0 +1,50 @@
+"""The navigation graph on a full ROS 2 install: ``ros2 launch nav_bringup navigation.launch.py``.
+
+Same nodes and the same params file (``config/navigation.yaml``) as the process
+runner that pip-only installs use (``nav-demo``, ``nav_bringup.graph``).
+
+    ros2 launch nav_bringup navigation.launch.py sim_dir:=/tmp/drive rate:=4.0
+    ros2 launch nav_bringup navigation.launch.py recording:=/path/to/bag
+    ros2 launch nav_bringup navigation.launch.py port:=/dev/ttyUSB0 use_sim_time:=false   # real hardware
+"""
+import os
+
+from ament_index_python.packages import get_package_share_directory
+from launch import LaunchDescription
+from launch.actions import DeclareLaunchArgument
+from launch.conditions import IfCondition, UnlessCondition
+from launch.substitutions import LaunchConfiguration, PythonExpression
+from launch_ros.actions import Node
+
+
+def generate_launch_description():
+    """Driver (or scenario player / bag player) -> wmra_node -> ins_gps_kf_node, plus Allan node and recorder."""
+    share = get_package_share_directory("nav_bringup")
+    params = os.path.join(share, "config", "navigation.yaml")
+    model = os.path.join(share, "config", "sensor_models", "bp3010.yaml")
+    arg = LaunchConfiguration
+    sim = {"use_sim_time": arg("use_sim_time")}
+    live = PythonExpression(["'", arg("recording"), "' == ''"])
+    simulated = PythonExpression(["'", arg("recording"), "' == '' and '", arg("sim_dir"), "' != ''"])
+    return LaunchDescription([
+        DeclareLaunchArgument("sim_dir", default_value="", description="imu-sim output to play live"),
+        DeclareLaunchArgument("recording", default_value="", description="rosbag2 bag to replay instead"),
+        DeclareLaunchArgument("rate", default_value="1.0", description="playback speed"),
+        DeclareLaunchArgument("port", default_value="/tmp/bp3010", description="serial port of the BP3010"),
+        DeclareLaunchArgument("use_sim_time", default_value="true"),
+        DeclareLaunchArgument("sensor_model", default_value=model),
+        DeclareLaunchArgument("bag_out", default_value="navigation_bag"),
+        Node(package="nav_bringup", executable="scenario_player", parameters=[
+            params, {"sim_dir": arg("sim_dir"), "rate": arg("rate"), "link": arg("port")}],
+            condition=IfCondition(simulated)),
+        Node(package="imu_driver", executable="bag_play", parameters=[
+            params, {"bag": arg("recording"), "rate": arg("rate")}], condition=UnlessCondition(live)),
+        Node(package="imu_driver", executable="bp3010_driver", parameters=[params, sim, {"port": arg("port")}],
+             condition=IfCondition(live)),
+        Node(package="wmra_filter", executable="wmra_node",
+             parameters=[params, sim, {"sensor_model_path": arg("sensor_model")}]),
+        Node(package="ins_gps_kf", executable="ins_gps_kf_node",
+             parameters=[params, sim, {"sensor_model_path": arg("sensor_model")}]),
+        Node(package="imu_calib", executable="allan_node", parameters=[params, sim]),
+        Node(package="imu_driver", executable="bag_record", parameters=[params, sim, {"output": arg("bag_out")}]),
+    ])

@@ -1,0 +1,76 @@
+"""Process runner for pip-only installs (the stand-in for ``ros2 launch``): start, watch and stop a node graph.
+
+Each node is its own process on DDS, started from its executable with the one
+params file (``config/navigation.yaml``) plus per-run overrides, exactly as
+``launch/navigation.launch.py`` starts them on a full ROS 2 install.
+"""
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+
+from nav_core.processes import NodeProcess
+
+REPO = Path(__file__).resolve().parents[3]
+PARAMS_FILE = REPO / "config" / "navigation.yaml"
+
+
+@dataclass
+class NodeSpec:
+    """One node of the graph: executable, parameter overrides, and the log line that says it is ready."""
+
+    executable: str
+    overrides: dict = field(default_factory=dict)
+    ready: str = "ready"
+    args: tuple = ()
+
+
+class GraphError(RuntimeError):
+    """A node did not start or died; the message carries its output."""
+
+
+class Graph:
+    """A set of node processes sharing one environment (ROS_DOMAIN_ID) and params file."""
+
+    def __init__(self, specs, env: dict, params_file: Path = PARAMS_FILE, log_dir: Path | None = None):
+        self.specs = list(specs)
+        self.env = env
+        self.params_file = params_file
+        self.log_dir = log_dir
+        self.procs: dict[str, NodeProcess] = {}
+
+    def start(self, timeout_s: float = 60.0) -> None:
+        """Start every node in order and wait for each to say it is ready."""
+        for spec in self.specs:
+            proc = NodeProcess(spec.executable, spec.args, env=self.env, params_file=self.params_file,
+                               ros_args=spec.overrides)
+            self.procs[spec.executable] = proc
+            if not proc.wait_for_line(spec.ready, timeout_s):
+                self.stop()
+                raise GraphError(f"{spec.executable} did not become ready within {timeout_s} s "
+                                 f"(exit {proc.proc.poll()}):\n{proc.output[-3000:]}")
+
+    def dead(self) -> dict:
+        """Nodes that have exited: executable -> exit code."""
+        return {name: p.proc.poll() for name, p in self.procs.items() if p.proc.poll() is not None}
+
+    def wait_for_exit(self, executable: str, timeout_s: float) -> int | None:
+        """Wait for one node to exit by itself; its exit code, or None on timeout."""
+        deadline = time.monotonic() + timeout_s
+        proc = self.procs[executable].proc
+        while time.monotonic() < deadline:
+            if proc.poll() is not None:
+                return proc.returncode
+            time.sleep(0.2)
+        return None
+
+    def stop(self) -> dict:
+        """Stop every node (reverse order, SIGINT then SIGKILL); write logs; return exit codes."""
+        codes = {}
+        for name in reversed(list(self.procs)):
+            codes[name] = self.procs[name].stop()
+            if self.log_dir:
+                self.log_dir.mkdir(parents=True, exist_ok=True)
+                (self.log_dir / f"{name}.log").write_text(self.procs[name].output)
+        return codes

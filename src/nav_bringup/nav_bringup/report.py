@@ -1,0 +1,240 @@
+"""Run report: what the graph recorded against truth (or GPS), as HTML with PNG plots and a terminal summary.
+
+Figures follow the paper: the trajectory on north/east axes with GPS and truth
+(Fig. 6), errors over time with the filter's 3-sigma bounds, the Allan deviation
+of the stationary head (Fig. 3), raw against denoised signals (Figs. 4 and 5),
+and the diagnostics of every node.
+"""
+from __future__ import annotations
+
+import html
+import shutil
+from pathlib import Path
+
+import matplotlib
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt  # noqa: E402
+import numpy as np  # noqa: E402
+from scipy.spatial.transform import Rotation  # noqa: E402
+
+from nav_bringup.truth import TruthTrack  # noqa: E402
+from nav_core import bagio, recording  # noqa: E402
+from nav_core.earth import LocalFrame  # noqa: E402
+from nav_core.frames import euler_from_quat_xyzw, wrap_angle  # noqa: E402
+from nav_core.units import DEG  # noqa: E402
+
+
+def last_diagnostics(bag: Path) -> dict:
+    """Node status name -> (level, message, values) of the last /diagnostics status per name."""
+    out = {}
+    try:
+        for _, _, msg in bagio.iter_messages(bag, ["/diagnostics"]):
+            for st in msg.status:
+                out[st.name] = (int(st.level), st.message, {kv.key: kv.value for kv in st.values})
+    except bagio.BagDamage as err:
+        out["bag"] = (2, str(err), {})
+    return out
+
+
+def _rms(x) -> float:
+    x = np.asarray(x, dtype=float)
+    x = x[np.isfinite(x)]
+    return float(np.sqrt(np.mean(x**2))) if len(x) else float("nan")
+
+
+def evaluate(odom, gnss, truth: TruthTrack | None, frame: LocalFrame) -> dict:
+    """Error series and RMS figures of the filter (and of raw GPS) against truth, or against GPS without truth."""
+    gps_enu = frame.to_enu(gnss.lat / DEG, gnss.lon / DEG, gnss.h)
+    res = {"t": odom.t, "gps_t": gnss.t, "gps_enu": gps_enu, "odom_enu": odom.position}
+    rot = Rotation.from_quat(odom.quat_xyzw)
+    res["vel_enu"] = rot.apply(odom.velocity_body)
+    if truth is not None:
+        ref = truth.at(odom.t)
+        res["pos_err"] = odom.position - ref
+        res["gps_err"] = gps_enu - truth.at(gnss.t)
+        if truth.velocity_n is not None:
+            res["vel_err"] = res["vel_enu"] - np.column_stack(
+                [np.interp(odom.t, truth.t, truth.velocity_n[:, i]) for i in range(3)])
+        roll, pitch, yaw = euler_from_quat_xyzw(odom.quat_xyzw)
+        res["att_err"] = np.column_stack([wrap_angle(a - np.interp(odom.t, truth.t, np.unwrap(truth.rpy[:, i])))
+                                          for i, a in enumerate((roll, pitch, yaw))])
+        res["reference"] = "truth"
+    else:
+        ref = np.column_stack([np.interp(odom.t, gnss.t, gps_enu[:, i]) for i in range(3)])
+        res["pos_err"] = odom.position - ref
+        res["reference"] = "GPS"
+    nav = odom.t >= odom.t[0]
+    res["rms"] = {"horizontal position (m)": _rms(np.hypot(*res["pos_err"][nav, :2].T)),
+                  "vertical position (m)": _rms(res["pos_err"][nav, 2])}
+    if "gps_err" in res:
+        res["rms"]["raw GPS horizontal (m)"] = _rms(np.hypot(*res["gps_err"][:, :2].T))
+    if "vel_err" in res:
+        res["rms"]["horizontal velocity (m/s)"] = _rms(np.hypot(*res["vel_err"][:, :2].T))
+    if "att_err" in res:
+        res["rms"].update({"roll (deg)": _rms(res["att_err"][:, 0] / DEG), "pitch (deg)": _rms(res["att_err"][:, 1] / DEG),
+                           "yaw (deg)": _rms(res["att_err"][:, 2] / DEG)})
+    return res
+
+
+def plot_trajectory(res, truth, path: Path) -> None:
+    """North against east: filter, GPS fixes, truth (the paper's Fig. 6)."""
+    fig, ax = plt.subplots(figsize=(7, 7))
+    if truth is not None:
+        ax.plot(truth.enu[:, 0], truth.enu[:, 1], "k-", lw=2.5, alpha=0.4, label="truth")
+    ax.plot(res["gps_enu"][:, 0], res["gps_enu"][:, 1], ".", ms=3, color="tab:orange", label="GPS fixes")
+    ax.plot(res["odom_enu"][:, 0], res["odom_enu"][:, 1], "-", lw=1, color="tab:blue", label="INS/GPS filter")
+    ax.set_xlabel("east (m)")
+    ax.set_ylabel("north (m)")
+    ax.set_aspect("equal", adjustable="datalim")
+    ax.legend()
+    ax.set_title("Trajectory on north/east axes (cf. paper Fig. 6)")
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+
+
+def plot_errors(res, odom, path: Path) -> None:
+    """Position (and velocity, attitude where known) errors over time with the filter's 3-sigma bounds."""
+    rows = [("pos_err", ["east", "north", "up"], "m", odom.pose_std[:, :3], 1.0)]
+    if "vel_err" in res:
+        rows.append(("vel_err", ["east", "north", "up"], "m/s", None, 1.0))
+    if "att_err" in res:
+        rows.append(("att_err", ["roll", "pitch", "yaw"], "deg", odom.pose_std[:, 3:6], 1 / DEG))
+    fig, axes = plt.subplots(len(rows), 3, figsize=(13, 3.0 * len(rows)), sharex=True, squeeze=False)
+    t = res["t"] - res["t"][0]
+    for r, (key, names, unit, std, scale) in enumerate(rows):
+        for i in range(3):
+            ax = axes[r, i]
+            ax.plot(t, res[key][:, i] * scale, lw=0.8, label=f"{names[i]} error")
+            if std is not None:
+                ax.fill_between(t, -3 * std[:, i] * scale, 3 * std[:, i] * scale, color="tab:gray", alpha=0.3,
+                                label="±3σ (filter)")
+            ax.set_ylabel(unit)
+            ax.set_title(f"{names[i]} ({'position' if key == 'pos_err' else 'velocity' if key == 'vel_err' else 'attitude'})",
+                         fontsize=9)
+            if r == 0 and i == 0:
+                ax.legend(fontsize=7)
+    for ax in axes[-1]:
+        ax.set_xlabel("time (s)")
+    fig.suptitle(f"Filter errors against {res['reference']}")
+    fig.tight_layout()
+    fig.savefig(path, dpi=100)
+    plt.close(fig)
+
+
+def plot_raw_vs_denoised(raw, den, path: Path) -> None:
+    """Raw against denoised gyro z and accel x over the most dynamic 20 s (cf. paper Figs. 4 and 5)."""
+    if len(raw) < 64 or len(den) < 64:
+        return
+    rate = raw.rate_hz
+    win = int(20 * rate)
+    activity = np.convolve(np.abs(np.diff(raw.gyro[:, 2], prepend=raw.gyro[0, 2])), np.ones(win), "valid")
+    i0 = int(np.argmax(activity)) if len(activity) else 0
+    t0, t1 = raw.t[i0], raw.t[min(i0 + win, len(raw) - 1)]
+    fig, axes = plt.subplots(2, 1, figsize=(11, 6), sharex=True)
+    for ax, (name, col, scale, unit) in zip(axes, (("gyro z", ("gyro", 2), 1 / DEG, "deg/s"),
+                                                    ("accel x", ("accel", 0), 1.0, "m/s²"))):
+        for rec, label, style in ((raw, "raw (imu/data_raw)", dict(lw=0.6, alpha=0.6)),
+                                  (den, "denoised (imu/data_corrected)", dict(lw=1.2))):
+            m = (rec.t >= t0) & (rec.t <= t1)
+            ax.plot(rec.t[m] - t0, getattr(rec, col[0])[m, col[1]] * scale, label=label, **style)
+        ax.set_ylabel(f"{name} ({unit})")
+        ax.legend(fontsize=8)
+    axes[-1].set_xlabel(f"time from {t0 - raw.t[0]:.0f} s (s)")
+    fig.suptitle("Raw against WMRA-denoised (cf. paper Figs. 4 and 5)")
+    fig.tight_layout()
+    fig.savefig(path, dpi=100)
+    plt.close(fig)
+
+
+def write_report(run_dir: Path, sim_dir: Path | None = None, truth_csv: Path | None = None,
+                 exit_codes: dict | None = None) -> str:
+    """Write ``run_dir/report.html`` and PNGs from ``run_dir/bag``; return a one-screen summary."""
+    run_dir = Path(run_dir)
+    bag = run_dir / "bag"
+    odom = recording.read_odometry(bag)
+    gnss = recording.read_gnss(bag)
+    gnss = _finite(gnss)
+    if sim_dir is not None:
+        truth = TruthTrack.from_sim_dir(sim_dir)
+        frame = truth.frame
+    else:
+        frame = LocalFrame(float(gnss.lat[0] / DEG), float(gnss.lon[0] / DEG), float(gnss.h[0]))
+        truth = TruthTrack.from_csv(truth_csv, frame) if truth_csv else None
+    res = evaluate(odom, gnss, truth, frame)
+    plot_trajectory(res, truth, run_dir / "trajectory.png")
+    plot_errors(res, odom, run_dir / "errors.png")
+    figures = ["trajectory.png", "errors.png"]
+    try:
+        raw = recording.read_imu(bag, topic="imu/data_raw")
+        den = recording.read_imu(bag, topic="imu/data_corrected")
+        plot_raw_vs_denoised(raw, den, run_dir / "raw_vs_denoised.png")
+        figures.append("raw_vs_denoised.png")
+    except recording.RecordingError:
+        raw = den = None
+    if (run_dir / "allan" / "allan.png").exists():
+        shutil.copy(run_dir / "allan" / "allan.png", run_dir / "allan.png")
+        figures.append("allan.png")
+    diags = last_diagnostics(bag)
+    _write_html(run_dir, res, odom, gnss, raw, den, diags, figures, exit_codes or {})
+    return _summary(run_dir, res, odom, gnss, raw, den, diags, exit_codes or {})
+
+
+def _finite(gnss):
+    ok = np.isfinite(gnss.lat) & np.isfinite(gnss.lon) & (gnss.status >= 0)
+    return recording.GnssRecording(gnss.t[ok], gnss.lat[ok], gnss.lon[ok], gnss.h[ok], gnss.std_enu[ok],
+                                   gnss.status[ok], gnss.source)
+
+
+def _counts(odom, gnss, raw, den) -> dict:
+    dur = odom.t[-1] - odom.t[0] if len(odom) > 1 else 0.0
+    out = {"odometry messages": len(odom), "odometry rate (Hz)": (len(odom) - 1) / dur if dur else float("nan"),
+           "GPS fixes": len(gnss)}
+    if raw is not None:
+        out.update({"imu/data_raw messages": len(raw), "imu/data_corrected messages": len(den)})
+    return out
+
+
+def _summary(run_dir, res, odom, gnss, raw, den, diags, codes) -> str:
+    lines = [f"=== Navigation report: {run_dir / 'report.html'}",
+             f"    reference: {res['reference']}; {len(odom)} filter epochs over {odom.t[-1] - odom.t[0]:.0f} s"]
+    lines += [f"    {k:<32} {v:10.3f}" for k, v in res["rms"].items()]
+    lines += [f"    {k:<32} {v:10.3f}" if isinstance(v, float) else f"    {k:<32} {v:10d}"
+              for k, v in _counts(odom, gnss, raw, den).items()]
+    for name, (level, message, values) in sorted(diags.items()):
+        keys = [k for k in ("frames_received", "checksum_errors", "lost_frames", "rejected_fixes", "fixes",
+                            "restarts", "state") if k in values]
+        detail = ", ".join(f"{k} {values[k]}" for k in keys)
+        lines.append(f"    [{('OK', 'WARN', 'ERROR', 'STALE')[min(level, 3)]:5}] {name}: {message}"
+                     + (f" ({detail})" if detail else ""))
+    if codes:
+        lines.append("    exit codes: " + ", ".join(f"{k} {v}" for k, v in codes.items()))
+    return "\n".join(lines)
+
+
+def _table(rows: dict) -> str:
+    cells = "".join(f"<tr><td>{html.escape(str(k))}</td><td>{v:.4g}</td></tr>" if isinstance(v, float)
+                    else f"<tr><td>{html.escape(str(k))}</td><td>{html.escape(str(v))}</td></tr>"
+                    for k, v in rows.items())
+    return f"<table>{cells}</table>"
+
+
+def _write_html(run_dir, res, odom, gnss, raw, den, diags, figures, codes) -> None:
+    diag_rows = "".join(
+        f"<tr><td>{html.escape(n)}</td><td>{('OK', 'WARN', 'ERROR', 'STALE')[min(l, 3)]}</td>"
+        f"<td>{html.escape(m)}</td><td>{html.escape(', '.join(f'{k}={v}' for k, v in vals.items()))}</td></tr>"
+        for n, (l, m, vals) in sorted(diags.items()))
+    imgs = "".join(f'<h2>{f.replace("_", " ").replace(".png", "")}</h2><img src="{f}" style="max-width:100%">'
+                   for f in figures)
+    page = f"""<!doctype html><html><head><meta charset="utf-8"><title>Navigation report</title>
+<style>body{{font-family:sans-serif;max-width:1200px;margin:auto}} td{{padding:2px 10px;border-bottom:1px solid #ddd}}
+table{{border-collapse:collapse;margin-bottom:1em}}</style></head><body>
+<h1>Navigation report</h1><p>Run folder: {html.escape(str(run_dir))}. Errors against {res['reference']}.</p>
+<h2>Accuracy (RMS)</h2>{_table(res['rms'])}
+<h2>Messages</h2>{_table(_counts(odom, gnss, raw, den))}
+<h2>Exit codes</h2>{_table(codes)}
+{imgs}
+<h2>Diagnostics (last status of every node)</h2><table>{diag_rows}</table>
+</body></html>"""
+    (run_dir / "report.html").write_text(page)
