@@ -215,6 +215,8 @@ class InsGpsFilter:
                                          cfg.init_accel_bias_std)
         self.status = NAVIGATING if known_yaw else HEADING_PENDING
         self.epoch_index = math.floor(t0 * cfg.filter_rate_hz + EPOCH_TOL_S) + 1
+        self._earth_at = (math.inf, math.inf)
+        self._radii = earth.radii(lat0)
         self._update_earth()
 
     @property
@@ -229,14 +231,21 @@ class InsGpsFilter:
         return strapdown.mat_nb(self.nav)
 
     def _update_earth(self):
-        """Earth rate, transport rate and gravity (ENU) at the current position, held until the next epoch."""
+        """Earth rate, transport rate and gravity (ENU) at the current position, held until the next epoch.
+
+        Gravity and Earth rate are recomputed only after a move of ~1 m in latitude or height
+        (they change by parts per billion per metre); the transport rate follows the velocity.
+        """
         h = self.frame.h0_m + self.nav[strapdown.P][2]
-        rm, rn = earth.radii(self.frame.lat0_deg * DEG)
+        rm, rn = self._radii
         lat = self.frame.lat0_deg * DEG + self.nav[strapdown.P][1] / (rm + h)
-        self.w_ie_n = earth.earth_rate_n(lat)
+        if abs(lat - self._earth_at[0]) > 1.5e-7 or abs(h - self._earth_at[1]) > 1.0:
+            self._earth_at = (lat, h)
+            self._radii = earth.radii(lat)
+            self.w_ie_n = earth.earth_rate_n(lat)
+            self.g_n = earth.gravity_n(lat, h)
+            self.gravity = -self.g_n[2]
         self.w_en_n = earth.transport_rate_n(lat, h, self.nav[strapdown.V])
-        self.g_n = earth.gravity_n(lat, h)
-        self.gravity = -self.g_n[2]
 
     def _epoch(self) -> Estimate:
         t_e = self.t_last

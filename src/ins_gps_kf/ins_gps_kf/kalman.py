@@ -72,16 +72,14 @@ def gate_threshold(dof: int, probability: float) -> float:
 
 
 def correct(cov, z, h, r, probability):
-    """Joseph-form update of the zero error state with innovation ``z`` (m,) = predicted - measured.
+    """Joseph-form update (FilterPy) of the zero error state by ``z`` (m,) = predicted - measured = ``H dx + v``.
 
-    Returns the new covariance (unchanged when gated out) and a :class:`Correction`.
-    The error state is zero before the update, so the innovation equals ``-z``
-    in filterpy's ``z - H x`` convention with a measurement of ``-z``.
+    Returns the new covariance (unchanged when gated out) and a :class:`Correction` whose
+    NIS uses FilterPy's innovation covariance ``S``.
     """
-    s = h @ cov @ h.T + r
-    nis = float(z @ np.linalg.solve(s, z))
+    dx, cov_new, y, _, s, _ = kf_update(np.zeros(len(cov)), cov, z, r, h, return_all=True)
+    nis = float(y @ np.linalg.solve(s, y))
     gate = gate_threshold(len(z), probability)
     if not np.isfinite(nis) or nis > gate:
         return cov, Correction(None, nis, gate, len(z), z)
-    dx, cov_new = kf_update(np.zeros(len(cov)), cov, z, r, h)
     return 0.5 * (cov_new + cov_new.T), Correction(dx, nis, gate, len(z), z)
