@@ -1,0 +1,70 @@
+"""Building blocks of the diagnosis: GLS identifiability, lattice test, Whittle random walk, change points."""
+import numpy as np
+from hypothesis import given, settings, strategies as st
+
+from imu_sim.diagnose import metrics, noise_tests
+from imu_sim.diagnose.spectral import Whitener, gls
+from imu_sim.diagnose.suite import suite_model
+
+
+def _whitener(resid, dt=0.02):
+    return Whitener.from_model(suite_model(), resid, dt)
+
+
+def test_constant_regressor_is_reported_not_identifiable():
+    rng = np.random.default_rng(0)
+    resid = rng.standard_normal((2000, 6)) * 1e-3
+    wh = _whitener(resid)
+    res = gls(wh, np.fft.rfft(resid, axis=0), {0: np.full((2000, 1), 7e-5)}, 1)
+    assert not res.identifiable and "bias" in res.why
+
+
+def test_gls_recovers_a_slope_with_a_covering_interval():
+    rng = np.random.default_rng(5)
+    n = 4000
+    x = np.linspace(-1, 1, n)[:, None]
+    resid = rng.standard_normal((n, 6)) * 1e-2
+    resid[:, 2] += 3e-3 * x[:, 0] + 0.5
+    wh = _whitener(resid)
+    res = gls(wh, np.fft.rfft(resid, axis=0), {2: x}, 1)
+    lo, hi = res.interval()[0]
+    assert lo < 3e-3 < hi and res.lr > 20
+
+
+@settings(max_examples=25, deadline=None)
+@given(st.floats(1e-6, 1e-2), st.integers(0, 10_000))
+def test_lattice_step_is_found_for_any_lsb(lsb, seed):
+    rng = np.random.default_rng(seed)
+    x = np.round(rng.normal(0.3, 4 * lsb, 5000) / lsb) * lsb
+    q, se, z, frac = noise_tests.lattice(x)
+    assert abs(q - lsb) <= 1e-6 * lsb and z > 1000
+
+
+def test_continuous_values_have_no_lattice():
+    x = np.random.default_rng(2).normal(0, 1e-3, 5000)
+    _, _, z, frac = noise_tests.lattice(x)
+    assert z < 20 and frac == 1.0
+
+
+def test_whittle_finds_random_walk_and_not_in_white_noise():
+    rng = np.random.default_rng(3)
+    n, dt = 8192, 0.1
+    white = rng.standard_normal(n) * 1e-3 / np.sqrt(dt)
+    rw = np.cumsum(rng.standard_normal(n)) * 2e-4 * np.sqrt(dt)
+    f, p_w = noise_tests.periodogram(white[:, None], dt)
+    _, p_rw = noise_tests.periodogram((white + rw)[:, None], dt)
+    s0 = np.full(len(f), 1e-6)
+    extra = noise_tests.rw_extra(f)
+    assert noise_tests.whittle_extra(p_w[:, 0], s0, extra)[0] < 10
+    lr, c, ci, _, _ = noise_tests.whittle_extra(p_rw[:, 0], s0, extra)
+    assert lr > 50 and ci[0] / 1.5 <= (2e-4) ** 2 <= ci[1] * 1.5
+
+
+def test_time_span_brackets_an_effect_in_the_middle():
+    rng = np.random.default_rng(4)
+    t = np.arange(1, 10001) * 0.01
+    contrib = np.zeros((len(t), 1))
+    contrib[4000:6000, 0] = 0.3
+    resid = rng.standard_normal((len(t), 1)) + contrib
+    a, b = metrics.time_span(resid, contrib, t)
+    assert 35 <= a <= 41 and 59 <= b <= 65
