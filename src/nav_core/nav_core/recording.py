@@ -367,29 +367,25 @@ def read_odometry(path, topic: str = "odometry/filtered", strict: bool = False) 
 # ----------------------------------------------------------------------------- dispatch
 
 
-def read_imu(path, topic: str = IMU_TOPIC, strict: bool = False) -> ImuRecording:
-    """Read IMU samples from a rosbag2 bag (folder, .db3, .mcap) or the recording CSV."""
+def _read_any(path, what: str, bag_reader, csv_reader, **kwargs):
+    """Dispatch on the kind of file: a rosbag2 bag (folder, .db3, .mcap) or a .csv."""
     from nav_core import bagio
 
     path = Path(path)
     if not path.exists():
-        raise RecordingError(f"{path}: recording not found")
+        raise RecordingError(f"{path}: {what} not found")
     if bagio.is_bag(path):
-        return read_imu_bag(path, topic=topic, strict=strict)
+        return bag_reader(path, **kwargs)
     if path.suffix.lower() == ".csv":
-        return read_imu_csv(path, strict=strict)
+        return csv_reader(path, strict=kwargs["strict"])
     raise RecordingError(f"{path}: not a rosbag2 bag (folder with metadata.yaml, .db3, .mcap) or a .csv")
+
+
+def read_imu(path, topic: str = IMU_TOPIC, strict: bool = False) -> ImuRecording:
+    """Read IMU samples from a rosbag2 bag (folder, .db3, .mcap) or the recording CSV."""
+    return _read_any(path, "recording", read_imu_bag, read_imu_csv, topic=topic, strict=strict)
 
 
 def read_gnss(path, topic: str = GNSS_TOPIC, strict: bool = False) -> GnssRecording:
     """Read GNSS fixes from a rosbag2 bag or the GNSS CSV."""
-    from nav_core import bagio
-
-    path = Path(path)
-    if not path.exists():
-        raise RecordingError(f"{path}: GNSS recording not found")
-    if bagio.is_bag(path):
-        return read_gnss_bag(path, topic=topic, strict=strict)
-    if path.suffix.lower() == ".csv":
-        return read_gnss_csv(path, strict=strict)
-    raise RecordingError(f"{path}: not a rosbag2 bag or a GNSS .csv")
+    return _read_any(path, "GNSS recording", read_gnss_bag, read_gnss_csv, topic=topic, strict=strict)
