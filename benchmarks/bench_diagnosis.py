@@ -1,9 +1,13 @@
 """Concealed-effect suite of the sim-versus-real diagnosis: detection, coverage, fit improvement, false alarms.
 
-    .venv/bin/python benchmarks/bench_diagnosis.py [--seeds 20] [--out /tmp/diag_suite] [--quick]
+    .venv/bin/python benchmarks/bench_diagnosis.py [--seeds 20] [--null-seeds 50] [--out /tmp/diag_suite] [--quick]
+    .venv/bin/python benchmarks/bench_diagnosis.py --calibrate --null-seeds 100   # rewrite calibration.yaml
+    (add ``--nulls NAME ... --merge OLD/rows.json`` to run some null cases and reuse earlier uncalibrated rows)
 
-Writes ``rows.json`` (every case), ``table.md`` (per effect) and ``null_factors.yaml`` (per-effect
-max statistic / threshold on the null cases: the Monte Carlo check of the thresholds).
+The suite uses the committed threshold factors (``imu_sim/diagnose/calibration.yaml``) and seeds
+1000.. (nulls 2000..); ``--calibrate`` runs the null cases only, uncalibrated, on seeds 5000.. (so the
+suite's false-alarm rate is measured on runs the calibration never saw) and writes the factors.
+Writes ``rows.json`` (every case) and ``table.md`` (per effect) into ``--out``.
 """
 from __future__ import annotations
 
@@ -13,10 +17,13 @@ import sys
 import time
 from pathlib import Path
 
-import numpy as np
 import yaml
 from tqdm import tqdm
 
+from scipy import stats
+
+from imu_sim.diagnose import calibrate
+from imu_sim.diagnose.engine import CALIBRATION_FILE
 from imu_sim.diagnose.suite import EFFECT_CASES, NULLS, run_case, summarise
 
 
@@ -26,7 +33,11 @@ def table(summary: dict) -> str:
              "|---|---|---|---|---|"]
     for eff, s in summary.items():
         if "false_alarm_rate" in s:
-            lines.append(f"| {eff} | {s['cases']} | false alarms {s['false_alarm_rate']:.0%} | | |")
+            k, n = round(s["false_alarm_rate"] * s["cases"]), s["cases"]
+            hi = stats.beta.ppf(0.975, k + 1, n - k) if k < n else 1.0
+            by = f" ({', '.join(s['alarm_effects'])})" if s["alarm_effects"] else ""
+            lines.append(f"| {eff} | {n} | false alarms {s['false_alarm_rate']:.1%}{by}, 95 % upper bound "
+                         f"{hi:.1%}; kept findings {s['kept_finding_rate']:.1%} | | |")
             continue
         cov = "-" if s["coverage"] is None else f"{s['coverage']:.0%}"
         fit = "-" if s["median_fit_before"] is None else f"{s['median_fit_before']:.3g} -> {s['median_fit_after']:.3g}"
@@ -37,34 +48,43 @@ def table(summary: dict) -> str:
 
 def main(argv=None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--seeds", type=int, default=20)
+    parser.add_argument("--seeds", type=int, default=20, help="seeds per effect")
+    parser.add_argument("--null-seeds", type=int, default=50, help="seeds per null case")
     parser.add_argument("--out", default="/tmp/diag_suite")
     parser.add_argument("--quick", action="store_true", help="2 seeds, 3 effects + nulls")
     parser.add_argument("--effects", nargs="*", default=None)
     parser.add_argument("--no-nulls", action="store_true", help="skip the null cases (to split a run in two)")
+    parser.add_argument("--calibrate", action="store_true",
+                        help=f"null cases only, uncalibrated; write {CALIBRATION_FILE.name} from them")
+    parser.add_argument("--calibration-out", default=str(CALIBRATION_FILE))
+    parser.add_argument("--nulls", nargs="*", default=None, help=f"null cases to run (default all: {NULLS})")
+    parser.add_argument("--merge", nargs="*", default=[], help="rows.json of earlier runs to add (calibration)")
     args = parser.parse_args(argv)
-    effects = args.effects or (["earth_rotation", "scale_factor", "quantization"] if args.quick
-                               else list(EFFECT_CASES))
-    seeds = range(2 if args.quick else args.seeds)
-    cases = [(e, s) for e in list(effects) + ([] if args.no_nulls else list(NULLS)) for s in seeds]
+    n_eff, n_null = (2, 2) if args.quick else (args.seeds, args.null_seeds)
+    effects = [] if args.calibrate else (args.effects or (["earth_rotation", "scale_factor", "quantization"]
+                                                          if args.quick else list(EFFECT_CASES)))
+    nulls = [] if args.no_nulls else list(NULLS if args.nulls is None else args.nulls)
+    base = 5000 if args.calibrate else 2000
+    cases = [(e, 1000 + s) for e in effects for s in range(n_eff)] + [(e, base + s) for e in nulls
+                                                                          for s in range(n_null)]
+    factors = {} if args.calibrate else None
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
     rows, start = [], time.perf_counter()
     for eff, seed in tqdm(cases, desc="diagnose-suite", file=sys.stderr):
-        rows.append(run_case(eff, 1000 + seed))
+        rows.append(run_case(eff, seed, factors=factors))
         (out / "rows.json").write_text(json.dumps(rows, indent=1, default=float))
-    summary = summarise(rows)
-    text = table(summary)
+    text = table(summarise(rows))
     (out / "table.md").write_text(text + "\n")
-    ratios = {}
-    for r in rows:
-        if r["effect"] in NULLS:
-            for eff, (val, thr) in r["stats"].items():
-                if val is not None and thr:
-                    ratios.setdefault(eff, []).append(val / thr)
-    (out / "null_factors.yaml").write_text(yaml.safe_dump({k: float(np.max(v)) for k, v in ratios.items()}))
     print(text)
-    print(f"{len(rows)} cases in {time.perf_counter() - start:.0f} s; outputs in {out}")
+    if args.calibrate:
+        merged = [r for path in args.merge for r in json.loads(Path(path).read_text())]
+        result = calibrate.calibrate(rows + merged, NULLS)
+        path = calibrate.write(result, Path(args.calibration_out))
+        print(yaml.safe_dump(result["factors"]).strip())
+        print(f"calibration written to {path}")
+    print(f"{len(rows)} cases in {time.perf_counter() - start:.0f} s ({(time.perf_counter() - start) / len(rows):.1f} "
+          f"s per case); outputs in {out}")
     return 0
 
 

@@ -4,7 +4,7 @@ Each effect of the vocabulary is tested by its own statistic (likelihood ratio, 
 the null); its threshold is the chi-square quantile at a family-wise level ALPHA shared
 (Bonferroni) across the effects tested and the grid points profiled, times a factor
 calibrated by Monte Carlo on null simulations (``calibration.yaml``, written by
-``imu-sim diagnose-suite``). Among significant effects the one with the largest
+``benchmarks/bench_diagnosis.py --calibrate``, see :mod:`calibrate`). Among significant effects the one with the largest
 excess (statistic - threshold, an information-criterion-like penalty per parameter)
 is fitted, added to the model, and the model re-simulated; a finding is kept only if
 the held-out statistic improves.
@@ -49,6 +49,12 @@ EXPLAIN = {
                          "beyond the model's noise.",
     "bias_random_walk": "Excess power rising as 1/f^2 at low frequency: a bias random walk beyond the model's "
                         "noise.",
+    "gps_latency": "The fix residual follows minus the truth velocity: the fixes are stamped later than the "
+                   "position they report (receiver latency).",
+    "gps_lever_arm": "The fix residual follows the attitude-rotated body offset: the antenna is not at the IMU "
+                     "(lever arm) and the model leaves it out.",
+    "colored_gps_noise": "The fix residual has excess low-frequency power with a corner (Gauss-Markov): the "
+                         "model's GNSS noise is white but the receiver's error is correlated in time.",
 }
 
 
@@ -79,6 +85,8 @@ class Candidate:
     kind: str = "regression"
     block_s: float = 1.0
     band: dict | None = None
+    rank: float | None = None
+    """Ranking key when it is not statistic - threshold (e.g. a conditional LR of correlated effects)."""
 
     @property
     def significant(self) -> bool:
@@ -256,20 +264,24 @@ def _not_testable(effect, why) -> Candidate:
     return Candidate(effect, np.nan, np.nan, "-", identifiable=False, reason=why)
 
 
-def evaluate(case: Case, model: SensorModel, resid: np.ndarray, exclude=()) -> list:
-    """Test every effect of the vocabulary not in ``exclude``; list of :class:`Candidate`."""
-    factors = load_calibration()
+def evaluate(case: Case, model: SensorModel, resid: np.ndarray, exclude=(), factors: dict | None = None) -> list:
+    """Test every effect of the vocabulary not in ``exclude``; list of :class:`Candidate`.
+
+    ``factors`` scale the analytic thresholds per effect (None: the committed calibration; {}: analytic).
+    """
+    factors = load_calibration() if factors is None else factors
     wh = Whitener.from_model(model, resid, case.dt)
     resid_f = np.fft.rfft(resid, axis=0)
     m_tests = len(EFFECTS)
     out = []
     phys = model.physics or {}
+    from imu_sim.diagnose import gnss_candidates  # imports this module: keep the import here
+    gnss = {c.effect: c for c in gnss_candidates.candidates(case, model, m_tests, factors, exclude)}
     for effect in EFFECTS:
         if effect in exclude:
             continue
         if effect in GNSS_EFFECTS:
-            out.append(_not_testable(effect, "GNSS-side effects are not tested by this version (IMU residual only)"
-                                     if case.gnss is not None else "no GNSS recording given (--gnss)"))
+            out.append(gnss[effect])
         elif effect in phys and effect in ("earth_rotation", "gravity_model", "coriolis"):
             out.append(_not_testable(effect, "already in the model's physics"))
         elif effect in ("earth_rotation", "gravity_model", "coriolis"):
@@ -311,13 +323,16 @@ def add_effect(model: SensorModel, cand: Candidate) -> SensorModel:
 
 
 def evidence(cand: Candidate) -> float:
-    """Ranking key: statistic minus threshold."""
-    return cand.stat - cand.threshold
+    """Ranking key: statistic minus threshold (or the candidate's own ``rank``)."""
+    return cand.rank if cand.rank is not None else cand.stat - cand.threshold
 
 
 def fit_metric(case: Case, cand: Candidate, model_before: SensorModel, model_after: SensorModel,
                resid: np.ndarray, seed: int = 0):
     """(metric name, before, after) on held-out data."""
+    if cand.kind == "gnss":
+        from imu_sim.diagnose import gnss_candidates
+        return gnss_candidates.fit_metric(case, cand, model_before, model_after)
     if cand.kind in ("regression", "vibration"):
         cols = {c: x for c, x in cand.columns.items() if CHANNELS[c] in cand.channels} or cand.columns
         b, a = metrics.heldout_rms(resid, cols, case.dt, cand.block_s)
@@ -381,8 +396,9 @@ class Diagnosis:
     findings_detail: list
 
 
-def diagnose(case: Case, max_effects: int = 4, seed: int = 0, progress=None) -> Diagnosis:
-    """Locate, attribute, model and iterate (see module docstring)."""
+def diagnose(case: Case, max_effects: int = 4, seed: int = 0, progress=None, factors: dict | None = None) -> Diagnosis:
+    """Locate, attribute, model and iterate (see module docstring); ``factors`` as in :func:`evaluate`."""
+    factors = load_calibration() if factors is None else factors
     model = case.model.copy()
     resid0 = residual(case, model)
     resid = resid0
@@ -390,7 +406,7 @@ def diagnose(case: Case, max_effects: int = 4, seed: int = 0, progress=None) -> 
     for _ in range(max_effects + 2):
         if len(findings) >= max_effects:
             break
-        cands = evaluate(case, model, resid, exclude=accepted)
+        cands = evaluate(case, model, resid, exclude=accepted, factors=factors)
         if tested is None:
             tested = cands
         if progress is not None:
@@ -406,12 +422,17 @@ def diagnose(case: Case, max_effects: int = 4, seed: int = 0, progress=None) -> 
         if not after < before:
             best.reason = f"significant but no held-out improvement ({before:.4g} -> {after:.4g}); not kept"
             continue
-        band = best.band or _band(case, resid, new_resid, best)
-        contrib = best.contrib if best.contrib is not None else resid - new_resid
+        if best.kind == "gnss":
+            from imu_sim.diagnose import gnss_candidates
+            span, band = gnss_candidates.location(case, best, model)
+        else:
+            band = best.band or _band(case, resid, new_resid, best)
+            contrib = best.contrib if best.contrib is not None else resid - new_resid
+            span = (metrics.time_span(resid, contrib, case.t) if best.kind != "quantization"
+                    else [0.0, float(case.t[-1])])
         findings.append({
             "effect": best.effect, "channels": best.channels or list(CHANNELS),
-            "time_span_s": metrics.time_span(resid, contrib, case.t) if best.kind != "quantization"
-            else [0.0, float(case.t[-1])],
+            "time_span_s": span,
             "band": band, "parameters": best.params, "intervals": best.intervals,
             "metric": name, "fit_before": before, "fit_after": after,
             "statistic": {"name": best.statistic, "value": _r(best.stat), "threshold": _r(best.threshold)},
@@ -424,7 +445,9 @@ def diagnose(case: Case, max_effects: int = 4, seed: int = 0, progress=None) -> 
             entry["note"] = (entry["note"] + "; " if entry["note"] else "") + "not kept (no held-out improvement)"
     result = {"mismatch": bool(findings), "findings": findings, "tested": tested_out,
               "channels": list(CHANNELS), "samples": case.n, "rate_hz": 1.0 / case.dt, "notes": case.notes,
-              "alpha_familywise": ALPHA, "calibration": load_calibration() or "uncalibrated (chi-square, Bonferroni)"}
+              "alpha_familywise": ALPHA,
+              "calibration": factors or "uncalibrated (chi-square, Bonferroni)",
+              "n_significant_first_pass": int(sum(c.significant for c in tested))}
     return Diagnosis(result, model, case, resid0, resid, details)
 
 

@@ -1,0 +1,237 @@
+"""GNSS-side effects from the fixes' position residual against the scenario's truth antenna track.
+
+Residual r (ENU, m) = recorded fix - the antenna position the model predicts (truth at the fix
+time minus the model's latency, plus C_nb times the model's lever arm). Fixes are taken as
+evenly spaced at the median fix interval (gaps closed up), so the tests work on DFT bins:
+
+* colored_gps_noise: Whittle likelihood ratio of the model's noise PSD (white, plus the model's
+  own Gauss-Markov part) against it plus an extra Gauss-Markov term, level free, correlation
+  time profiled on a grid and shared by the three axes.
+* gps_latency: GLS (frequency-domain whitening, DC dropped so a datum offset is a nuisance) of
+  r on -v_enu(t). Whiteness first: if the residual left by the fit is coloured beyond the model
+  (the colored_gps_noise test at the 1 % level), the GLS is redone under the model PSD plus the
+  fitted extra Gauss-Markov, so coloured noise is not taken for latency.
+* gps_lever_arm: the same GLS of r on the rows of C_nb(t) (parameters: body offset, m); body
+  axes whose rotated offset stays constant (e.g. z on a level drive) are not identifiable.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+import pymap3d
+from scipy import stats
+
+from nav_core.units import DEG
+
+from imu_sim.diagnose import noise_tests
+from imu_sim.gnss import GpsEffects, antenna_offset_n
+from imu_sim.scenario import build_trajectory
+
+AXES = "ENU"
+CHANNELS = ("gps_e", "gps_n", "gps_u")
+MIN_FIXES = 60
+
+
+@dataclass
+class GnssResidual:
+    """Fix residual and the truth quantities the GNSS regressors need (SI, ENU)."""
+
+    t: np.ndarray
+    """Truth times of the valid fixes, s."""
+    r: np.ndarray
+    """(n, 3) residual, m."""
+    dt: float
+    vel: np.ndarray
+    rot: np.ndarray
+    """(n, 3, 3) body-to-ENU matrices."""
+    sigma_w: np.ndarray
+    colored_sigma: np.ndarray
+    colored_tau: float
+    t_rel: np.ndarray = field(default=None)
+    """Fix times on the recording's time base, s."""
+
+
+def gnss_residual(case, model) -> GnssResidual | None:
+    """The residual of the case's GNSS fixes under ``model`` (None without fixes or with too few)."""
+    g = case.gnss
+    if g is None:
+        return None
+    traj = case.cache.setdefault("traj", build_trajectory(case.scenario))
+    offset_t = case.sim_t_abs[0] - case.rec.t[0]
+    ok = (g.status >= 0) & np.isfinite(g.lat) & np.isfinite(g.lon) & np.isfinite(g.h)
+    t_abs = g.t[ok] + offset_t
+    ok_t = (t_abs >= traj.t0) & (t_abs <= traj.t1)
+    t_abs = t_abs[ok_t]
+    if len(t_abs) < MIN_FIXES:
+        return None
+    eff = GpsEffects.from_physics(model.physics, case.scenario.gps_lever_arm_m)
+    t_true = np.clip(t_abs - eff.latency_s, traj.t0, traj.t1)
+    lat, lon, h = traj.geodetic(t_true)
+    e, n, u = pymap3d.geodetic2enu(g.lat[ok][ok_t] / DEG, g.lon[ok][ok_t] / DEG, g.h[ok][ok_t],
+                                   lat / DEG, lon / DEG, h)
+    r = np.column_stack([e, n, u]) - antenna_offset_n(traj, t_true, eff.lever_arm_m)
+    vel = traj.velocity_n(t_abs)
+    rot = traj.attitude.rotation(t_abs).as_matrix()
+    dt = float(np.median(np.diff(t_abs)))
+    return GnssResidual(t_abs, r, dt, vel, rot, np.asarray(case.scenario.gps.sigma_m, float),
+                        eff.colored_sigma_m, eff.colored_time_s, g.t[ok][ok_t])
+
+
+def _freqs(n: int, dt: float) -> np.ndarray:
+    return np.fft.rfftfreq(n, dt)
+
+
+def ar1_psd(freqs: np.ndarray, dt: float, sigma: float, tau: float) -> np.ndarray:
+    """Two-sided PSD (m^2/Hz) of a sampled Gauss-Markov (AR(1)) process, std sigma m, time constant tau s."""
+    phi = np.exp(-dt / tau)
+    return sigma**2 * (1 - phi**2) * dt / np.abs(1 - phi * np.exp(-2j * np.pi * freqs * dt)) ** 2
+
+
+def model_psd(gr: GnssResidual, freqs: np.ndarray) -> np.ndarray:
+    """(3, nf) PSD of the model's GNSS noise: white sigma_w plus the model's own Gauss-Markov part."""
+    out = np.tile((gr.sigma_w**2 * gr.dt)[:, None], (1, len(freqs)))
+    for a in range(3):
+        if gr.colored_sigma[a] > 0:
+            out[a] += ar1_psd(freqs, gr.dt, gr.colored_sigma[a], gr.colored_tau)
+    return out
+
+
+def tau_grid(gr: GnssResidual) -> np.ndarray:
+    """Correlation times profiled (s): 3 fix intervals to a third of the run."""
+    span = len(gr.r) * gr.dt
+    return np.logspace(np.log10(3 * gr.dt), np.log10(span / 3), 8)
+
+
+@dataclass
+class ColoredFit:
+    """Extra Gauss-Markov beyond the model: LR (summed over axes), per-axis variance c, tau."""
+
+    lr: float
+    lr_axes: np.ndarray
+    var: np.ndarray
+    var_ci: list
+    tau: float
+    n_grid: int
+    tau_ci: list = field(default_factory=list)
+
+
+def colored_fit(r: np.ndarray, gr: GnssResidual) -> ColoredFit:
+    """Whittle test of an extra Gauss-Markov term in ``r`` (n, 3), correlation time shared by the axes."""
+    freqs, pgram = noise_tests.periodogram(r, gr.dt)
+    s0 = model_psd(gr, freqs)
+    taus = tau_grid(gr)
+    best, lr_by_tau = None, []
+    for tau in taus:
+        extra = ar1_psd(freqs, gr.dt, 1.0, tau)
+        fits = [noise_tests.whittle_extra(pgram[:, a], s0[a], extra) for a in range(3)]
+        lr_axes = np.array([f[0] for f in fits])
+        lr_by_tau.append(lr_axes.sum())
+        if best is None or lr_axes.sum() > best.lr:
+            best = ColoredFit(float(lr_axes.sum()), lr_axes, np.array([f[1] for f in fits]),
+                              [f[2] for f in fits], float(tau), len(taus))
+    inside = taus[np.asarray(lr_by_tau) >= best.lr - 3.84]
+    best.tau_ci = [float(inside.min()), float(inside.max())]
+    return best
+
+
+@dataclass
+class GnssGls:
+    """GLS of the residual on a design: estimates, covariance, Wald LR, identifiable columns."""
+
+    theta: np.ndarray
+    cov: np.ndarray
+    lr: float
+    used: np.ndarray
+    whitened_by: str
+
+
+def _weights(psd: np.ndarray, n: int, dt: float) -> np.ndarray:
+    mult = np.full(psd.shape[1], 2.0)
+    mult[0] = 0.0
+    if n % 2 == 0:
+        mult[-1] = 1.0
+    return mult[None, :] * dt / (n * psd)
+
+
+def gls(r: np.ndarray, design: np.ndarray, psd: np.ndarray, dt: float) -> GnssGls:
+    """GLS of r (n, 3) on design (n, 3, k) under the per-axis PSD (3, nf); level per axis robustly rescaled."""
+    n, _, k = design.shape
+    rf = np.fft.rfft(r, axis=0)
+    xf = np.fft.rfft(design, axis=0)
+    w = _weights(psd, n, dt)
+    # interior bins: |X|^2 w / 2 ~ Exp(1) under the model, so the median / ln 2 is the level
+    scale = np.array([np.median(np.abs(rf[1:, a]) ** 2 * w[a, 1:] / 2.0) / np.log(2) for a in range(3)])
+    w = w / np.maximum(scale, 1e-300)[:, None]
+    a_mat = np.einsum("fa,fai,faj->ij", w.T, np.conj(xf), xf).real
+    b = np.einsum("fa,fai,fa->i", w.T, np.conj(xf), rf).real
+    info = np.diag(a_mat)
+    used = np.flatnonzero(info > 1e-9 * max(info.max(), 1e-300))
+    theta, cov = np.zeros(k), np.full((k, k), np.nan)
+    if len(used):
+        sub = a_mat[np.ix_(used, used)]
+        d = np.sqrt(np.diag(sub))
+        if np.linalg.eigvalsh(sub / np.outer(d, d)).min() > 1e-8:
+            cov_u = np.linalg.inv(sub)
+            theta[used] = cov_u @ b[used]
+            cov[np.ix_(used, used)] = cov_u
+            return GnssGls(theta, cov, float(b[used] @ theta[used]), used, "model PSD")
+    return GnssGls(theta, cov, 0.0, np.array([], int), "model PSD")
+
+
+def gls_whiteness_first(gr: GnssResidual, design: np.ndarray, level: float = 0.01) -> tuple:
+    """GLS under the model PSD; if its residual is coloured beyond the model, redo it with the extra GM.
+
+    Returns (GnssGls, ColoredFit of the fit's residual, whether the noise was found coloured, PSD used).
+    """
+    freqs = _freqs(len(gr.r), gr.dt)
+    psd = model_psd(gr, freqs)
+    fit = gls(gr.r, design, psd, gr.dt)
+    left = gr.r - np.einsum("nak,k->na", design, fit.theta)
+    col = colored_fit(left, gr)
+    coloured = col.lr > stats.chi2.isf(level / col.n_grid, 6)
+    if coloured:
+        psd = psd + np.array([col.var[a] * ar1_psd(freqs, gr.dt, 1.0, col.tau) for a in range(3)])
+        fit = gls(gr.r, design, psd, gr.dt)
+        fit.whitened_by = f"model PSD + fitted Gauss-Markov (tau {col.tau:.3g} s): residual not white"
+    return fit, col, coloured, psd
+
+
+def conditional_lrs(gr: GnssResidual) -> dict:
+    """LR of latency given the lever arm and of the lever arm given latency (joint fit, same whitening).
+
+    On a car the antenna's forward offset rotates with the heading, as the velocity does, so the
+    two regressors are correlated; the conditional LR says which one the data need.
+    """
+    lat, arm = design_latency(gr), design_lever_arm(gr)
+    joint, _, _, psd = gls_whiteness_first(gr, np.concatenate([lat, arm], axis=2))
+    return {"gps_latency": joint.lr - gls(gr.r, arm, psd, gr.dt).lr,
+            "gps_lever_arm": joint.lr - gls(gr.r, lat, psd, gr.dt).lr}
+
+
+def design_latency(gr: GnssResidual) -> np.ndarray:
+    """(n, 3, 1): the residual of an unmodelled latency L is -v(t) L."""
+    return -gr.vel[:, :, None]
+
+
+def design_lever_arm(gr: GnssResidual) -> np.ndarray:
+    """(n, 3, 3): the residual of an unmodelled body offset l is C_nb(t) l."""
+    return gr.rot
+
+
+def heldout_columns(design: np.ndarray) -> dict:
+    """The design as {axis: (n, k)} for :func:`metrics.heldout_rms`."""
+    return {a: design[:, a, :] for a in range(3)}
+
+
+def whittle_deviance(r: np.ndarray, gr: GnssResidual, var=None, tau=None) -> float:
+    """Mean Whittle deviance per bin of r under the model PSD (+ an extra GM), level free per axis."""
+    freqs, pgram = noise_tests.periodogram(r, gr.dt)
+    s = model_psd(gr, freqs)
+    if var is not None:
+        s = s + np.array([var[a] * ar1_psd(freqs, gr.dt, 1.0, tau) for a in range(3)])
+    out = []
+    for a in range(3):
+        ratio = pgram[:, a] / s[a]
+        out.append(np.mean(np.log(s[a] * ratio.mean())) + 1.0 - np.mean(np.log(pgram[:, a] + 1e-300)))
+    return float(np.mean(out))
