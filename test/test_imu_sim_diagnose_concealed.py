@@ -4,20 +4,20 @@ import json
 import numpy as np
 import pytest
 
-from nav_core.recording import write_imu_csv
+from nav_core.recording import write_gnss_csv, write_imu_csv
 from nav_core.sensor_model import load as load_model, save as save_model
 
 from imu_sim.cli import main
 from imu_sim.diagnose.case import make_case
 from imu_sim.diagnose.engine import diagnose
-from imu_sim.diagnose.suite import TRUE_PARAMS, make_recording, run_case, suite_scenario
+from imu_sim.diagnose.suite import TRUE_PARAMS, drive_scenario, make_inputs, make_recording, run_case, suite_scenario
 
 import yaml
 
 
 @pytest.mark.slow
 @pytest.mark.parametrize("effect", ["earth_rotation", "scale_factor", "warmup_drift", "vibration", "quantization",
-                                    "axis_misalignment"])
+                                    "axis_misalignment", "gps_latency", "gps_lever_arm", "colored_gps_noise"])
 def test_concealed_effect_is_named_first_and_its_interval_covers_the_truth(effect):
     row = run_case(effect, seed=11)
     assert row["first"] == effect
@@ -30,6 +30,14 @@ def test_concealed_effect_is_named_first_and_its_interval_covers_the_truth(effec
 def test_nothing_missing_gives_no_finding():
     row = run_case("null_nothing_missing", seed=12)
     assert row["n_findings"] == 0
+
+
+@pytest.mark.slow
+def test_coloured_gps_noise_without_latency_gives_no_finding():
+    row = run_case("null_colored_gps_noise", seed=14)
+    assert row["n_findings"] == 0
+    value, threshold = row["stats"]["gps_latency"]
+    assert value < threshold
 
 
 @pytest.mark.slow
@@ -81,3 +89,23 @@ def test_cli_rejects_unusable_input_with_a_message(tmp_path, capsys):
                  "--out", str(tmp_path / "out")])
     assert code != 0
     assert "imu.csv" in capsys.readouterr().err
+
+
+@pytest.mark.slow
+def test_cli_with_gnss_names_the_latency_and_says_lever_arm_z_is_not_identifiable(tmp_path):
+    rec, _, model, gnss = make_inputs("gps_latency", 6)
+    csv = write_imu_csv(tmp_path / "imu.csv", rec)
+    gcsv = write_gnss_csv(tmp_path / "gnss.csv", gnss)
+    scen = tmp_path / "scenario.yaml"
+    scen.write_text(yaml.safe_dump(drive_scenario()))
+    mpath = save_model(model, tmp_path / "model.yaml")
+    assert main(["diagnose", "--recording", str(csv), "--scenario", str(scen), "--model", str(mpath),
+                 "--gnss", str(gcsv), "--out", str(tmp_path / "out"), "--max-effects", "1"]) == 0
+    res = json.loads((tmp_path / "out" / "diagnosis.json").read_text())
+    first = res["findings"][0]
+    assert first["effect"] == "gps_latency" and first["fit_after"] < first["fit_before"]
+    lo, hi = first["intervals"]["latency_s"]
+    assert lo < 0.03 < hi
+    arm = next(t for t in res["tested"] if t["effect"] == "gps_lever_arm")
+    assert "lever_arm_m[z]" in arm["note"]
+    assert load_model(tmp_path / "out" / "model_updated.yaml").has_physics("gps_latency")

@@ -53,7 +53,8 @@ def _regression(effect, design, gr, thr, statistic, names, base, unit_note):
         cand.intervals[names[i]] = [val - 1.96 * float(sd[i]), val + 1.96 * float(sd[i])]
     missing = [names[i] for i in range(design.shape[2]) if i not in fit.used]
     if missing:
-        cand.reason = f"not identifiable by this scenario: {', '.join(missing)} (regressor constant)"
+        cand.reason = (f"not identifiable by this scenario: {', '.join(missing)} (regressor constant or "
+                       f"{gt.WEAK_SD_RATIO:g}x less determined than the others)")
     contrib = np.einsum("nak,k->na", design, np.nan_to_num(fit.theta))
     cand.channels = [gt.CHANNELS[a] for a in range(3) if np.std(contrib[:, a]) > 0.05 * np.std(contrib)]
     cand.columns = {a: design[:, a, fit.used] for a in range(3)}

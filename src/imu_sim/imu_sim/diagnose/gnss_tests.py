@@ -31,6 +31,8 @@ from imu_sim.scenario import build_trajectory
 AXES = "ENU"
 CHANNELS = ("gps_e", "gps_n", "gps_u")
 MIN_FIXES = 60
+WEAK_SD_RATIO = 10.0
+"""A design parameter whose standard error is this many times the best one's is reported as not identifiable."""
 
 
 @dataclass
@@ -168,14 +170,20 @@ def gls(r: np.ndarray, design: np.ndarray, psd: np.ndarray, dt: float) -> GnssGl
     info = np.diag(a_mat)
     used = np.flatnonzero(info > 1e-9 * max(info.max(), 1e-300))
     theta, cov = np.zeros(k), np.full((k, k), np.nan)
-    if len(used):
+    while len(used):
         sub = a_mat[np.ix_(used, used)]
         d = np.sqrt(np.diag(sub))
-        if np.linalg.eigvalsh(sub / np.outer(d, d)).min() > 1e-8:
-            cov_u = np.linalg.inv(sub)
-            theta[used] = cov_u @ b[used]
-            cov[np.ix_(used, used)] = cov_u
-            return GnssGls(theta, cov, float(b[used] @ theta[used]), used, "model PSD")
+        if np.linalg.eigvalsh(sub / np.outer(d, d)).min() <= 1e-8:
+            break
+        cov_u = np.linalg.inv(sub)
+        sd = np.sqrt(np.diag(cov_u))
+        # a parameter known 10x worse than the best one is left to the scenario's limits, not fitted
+        if len(used) > 1 and sd.max() > WEAK_SD_RATIO * sd.min():
+            used = np.delete(used, int(np.argmax(sd)))
+            continue
+        theta[used] = cov_u @ b[used]
+        cov[np.ix_(used, used)] = cov_u
+        return GnssGls(theta, cov, float(b[used] @ theta[used]), used, "model PSD")
     return GnssGls(theta, cov, 0.0, np.array([], int), "model PSD")
 
 
