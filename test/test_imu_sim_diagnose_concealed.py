@@ -109,3 +109,4 @@ def test_cli_with_gnss_names_the_latency_and_says_lever_arm_z_is_not_identifiabl
     arm = next(t for t in res["tested"] if t["effect"] == "gps_lever_arm")
     assert "lever_arm_m[z]" in arm["note"]
     assert load_model(tmp_path / "out" / "model_updated.yaml").has_physics("gps_latency")
+    assert (tmp_path / "out" / "gnss_residual.png").exists()

@@ -31,6 +31,10 @@ def write_all(diag, out_dir, sources: dict) -> dict:
     save(model, paths["model"])
     pngs = {"residual": residual_png(diag, out / "residual.png"), "allan": allan_png(diag, out / "allan.png"),
             "psd": psd_png(diag, out / "psd.png")}
+    if diag.case.gnss is not None:
+        gpng = gnss_png(diag, out / "gnss_residual.png")
+        if gpng is not None:
+            pngs["gnss_residual"] = gpng
     paths["html"].write_text(_html(diag, sources, pngs))
     paths.update(pngs)
     return paths
@@ -107,6 +111,26 @@ def psd_png(diag, path) -> Path:
     axes[0, 0].legend(fontsize=7)
     fig.tight_layout()
     fig.savefig(path, dpi=80)
+    plt.close(fig)
+    return Path(path)
+
+
+def gnss_png(diag, path):
+    """Fix residual (m, ENU) under the input model and under the updated model; None without usable fixes."""
+    from imu_sim.diagnose.gnss_tests import gnss_residual
+    before, after = gnss_residual(diag.case, diag.case.model), gnss_residual(diag.case, diag.model_updated)
+    if before is None:
+        return None
+    fig, axes = plt.subplots(3, 1, figsize=(10, 6), sharex=True)
+    for a, ax in enumerate(axes):
+        ax.plot(before.t_rel, before.r[:, a], ".", ms=2, label="input model")
+        ax.plot(after.t_rel, after.r[:, a], ".", ms=2, label="updated model")
+        ax.set_ylabel(f"{'ENU'[a]} residual (m)", fontsize=8)
+    axes[0].legend(fontsize=8)
+    axes[-1].set_xlabel("t (s)")
+    fig.suptitle("GNSS fix minus the model's antenna position", fontsize=10)
+    fig.tight_layout()
+    fig.savefig(path, dpi=90)
     plt.close(fig)
     return Path(path)
 
