@@ -126,8 +126,10 @@ def _recovery_case(n, seed, ops, chunk, lookahead):
     parts = [dec.feed(bytes(stream[i:i + chunk])) for i in range(0, len(stream), chunk)] + [dec.flush()]
     rows = [(int(c), tuple(np.rint(th / 2.5e-6).astype(int)) + tuple(np.rint(v / 5e-5).astype(int)))
             for p in parts for c, th, v in zip(p.counter, p.dtheta, p.dv)]
+    s = dec.stats
+    # Every byte received ends up in exactly one place: an accepted frame or the discarded count.
+    assert s.frames * L + s.bytes_discarded == s.bytes_in == len(stream)
     if bytes(stream) != data:
-        s = dec.stats
         assert s.checksum_errors + s.bytes_discarded + s.lost_frames > 0, "damage went uncounted"
     return intact, counts, set(rows)
 

@@ -247,6 +247,7 @@ class StreamDecoder:
         self._last_counter = None
         self._discarding = False
         self._final = False
+        self._waiting = False
 
     def feed(self, data: bytes) -> FrameBatch:
         """Add bytes; return the frames that could be decided."""
@@ -289,10 +290,13 @@ class StreamDecoder:
         accepted = []
         pos = 0
         while pos < len(self._buf):
+            self._waiting = False
             step = self._take_locked(pos, accepted) if self._locked else self._search(pos, final, accepted)
             if step is None:
                 break
             pos = step
+            if self._waiting:
+                break
         del self._buf[:pos]
         if not accepted:
             return FrameBatch.empty()
@@ -349,7 +353,10 @@ class StreamDecoder:
         return n if good.all() else int(np.argmin(good))
 
     def _search(self, pos: int, final: bool, accepted: list):
-        """Find and confirm the next frame start at or after ``pos``; None when waiting for data."""
+        """Find and confirm the next frame start at or after ``pos``; sets ``_waiting`` when data is short.
+
+        Returns the new position: bytes before it are consumed (and were counted as discarded once).
+        """
         L, sync = self.fmt.length, self.fmt.sync
         start = self._buf.find(sync, pos)
         if start < 0:
@@ -357,13 +364,15 @@ class StreamDecoder:
             return len(self._buf)
         self._discard(start - pos)
         if start + L > len(self._buf):
-            return None
+            self._waiting = True
+            return start
         if not self._valid_at(start):
             self._discard(1)
             return start + 1
         choice = self._choose(start, final)
         if choice is None:
-            return None
+            self._waiting = True
+            return start
         if choice != start:
             self._discard(choice - start)
             return choice
@@ -377,9 +386,12 @@ class StreamDecoder:
     def _choose(self, start: int, final: bool):
         """Pick among ``start`` and overlapping good candidates; None when more data is needed."""
         L = self.fmt.length
-        if not final and start + 2 * L > len(self._buf):
+        if not final and start + 2 * L - 1 > len(self._buf):
             return None
         candidates = [start] + [q for q in range(start + 1, start + L) if self._valid_at(q)]
+        # Judge competitors only once each can show whether a good frame follows it.
+        if not final and len(candidates) > 1 and candidates[-1] + 2 * L > len(self._buf):
+            return None
         if len(candidates) == 1:
             return start
 
