@@ -70,12 +70,15 @@ class AllanDeviation:
 
 
 def max_cluster_size(n_samples: int) -> int:
-    """Largest averaging factor m (samples) the overlapping estimator allows for n samples."""
-    return int(n_samples // 2)
+    """Largest averaging factor m (samples) for n samples: at least two overlapping differences remain.
+
+    m = n/2 would leave a single difference (one degree of freedom); like allantools we stop before it.
+    """
+    return int((n_samples - 1) // 2)
 
 
 def octave_taus(n_samples: int, rate_hz: float, m_min: int = 1) -> np.ndarray:
-    """Octave-spaced cluster times, s: m = 1, 2, 4, ... up to n/2 samples."""
+    """Octave-spaced cluster times, s: m = 1, 2, 4, ... up to (n - 1)/2 samples."""
     m_max = max_cluster_size(n_samples)
     if m_max < m_min:
         raise AllanError(f"{n_samples} samples allow no cluster time (need at least {2 * m_min} samples)")
@@ -84,7 +87,7 @@ def octave_taus(n_samples: int, rate_hz: float, m_min: int = 1) -> np.ndarray:
 
 
 def log_taus(n_samples: int, rate_hz: float, per_decade: int = 10, m_min: int = 1) -> np.ndarray:
-    """Log-spaced cluster times, s, ``per_decade`` points per decade (distinct whole m) up to n/2 samples."""
+    """Log-spaced cluster times, s, ``per_decade`` points per decade (distinct whole m) up to (n - 1)/2 samples."""
     if per_decade < 1:
         raise AllanError(f"per_decade must be >= 1, got {per_decade}")
     m_max = max_cluster_size(n_samples)
