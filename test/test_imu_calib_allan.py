@@ -8,7 +8,7 @@ from hypothesis import strategies as st
 from conftest import shared_data
 from imu_calib.allan import (AllanError, chi2_interval, log_taus, nonoverlapping_adev, octave_taus,
                              overlapping_adev, psd)
-from imu_calib.datasets import load_adis_npz
+from nav_core.datasets import load_adis_npz
 from nav_core.units import DEG, G0
 
 

@@ -5,7 +5,7 @@ from scipy.spatial.transform import Rotation
 
 from conftest import shared_data
 from imu_calib import synthetic
-from imu_calib.datasets import load_imutk, load_ucalgary_updown
+from nav_core.datasets import load_imutk, load_ucalgary_updown
 from imu_calib.multi_position import detect_static, multi_position
 from imu_calib.rate_table import earth_rate_along, rate_table
 from imu_calib.two_position import apply_to_model, two_position, two_position_from_recordings

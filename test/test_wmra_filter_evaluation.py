@@ -3,6 +3,7 @@ import numpy as np
 import pytest
 
 from conftest import shared_data
+from nav_core.datasets import read_balzer_csv
 from wmra_filter import evaluation as ev
 from wmra_filter.wmra import WmraConfig
 
@@ -52,7 +53,7 @@ def test_road_run_transitions_survive_while_noise_drops():
 
 
 def test_real_car_residual_lies_above_the_kept_band():
-    rec = ev.read_balzer_csv(shared_data("balzer_car", "2014-03-26-000-Data.csv"))
+    rec = read_balzer_csv(shared_data("balzer_car", "2014-03-26-000-Data.csv"))
     assert rec.rate_hz == pytest.approx(50.0)
     cfg = WmraConfig.for_bandwidth(50.0, noise="mad")
     out = ev.evaluate_real(rec, cfg)
@@ -67,4 +68,4 @@ def test_balzer_reader_names_the_file_on_missing_columns(tmp_path):
     bad = tmp_path / "bad.csv"
     bad.write_text("millis,ax\n1,2\n3,4\n")
     with pytest.raises(ValueError, match="bad.csv: missing column"):
-        ev.read_balzer_csv(bad)
+        read_balzer_csv(bad)

@@ -9,7 +9,6 @@ setup(
     data_files=[
         ("share/ament_index/resource_index/packages", ["resource/" + PACKAGE]),
         ("share/" + PACKAGE, ["package.xml"]),
-        ("share/" + PACKAGE + "/config", ["config/wmra_filter.yaml"]),
     ],
     install_requires=["setuptools"],
     zip_safe=True,

@@ -20,7 +20,8 @@ from pathlib import Path
 
 import numpy as np
 
-from imu_calib import datasets, model_io, multi_position, rate_table, two_position
+from imu_calib import model_io, multi_position, rate_table, two_position
+from nav_core import datasets
 from imu_calib.allan import AllanError
 from nav_core import sensor_model
 from nav_core.recording import IMU_TOPIC, RecordingError, read_imu

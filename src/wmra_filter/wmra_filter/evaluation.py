@@ -171,28 +171,6 @@ def evaluate(scenario: Scenario, cfg: WmraConfig, bandwidth_hz: float = 5.0) -> 
     return out
 
 
-def read_balzer_csv(path, sample_rate_hz: float = 50.0) -> ImuRecording:
-    """The balzer82/Kalman car CSV (deg/s, m/s^2, millis) as an ImuRecording in SI on a uniform time grid.
-
-    The logger's sample interval jitters (11-36 ms for 1-99 %), so the channels are
-    linearly interpolated onto ``sample_rate_hz``; the WMRA assumes uniform samples.
-    """
-    path = Path(path)
-    data = np.genfromtxt(path, delimiter=",", names=True)
-    need = ("millis", "ax", "ay", "az", "rollrate", "pitchrate", "yawrate")
-    missing = [c for c in need if c not in (data.dtype.names or ())]
-    if missing:
-        raise ValueError(f"{path}: missing column(s) {missing}")
-    t_raw = (data["millis"] - data["millis"][0]) / 1e3
-    keep = np.concatenate([[True], np.diff(t_raw) > 0])  # drop repeated stamps
-    t_raw = t_raw[keep]
-    t = np.arange(0.0, t_raw[-1], 1.0 / sample_rate_hz)
-    gyro = np.column_stack([np.interp(t, t_raw, data[c][keep]) for c in ("rollrate", "pitchrate", "yawrate")]) * DEG
-    accel = np.column_stack([np.interp(t, t_raw, data[c][keep]) for c in ("ax", "ay", "az")])
-    temp = np.interp(t, t_raw, data["temp"][keep]) if "temp" in data.dtype.names else None
-    return ImuRecording(t, gyro, accel, temp, source=str(path))
-
-
 def evaluate_real(rec: ImuRecording, cfg: WmraConfig, bandwidth_hz: float = 5.0) -> dict:
     """No truth: denoise with data-estimated thresholds; the residual (raw - denoised) and its spectrum."""
     model = SensorModel(sample_rate_hz=cfg.sample_rate_hz)  # no calibration known for this unit

@@ -17,6 +17,7 @@ import numpy as np  # noqa: E402
 from tqdm import tqdm  # noqa: E402
 
 from nav_core.units import rad2deg  # noqa: E402
+from nav_core.datasets import read_balzer_csv  # noqa: E402
 from wmra_filter import evaluation as ev  # noqa: E402
 from wmra_filter.wmra import WmraConfig  # noqa: E402
 
@@ -145,7 +146,7 @@ def main(argv=None) -> int:
 def _real_section(args) -> list[str]:
     if not args.balzer.exists():
         return [f"## Real car\n\nNot run: {args.balzer} not found."]
-    rec = ev.read_balzer_csv(args.balzer)
+    rec = read_balzer_csv(args.balzer)
     cfg = WmraConfig.for_bandwidth(50.0, noise="mad")
     with tqdm(total=1, desc="real car", unit="run") as bar:
         out = ev.evaluate_real(rec, cfg)

@@ -10,7 +10,7 @@ from nav_core.recording import ImuRecording, write_imu_csv
 from nav_core.sensor_model import SensorModel, TriadModel, save
 
 from imu_calib.allan import overlapping_adev
-from imu_calib.datasets import load_adis_npz, load_ucalgary_updown
+from nav_core.datasets import load_adis_npz, load_ucalgary_updown
 from imu_calib.noise_fit import fit_noise
 
 UCALGARY_LAT_DEG, UCALGARY_LON_DEG, UCALGARY_H_M = 51.0784, -114.1335, 1110.0
