@@ -219,7 +219,7 @@ def test_bad_parameters_raise_a_named_error():
 
 def test_config_file_defaults_match_the_parameter_spec():
     from pathlib import Path
-    params = config.load_params_yaml(Path(__file__).resolve().parents[1] / "config" / "ins_gps_kf.yaml")
+    params = config.load_params_yaml(Path(__file__).resolve().parents[1] / "config" / "navigation.yaml")
     for name, default in config.defaults().items():
         value = params[name]
         assert (math.isnan(value) and math.isnan(default)) if isinstance(default, float) and math.isnan(default) \

@@ -22,11 +22,10 @@ import numpy as np  # noqa: E402
 from nav_msgs.msg import Odometry  # noqa: E402
 from rclpy.exceptions import InvalidParameterTypeException, InvalidParameterValueException  # noqa: E402
 from rclpy.node import Node  # noqa: E402
-from rclpy.qos import QoSProfile  # noqa: E402
 from sensor_msgs.msg import Imu, NavSatFix  # noqa: E402
 
 from nav_core import sensor_model as sm  # noqa: E402
-from nav_core.ros_node import (SENSOR_QOS, ConfigError, Diagnostics, Param, declare_parameters,  # noqa: E402
+from nav_core.ros_node import (SENSOR_QOS, SENSOR_QOS_IN, ConfigError, Diagnostics, Param, declare_parameters,  # noqa: E402
                                imu_to_arrays, run_node, stamp_from_s, stamp_to_s)
 from nav_core.units import DEG  # noqa: E402
 from ins_gps_kf import config as kfconfig  # noqa: E402
@@ -35,7 +34,6 @@ from ins_gps_kf import strapdown  # noqa: E402
 from ins_gps_kf.filter import ALIGNING, NAVIGATING, Estimate, InsGpsFilter  # noqa: E402
 from ins_gps_kf.replay import load_model  # noqa: E402
 
-INPUT_QUEUE_DEPTH = 200  # messages; ~3 s of 64 Hz IMU
 GPS, IMU = 0, 1  # a fix sorts before an IMU sample of the same stamp (as in the replay)
 
 
@@ -71,11 +69,8 @@ class InsGpsKfNode(Node):
         self.closing = False
         self.odom_pub = self.create_publisher(Odometry, "odometry/filtered", 10)
         self.imu_pub = self.create_publisher(Imu, "imu/data", SENSOR_QOS)
-        # best effort like every sensor topic, with a deeper history: a burst waits instead of being lost
-        input_qos = QoSProfile(depth=INPUT_QUEUE_DEPTH, reliability=SENSOR_QOS.reliability,
-                               durability=SENSOR_QOS.durability, history=SENSOR_QOS.history)
-        self.create_subscription(Imu, self.params["imu_topic"], self.on_imu, input_qos)
-        self.create_subscription(NavSatFix, self.params["gps_topic"], self.on_gps, input_qos)
+        self.create_subscription(Imu, self.params["imu_topic"], self.on_imu, SENSOR_QOS_IN)
+        self.create_subscription(NavSatFix, self.params["gps_topic"], self.on_gps, SENSOR_QOS_IN)
         self.diag = Diagnostics(self, "ins_gps_kf")
         self.create_timer(1.0, self.publish_diagnostics)
         strapdown.warm_up()  # compile or load the numba kernels now, not on the first aligned sample
