@@ -22,7 +22,8 @@ setup(
     entry_points={
         "console_scripts": [
             "nav-demo = nav_bringup.demo:main",
-            "scenario_player = nav_bringup.scenario_player_node:main"
+            "scenario_player = nav_bringup.scenario_player_node:main",
+            "nav-convert = nav_bringup.convert:main"
         ],
     },
 )

@@ -38,7 +38,8 @@ def parse_args(argv=None):
     p.add_argument("--scenario", type=Path, default=DEFAULT_SCENARIO, help="simulator scenario YAML")
     p.add_argument("--model", type=Path, default=DEFAULT_MODEL, help="sensor-model YAML (simulation and nodes)")
     p.add_argument("--seed", type=int, default=1)
-    p.add_argument("--recording", type=Path, default=None, help="replay this rosbag2 bag instead of simulating")
+    p.add_argument("--recording", type=Path, default=None,
+                   help="replay this rosbag2 bag, or a folder written by nav-convert, instead of simulating")
     p.add_argument("--truth", type=Path, default=None, help="truth CSV for --recording (else compared with GPS)")
     p.add_argument("--out", type=Path, default=DEFAULT_OUT, help="folder for the simulation, bag, logs, report")
     p.add_argument("--params", type=Path, default=PARAMS_FILE, help="the graph's params file")
@@ -59,6 +60,20 @@ def simulate_once(scenario: Path, model: Path, seed: int, out: Path) -> Path:
     shutil.rmtree(sim_dir, ignore_errors=True)
     write_outputs(simulate(scenario, model=sensor_model.load(model), seed=seed), sim_dir, fmt="all")
     return sim_dir
+
+
+def _use_converted_folder(args) -> None:
+    """A nav-convert folder brings its bag, truth, sensor model and params: use what the user did not set."""
+    folder = args.recording
+    if not (folder / "bag").is_dir():
+        return
+    args.recording = folder / "bag"
+    if args.truth is None and (folder / "truth.csv").exists():
+        args.truth = folder / "truth.csv"
+    if args.model == DEFAULT_MODEL and (folder / "sensor_model.yaml").exists():
+        args.model = folder / "sensor_model.yaml"
+    if args.params == PARAMS_FILE and (folder / "navigation.yaml").exists():
+        args.params = folder / "navigation.yaml"
 
 
 def graph_specs(args, run_dir: Path, sim_dir: Path | None) -> list:
@@ -86,6 +101,8 @@ def graph_specs(args, run_dir: Path, sim_dir: Path | None) -> list:
 def main(argv=None) -> int:
     """Simulate (or take the recording), run the graph, write the report."""
     args = parse_args(argv)
+    if args.recording is not None:
+        _use_converted_folder(args)
     env = dict(os.environ)
     env.setdefault("ROS_DOMAIN_ID", str(random.randint(1, 99)))
     env.setdefault("ROS_AUTOMATIC_DISCOVERY_RANGE", "LOCALHOST")

@@ -1,0 +1,126 @@
+"""``nav-convert``: turn a public recording into a bag the graph can replay, with its truth, model and params.
+
+    nav-convert katwijk --out DIR      # ESA Katwijk beach rover (NaveGo), reference truth
+    nav-convert canada --out DIR       # UTIAS Canadian planetary run 3 (NaveGo), reference truth
+    nav-convert balzer [--csv F] --out DIR   # balzer82/Kalman car drive, Dresden (no truth: GPS)
+
+DIR gets ``bag/`` (imu/data_raw, gps/fix; stamps = source time + 1.7e9 s),
+``truth.csv`` where the source has a reference, ``sensor_model.yaml`` (the noise of
+the stationary head when there is one, else the project's MEMS default, at the
+recording's rate) and ``navigation.yaml`` (the graph's params with this
+recording's rates and alignment time). Then ``nav-demo --recording DIR``.
+"""
+from __future__ import annotations
+
+import argparse
+import sys
+from pathlib import Path
+
+import numpy as np
+import yaml
+
+from nav_core import datasets, recording, sensor_model
+from nav_core.recording import ImuRecording
+from nav_bringup.graph import PARAMS_FILE, REPO
+
+EPOCH_S = 1_700_000_000.0
+DEFAULT_MODEL = REPO / "config" / "sensor_models" / "bp3010.yaml"
+BALZER_CSV = REPO / ".." / "shared" / "data" / "balzer_car" / "2014-03-26-000-Data.csv"
+# Filter settings each source needs (the source, not the filter, decides these).
+KF_OVERRIDES = {
+    "katwijk": {"alignment_time_s": 15.0, "heading_min_speed_mps": 0.1},
+    "canada": {"alignment_time_s": 3.0, "min_alignment_time_s": 2.0, "gps_std_m": 1.0, "gps_std_up_m": 2.0,
+               "heading_min_speed_mps": 0.1},
+    "balzer": {"alignment_time_s": 5.0, "min_alignment_time_s": 2.0},
+}
+
+
+def load(name: str, csv: Path | None):
+    """(imu, gnss, truth or None) of a source, IMU in body FLU."""
+    if name == "katwijk":
+        imu, gnss, ref, _ = datasets.load_katwijk()
+        return imu, gnss, ref
+    if name == "canada":
+        imu, gnss, truth, _ = datasets.load_canada()
+        return imu, gnss, truth
+    path = csv or BALZER_CSV
+    imu = datasets.read_balzer_csv(path)
+    flu = ImuRecording(imu.t, imu.gyro @ datasets.FRD_TO_FLU, imu.accel @ datasets.FRD_TO_FLU, imu.temp_c,
+                       source=imu.source)
+    return flu, datasets.read_balzer_gnss(path), None
+
+
+def stationary_head_s(imu: ImuRecording) -> float:
+    """Seconds of rest at the start (motion onset of the angular rate)."""
+    return float(datasets.motion_onset(imu.t, np.linalg.norm(imu.gyro, axis=1), imu.rate_hz) - imu.t[0])
+
+
+def noise_model(imu: ImuRecording, head_s: float) -> sensor_model.SensorModel:
+    """The stationary head's Allan characterisation if it is long enough, else the MEMS default at this rate."""
+    if head_s >= 10.0:
+        from imu_calib.characterise import characterise
+
+        model = characterise(imu.between(imu.t[0], imu.t[0] + head_s)).model
+        model.provenance["note"] = f"Allan characterisation of the first {head_s:.1f} s (at rest)"
+    else:
+        model = sensor_model.load(DEFAULT_MODEL)
+        model.gyro.bias[:] = model.accel.bias[:] = 0.0
+        model.gyro.scale_factor[:] = model.accel.scale_factor[:] = 0.0
+        model.gyro.misalignment[:] = model.accel.misalignment[:] = 0.0
+        model.provenance = {"note": f"MEMS default noise (no stationary head: {head_s:.1f} s at rest); "
+                                    "no deterministic calibration"}
+    model.sample_rate_hz = imu.rate_hz
+    return model
+
+
+def write_params(out: Path, name: str, imu_rate: float, gps_rate: float) -> Path:
+    """The graph's params file with this recording's rates and the source's alignment settings."""
+    params = yaml.safe_load(PARAMS_FILE.read_text())
+    params["ins_gps_kf_node"]["ros__parameters"].update(
+        {"imu_rate_hz": imu_rate, "gps_rate_hz": gps_rate, "imu_topic": "imu/data_corrected", **KF_OVERRIDES[name]})
+    params["wmra_node"]["ros__parameters"]["sample_rate_hz"] = imu_rate
+    params["allan_node"]["ros__parameters"]["duration_s"] = 5.0
+    path = out / "navigation.yaml"
+    path.write_text(f"# config/navigation.yaml with the settings of the {name} recording (nav-convert)\n"
+                    + yaml.safe_dump(params, sort_keys=False))
+    return path
+
+
+def convert(name: str, out: Path, csv: Path | None = None) -> dict:
+    """Write the bag, truth, model and params of a source into ``out``; return a summary."""
+    imu, gnss, truth = load(name, csv)
+    out.mkdir(parents=True, exist_ok=True)
+    shifted_imu = ImuRecording(imu.t + EPOCH_S, imu.gyro, imu.accel, imu.temp_c, source=imu.source)
+    shifted_gnss = recording.GnssRecording(gnss.t + EPOCH_S, gnss.lat, gnss.lon, gnss.h, gnss.std_enu, gnss.status,
+                                           source=gnss.source)
+    recording.write_bag(out / "bag", shifted_imu, shifted_gnss, storage="mcap")
+    if truth is not None:
+        truth.t = truth.t + EPOCH_S
+        recording.write_trajectory_csv(out / "truth.csv", truth)
+    head = stationary_head_s(imu)
+    sensor_model.save(noise_model(imu, head), out / "sensor_model.yaml")
+    gps_rate = 1.0 / float(np.median(np.diff(gnss.t)))
+    write_params(out, name, imu.rate_hz, gps_rate)
+    return {"imu_samples": len(imu), "imu_rate_hz": imu.rate_hz, "gps_fixes": len(gnss), "gps_rate_hz": gps_rate,
+            "stationary_head_s": head, "truth": truth is not None}
+
+
+def main(argv=None) -> int:
+    """Command line."""
+    p = argparse.ArgumentParser(prog="nav-convert", description=__doc__,
+                                formatter_class=argparse.RawDescriptionHelpFormatter)
+    p.add_argument("source", choices=sorted(KF_OVERRIDES))
+    p.add_argument("--out", type=Path, required=True)
+    p.add_argument("--csv", type=Path, default=None, help="balzer: which car CSV")
+    args = p.parse_args(argv)
+    try:
+        summary = convert(args.source, args.out, args.csv)
+    except (recording.RecordingError, OSError, ValueError) as err:
+        print(f"nav-convert: {err}", file=sys.stderr)
+        return 2
+    print(f"nav-convert {args.source}: {summary}; wrote {args.out}")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
