@@ -160,11 +160,12 @@ def test_outage_is_bridged_by_prediction_only():
     assert err[(t > 190.0) & (t < 200.0)].max() < 3.0  # pulled back after the outage
 
 
-def test_time_jump_resets_and_realigns():
+@pytest.mark.parametrize("jump_s", [-10.0, 100.0])  # backwards, or forward beyond max_bridged_gap_s (30 s)
+def test_time_jump_resets_and_realigns(jump_s):
     motion = syn.stationary(duration_s=120.0)
     rng = np.random.default_rng(1)
     imu = syn.ideal_imu(motion, RATE)
-    imu.t[len(imu) // 2:] += 10.0
+    imu.t[len(imu) // 2:] += jump_s
     filt = InsGpsFilter(config.from_params({"alignment_time_s": 20.0}), _noisy_model())
     run(filt, imu, syn.gnss(motion, RATE, 1.0, rng))
     assert filt.counters.resets == 1 and "time jump" in filt.counters.reset_reasons[0]

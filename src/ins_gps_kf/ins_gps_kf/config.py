@@ -70,6 +70,11 @@ PARAMETERS = (
     Spec("flicker_correlation_time_s", 300.0, "Gauss-Markov time for flicker bias instability, s", 1.0, 1e6),
     Spec("reorder_window_s", 0.1, "node: messages are held this long and processed in stamp order, s", 0.0, 5.0),
     Spec("time_jump_s", 1.0, "backward stamp jump or IMU gap that resets the filter, s", 0.01, 1e6),
+    Spec("max_bridged_gap_s", 30.0, "a forward IMU gap up to this long (a lost serial port) is bridged by holding "
+         "the last sample and growing the covariance, instead of resetting, s; 0 = always reset", 0.0, 3600.0),
+    Spec("bridge_accel_std_mps2", 1.0, "vehicle acceleration std assumed while bridging an IMU gap, m/s^2",
+         0.0, 100.0),
+    Spec("bridge_rate_std_dps", 5.0, "vehicle turn-rate std assumed while bridging an IMU gap, deg/s", 0.0, 1000.0),
     Spec("frame_id", "odom", "odometry pose frame (local ENU at the datum)"),
     Spec("child_frame_id", "base_link", "odometry twist / body frame"),
 )
@@ -107,6 +112,9 @@ class FilterConfig:
     heading_std: float = 10.0 * DEG
     flicker_correlation_time: float = 300.0
     time_jump: float = 1.0
+    max_bridged_gap: float = 30.0
+    bridge_accel_std: float = 1.0
+    bridge_rate_std: float = 5.0 * DEG
     apply_calibration: bool = False
 
 
@@ -155,7 +163,9 @@ def from_params(params: dict) -> FilterConfig:
         init_gyro_bias_std=p["init_gyro_bias_std_dph"] * DEG_PER_H,
         init_accel_bias_std=p["init_accel_bias_std_mg"] * MG, init_attitude_std=p["init_attitude_std_deg"] * DEG,
         heading_std=p["heading_std_deg"] * DEG, flicker_correlation_time=float(p["flicker_correlation_time_s"]),
-        time_jump=float(p["time_jump_s"]), apply_calibration=bool(p["apply_sensor_model_calibration"]))
+        time_jump=float(p["time_jump_s"]), max_bridged_gap=float(p["max_bridged_gap_s"]),
+        bridge_accel_std=float(p["bridge_accel_std_mps2"]), bridge_rate_std=float(p["bridge_rate_std_dps"]) * DEG,
+        apply_calibration=bool(p["apply_sensor_model_calibration"]))
 
 
 def load_params_yaml(path) -> dict:

@@ -19,6 +19,7 @@ from nav_core import sensor_model as sm
 from nav_core.earth import LocalFrame
 from nav_core.units import DEG
 from ins_gps_kf import error_model as em
+from ins_gps_kf.error_model import DP, DV, PHI
 from ins_gps_kf import kalman, measurements, strapdown
 from ins_gps_kf.alignment import StationaryAligner, yaw_from_displacement
 from ins_gps_kf.config import FilterConfig
@@ -68,6 +69,7 @@ class Counters:
     zupts: int = 0
     resets: int = 0
     gps_resets: int = 0
+    gaps_bridged: int = 0
     epochs: int = 0
     reset_reasons: list = field(default_factory=list)
 
@@ -99,6 +101,7 @@ class InsGpsFilter:
         self.mem = None
         self.cov = None
         self.t_last = None
+        self._last_sample = None
         self.pending_fix: Fix | None = None
         self.prev_fix: Fix | None = None
         self.heading_history = []  # (fix, INS yaw at its epoch) while the heading is pending
@@ -148,11 +151,32 @@ class InsGpsFilter:
         start = 0
         for bad in self._time_breaks(t):
             out += self._process_span(t[start:bad], gyro[start:bad], accel[start:bad])
-            gap = t[bad] - (t[bad - 1] if bad > 0 else self.t_last)
-            self.reset(f"time jump of {gap:+.3f} s at t={t[bad]:.3f} s")
+            prev_t = t[bad - 1] if bad > 0 else self.t_last
+            gap = t[bad] - prev_t
+            if 0.0 < gap <= self.cfg.max_bridged_gap and self.nav is not None and self._last_sample is not None:
+                out += self._bridge(prev_t, float(t[bad]))
+            else:
+                self.reset(f"time jump of {gap:+.3f} s at t={t[bad]:.3f} s")
             start = bad
         out += self._process_span(t[start:], gyro[start:], accel[start:])
+        self._last_sample = (gyro[-1].copy(), accel[-1].copy())
         return out
+
+    def _bridge(self, t_from: float, t_to: float) -> list[Estimate]:
+        """Cross a forward IMU gap: hold the last sample at the nominal rate; grow the covariance by what
+        the vehicle may have done meanwhile (``bridge_*_std``), so the next fixes pull the solution back."""
+        n = int(np.floor((t_to - t_from) * self.cfg.imu_rate_hz)) - 1
+        self.counters.gaps_bridged += 1
+        self.counters.reset_reasons.append(f"IMU gap of {t_to - t_from:.3f} s at t={t_from:.3f} s bridged")
+        gap = t_to - t_from
+        self.cov[DV, DV] += np.eye(3) * (self.cfg.bridge_accel_std * gap) ** 2
+        self.cov[DP, DP] += np.eye(3) * (0.5 * self.cfg.bridge_accel_std * gap**2) ** 2
+        self.cov[PHI, PHI] += np.eye(3) * (self.cfg.bridge_rate_std * gap) ** 2
+        if n < 1:
+            return []
+        ts = t_from + np.arange(1, n + 1) / self.cfg.imu_rate_hz
+        gyro, accel = self._last_sample
+        return self._process_span(ts, np.tile(gyro, (n, 1)), np.tile(accel, (n, 1)))
 
     def _time_breaks(self, t):
         """Indices where the stamp goes backwards or jumps forward by more than ``time_jump`` s."""

@@ -189,7 +189,8 @@ class InsGpsKfNode(Node):
                   "alignment": ("aligned" if f.alignment is not None else
                                 f"{f.aligner.elapsed_s:.1f}/{f.cfg.alignment_time_s:.0f} s stationary"
                                 if f.status == ALIGNING else "waiting for a GPS fix (datum)"),
-                  "filter_resets": c.resets, "last_reset": (c.reset_reasons[-1] if c.reset_reasons else ""),
+                  "filter_resets": c.resets, "imu_gaps_bridged": c.gaps_bridged,
+                  "last_reset": (c.reset_reasons[-1] if c.reset_reasons else ""),
                   "late_dropped": self.late_dropped}
         if f.alignment is not None:
             values.update({"align_roll_deg": f.alignment.roll / DEG, "align_pitch_deg": f.alignment.pitch / DEG})

@@ -60,8 +60,10 @@ def noise_model(imu: ImuRecording, head_s: float) -> sensor_model.SensorModel:
     if head_s >= 10.0:
         from imu_calib.characterise import characterise
 
-        model = characterise(imu.between(imu.t[0], imu.t[0] + head_s)).model
+        head = imu.between(imu.t[0], imu.t[0] + head_s)
+        model = characterise(head).model
         model.provenance["note"] = f"Allan characterisation of the first {head_s:.1f} s (at rest)"
+        _fill_white_noise(model, head)
     else:
         model = sensor_model.load(DEFAULT_MODEL)
         model.gyro.bias[:] = model.accel.bias[:] = 0.0
@@ -71,6 +73,19 @@ def noise_model(imu: ImuRecording, head_s: float) -> sensor_model.SensorModel:
                                     "no deterministic calibration"}
     model.sample_rate_hz = imu.rate_hz
     return model
+
+
+def _fill_white_noise(model: sensor_model.SensorModel, head: ImuRecording) -> None:
+    """Where the fit dropped the white noise N of an axis (a short head), take it from successive differences:
+    for white noise, std(diff(x)) / sqrt(2) is the per-sample sigma, and N = sigma * sqrt(dt)."""
+    dt = 1.0 / head.rate_hz
+    for triad, data in (("gyro", head.gyro), ("accel", head.accel)):
+        tri = model.triad(triad)
+        estimate = np.std(np.diff(data, axis=0), axis=0) / np.sqrt(2.0) * np.sqrt(dt)
+        missing = tri.white_noise <= 0
+        tri.white_noise[missing] = estimate[missing]
+        if missing.any():
+            tri.info["white_noise_from_differences_axes"] = [int(i) for i in np.flatnonzero(missing)]
 
 
 def write_params(out: Path, name: str, imu_rate: float, gps_rate: float) -> Path:
