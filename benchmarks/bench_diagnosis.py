@@ -24,7 +24,7 @@ from scipy import stats
 
 from imu_sim.diagnose import calibrate
 from imu_sim.diagnose.engine import CALIBRATION_FILE
-from imu_sim.diagnose.suite import EFFECT_CASES, NULLS, run_case, summarise
+from imu_sim.diagnose.suite import EFFECT_CASES, GNSS_CASES, NULLS, run_case, summarise
 
 
 def table(summary: dict) -> str:
@@ -43,6 +43,12 @@ def table(summary: dict) -> str:
         fit = "-" if s["median_fit_before"] is None else f"{s['median_fit_before']:.3g} -> {s['median_fit_after']:.3g}"
         wrong = f" (else: {', '.join(s['wrong_first'])})" if s["wrong_first"] else ""
         lines.append(f"| {eff} | {s['cases']} | {s['detection_rate']:.0%}{wrong} | {cov} | {fit} |")
+    nulls = [s for s in summary.values() if "false_alarm_rate" in s]
+    if nulls:
+        n = sum(s["cases"] for s in nulls)
+        k = round(sum(s["false_alarm_rate"] * s["cases"] for s in nulls))
+        hi = stats.beta.ppf(0.975, k + 1, n - k) if k < n else 1.0
+        lines.append(f"| all null cases | {n} | false alarms {k / n:.1%} (95 % upper bound {hi:.1%}) | | |")
     return "\n".join(lines)
 
 
@@ -62,7 +68,7 @@ def main(argv=None) -> int:
     args = parser.parse_args(argv)
     n_eff, n_null = (2, 2) if args.quick else (args.seeds, args.null_seeds)
     effects = [] if args.calibrate else (args.effects or (["earth_rotation", "scale_factor", "quantization"]
-                                                          if args.quick else list(EFFECT_CASES)))
+                                                          if args.quick else list(EFFECT_CASES) + list(GNSS_CASES)))
     nulls = [] if args.no_nulls else list(NULLS if args.nulls is None else args.nulls)
     base = 5000 if args.calibrate else 2000
     cases = [(e, 1000 + s) for e in effects for s in range(n_eff)] + [(e, base + s) for e in nulls

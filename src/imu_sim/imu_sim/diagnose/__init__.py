@@ -4,8 +4,10 @@ Modules: :mod:`case` (inputs, deterministic simulation, residual), :mod:`spectra
 (GLS by frequency-domain whitening with the model's noise PSD), :mod:`regressors`
 (one regressor set per deterministic effect), :mod:`noise_tests` (vibration line,
 quantization lattice, Gauss-Markov and random-walk bias by Whittle likelihood),
-:mod:`locate` (change points, Allan band), :mod:`engine` (the iterate-until-nothing-
+:mod:`metrics` (held-out fit, change points, Allan band), :mod:`engine` (the iterate-until-nothing-
 significant loop), :mod:`report` (JSON, HTML, PNG), :mod:`suite` (concealed-effect
-Monte Carlo), :mod:`real` (real recordings to CSV + scenario).
+Monte Carlo), :mod:`calibrate` (threshold factors from the null cases, ``calibration.yaml``),
+:mod:`gnss_tests` / :mod:`gnss_candidates` (GNSS-side effects from the fix residual),
+:mod:`real` (real recordings to CSV + scenario).
 """
 from imu_sim.diagnose.engine import diagnose  # noqa: F401

@@ -425,6 +425,7 @@ def diagnose(case: Case, max_effects: int = 4, seed: int = 0, progress=None, fac
         if best.kind == "gnss":
             from imu_sim.diagnose import gnss_candidates
             span, band = gnss_candidates.location(case, best, model)
+            best.channels = best.channels or list(gnss_candidates.gt.CHANNELS)
         else:
             band = best.band or _band(case, resid, new_resid, best)
             contrib = best.contrib if best.contrib is not None else resid - new_resid
