@@ -2,7 +2,10 @@
 import numpy as np
 from hypothesis import given, settings, strategies as st
 
-from imu_sim.diagnose import metrics, noise_tests
+from scipy import stats
+
+from imu_sim.diagnose import calibrate, metrics, noise_tests
+from imu_sim.diagnose.engine import load_calibration
 from imu_sim.diagnose.spectral import Whitener, gls
 from imu_sim.diagnose.suite import suite_model
 
@@ -68,3 +71,30 @@ def test_time_span_brackets_an_effect_in_the_middle():
     resid = rng.standard_normal((len(t), 1)) + contrib
     a, b = metrics.time_span(resid, contrib, t)
     assert 35 <= a <= 41 and 59 <= b <= 65
+
+
+@settings(max_examples=10, deadline=None)
+@given(st.integers(1, 12), st.integers(0, 10_000))
+def test_calibration_factor_is_near_one_when_the_null_is_chi_square(dof, seed):
+    level = 0.05 / 16
+    u = np.random.default_rng(seed).chisquare(dof, 400) / stats.chi2.isf(level, dof)
+    assert 0.8 < calibrate.tail_quantile(u, "scale_factor", level) < 1.25
+
+
+def test_calibration_factor_doubles_when_the_statistic_is_inflated_twofold():
+    level = 0.05 / 16
+    u = 2 * np.random.default_rng(7).chisquare(3, 400) / stats.chi2.isf(level, 3)
+    assert 1.6 < calibrate.tail_quantile(u, "gyro_g_sensitivity", level) < 2.5
+
+
+def test_calibration_of_a_maximum_statistic_uses_its_gumbel_tail():
+    level, n_bins = 0.05 / 16, 6000
+    u = np.random.default_rng(8).exponential(2.0, (300, n_bins)).max(axis=1) / (2 * np.log(n_bins / level))
+    assert 0.85 < calibrate.tail_quantile(u, "vibration", level) < 1.2
+
+
+def test_committed_calibration_has_a_positive_factor_per_tested_effect():
+    factors = load_calibration()
+    assert factors, "calibration.yaml missing: run benchmarks/bench_diagnosis.py --calibrate"
+    assert all(f > 0 for f in factors.values())
+    assert {"scale_factor", "vibration", "quantization", "gps_latency"} <= set(factors)

@@ -74,6 +74,7 @@ def write(result: dict, path: Path) -> Path:
     """Write the calibration YAML (small, committed)."""
     path = Path(path)
     header = ("# Threshold factors of the diagnosis, from the null Monte Carlo (see diagnose/calibrate.py).\n"
-              "# Regenerate: .venv/bin/python benchmarks/bench_diagnosis.py --calibrate --null-seeds 100\n")
+              "# Regenerate: .venv/bin/python benchmarks/bench_diagnosis.py --calibrate --null-seeds 100 "
+              "(about 20 min, one core)\n")
     path.write_text(header + yaml.safe_dump(result, sort_keys=False))
     return path
