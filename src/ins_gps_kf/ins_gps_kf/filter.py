@@ -102,6 +102,7 @@ class InsGpsFilter:
         self.cov = None
         self.t_last = None
         self._last_sample = None
+        self._recent = None
         self.pending_fix: Fix | None = None
         self.prev_fix: Fix | None = None
         self.heading_history = []  # (fix, INS yaw at its epoch) while the heading is pending
@@ -159,11 +160,23 @@ class InsGpsFilter:
                 self.reset(f"time jump of {gap:+.3f} s at t={t[bad]:.3f} s")
             start = bad
         out += self._process_span(t[start:], gyro[start:], accel[start:])
-        self._last_sample = (gyro[-1].copy(), accel[-1].copy())
+        self._remember(gyro, accel)
         return out
 
+    def _remember(self, gyro, accel) -> None:
+        """Keep the last second of samples (a ring): the bridge holds their mean, not one noisy sample."""
+        n = max(int(self.cfg.imu_rate_hz), 1)
+        if self._recent is None:
+            self._recent, self._recent_n, self._recent_i = np.zeros((n, 6)), 0, 0
+        rows = np.hstack([gyro, accel])[-n:]
+        idx = (self._recent_i + np.arange(len(rows))) % n
+        self._recent[idx] = rows
+        self._recent_i = (self._recent_i + len(rows)) % n
+        self._recent_n = min(self._recent_n + len(rows), n)
+        self._last_sample = self._recent[:self._recent_n].mean(axis=0)
+
     def _bridge(self, t_from: float, t_to: float) -> list[Estimate]:
-        """Cross a forward IMU gap: hold the last sample at the nominal rate; grow the covariance by what
+        """Cross a forward IMU gap: hold the last second's mean sample; grow the covariance by what
         the vehicle may have done meanwhile (``bridge_*_std``), so the next fixes pull the solution back."""
         n = int(np.floor((t_to - t_from) * self.cfg.imu_rate_hz)) - 1
         self.counters.gaps_bridged += 1
@@ -171,12 +184,14 @@ class InsGpsFilter:
         gap = t_to - t_from
         self.cov[DV, DV] += np.eye(3) * (self.cfg.bridge_accel_std * gap) ** 2
         self.cov[DP, DP] += np.eye(3) * (0.5 * self.cfg.bridge_accel_std * gap**2) ** 2
-        self.cov[PHI, PHI] += np.eye(3) * (self.cfg.bridge_rate_std * gap) ** 2
+        # A road vehicle turns about the vertical; its roll and pitch stay within a few degrees, so only the
+        # heading uncertainty grows with the turn rate (tilt growth would let GPS updates bend the tilt).
+        self.cov[PHI.stop - 1, PHI.stop - 1] += (self.cfg.bridge_rate_std * gap) ** 2
         if n < 1:
             return []
         ts = t_from + np.arange(1, n + 1) / self.cfg.imu_rate_hz
-        gyro, accel = self._last_sample
-        return self._process_span(ts, np.tile(gyro, (n, 1)), np.tile(accel, (n, 1)))
+        held = np.tile(self._last_sample, (n, 1))
+        return self._process_span(ts, held[:, :3], held[:, 3:])
 
     def _time_breaks(self, t):
         """Indices where the stamp goes backwards or jumps forward by more than ``time_jump`` s."""
