@@ -38,7 +38,8 @@ KF_OVERRIDES = {
 def load(name: str, csv: Path | None):
     """(imu, gnss, truth or None) of a source, IMU in body FLU."""
     if name == "katwijk":
-        imu, gnss, ref, _ = datasets.load_katwijk()
+        # forward = -x: the axis choice the filter's evaluation picked by GPS NIS (src/ins_gps_kf/README.md)
+        imu, gnss, ref, _ = datasets.load_katwijk("-x_fwd")
         return imu, gnss, ref
     if name == "canada":
         imu, gnss, truth, _ = datasets.load_canada()

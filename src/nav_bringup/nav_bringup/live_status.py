@@ -38,7 +38,8 @@ def watch(graph, player: str, sim_dir: Path | None, period_s: float = 5.0) -> No
                 msg = odom[-1][1]
                 p = msg.pose.pose.position
                 err = f"{truth.horizontal_error(stamp_to_s(msg.header.stamp), np.array([p.x, p.y, p.z])):8.2f}"
-            sim_t = (stamp_to_s(odom[-1][1].header.stamp) - (truth.epoch_s if truth else 0.0)) if odom else 0.0
+            first = stamp_to_s(odom[0][1].header.stamp) if odom else 0.0
+            sim_t = stamp_to_s(odom[-1][1].header.stamp) - (truth.epoch_s if truth else first) if odom else 0.0
             print(f"{time.monotonic() - start:6.0f} {sim_t:8.1f} {len(odom):6d} "
                   f"{(kf.message if kf else 'waiting')[:28]:<28} {kfv.get('fixes', '-'):>6} "
                   f"{kfv.get('rejected_fixes', '-'):>4} {err:>8}", flush=True)
