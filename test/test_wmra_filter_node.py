@@ -124,3 +124,51 @@ def test_node_exits_with_status_2_and_a_message_on_bad_config(tmp_path, ros_env,
     finally:
         node.stop()
     assert message in node.output
+
+
+def test_node_fills_a_dropped_message_instead_of_restarting(tmp_path, ros_env, rclpy_context):
+    model, path = _model(tmp_path)
+    node = NodeProcess("wmra_node", env=ros_env, ros_args={"sensor_model_path": str(path), "hop": HOP,
+                                                           "diagnostics_period_s": 0.2})
+    try:
+        assert node.wait_for_line("ready", 30), node.output
+        probe = Probe({"imu/data_corrected": Imu, "/diagnostics": DiagnosticArray},
+                      qos=QoSProfile(depth=1000, reliability=ReliabilityPolicy.BEST_EFFORT))
+        feeder = rclpy.create_node("feeder")
+        pub = feeder.create_publisher(Imu, "imu/data_raw", SENSOR_QOS)
+        assert probe.spin_until(lambda p: pub.get_subscription_count() > 0
+                                and p.count_publishers("imu/data_corrected") > 0, 20)
+        t, gyro, accel = _samples(200, 100.0, 3)
+        drop = 120
+        # The core's output for the same input with the dropped sample interpolated (and not published).
+        cfg = WmraConfig.for_bandwidth(FS, hop=HOP)
+        stream = StreamingWmra(cfg, 6, sample_sigma=model_sample_sigma(model, FS))
+        samples = calibrate(gyro, accel, model)
+        samples[drop] = 0.5 * (samples[drop - 1] + samples[drop + 1])
+        out, counts = [], []
+        for j in range(200):
+            out += stream.push(samples[j], tag=None if j == drop else t[j])
+            if j != drop:
+                counts.append(len([o for o in out if o[0] is not None]))
+        expected = {round(tag, 6): value for tag, value in out if tag is not None}
+        keep = np.arange(200) != drop
+        _publish(pub, probe, t[keep], gyro[keep], accel[keep], counts)
+        assert probe.spin_until(lambda p: len(p.received["imu/data_corrected"]) >= len(expected), 20)
+        got = {round(stamp_to_s(m.header.stamp), 6): m for _, m in probe.received["imu/data_corrected"]}
+        assert set(got) == set(expected) and round(t[drop], 6) not in got
+        for stamp, msg in got.items():
+            _, g, a = imu_to_arrays(msg)
+            np.testing.assert_allclose(np.concatenate([g, a]), expected[stamp], rtol=0, atol=1e-12)
+
+        def filled(p):
+            for _, arr in reversed(p.received["/diagnostics"]):
+                values = {kv.key: kv.value for st in arr.status if "wmra" in st.name for kv in st.values}
+                if values.get("filled_samples") == "1":
+                    return values
+            return None
+        assert probe.spin_until(filled, 10), "no diagnostics reporting the filled sample"
+        assert filled(probe)["restarts"] == "0"
+        feeder.destroy_node()
+        probe.destroy_node()
+    finally:
+        node.stop()

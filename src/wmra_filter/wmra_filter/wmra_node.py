@@ -38,6 +38,8 @@ PARAMS = (
     Param("noise_source", "model", "detail noise sigma from the sensor model's white noise or from the data (mad)",
           choices=thr.NOISE_SOURCES),
     Param("gap_factor", 1.5, "a sample interval above gap_factor / sample_rate_hz restarts the window", 1.01, 1e3),
+    Param("fill_gap_samples", 4, "a gap of up to this many missing samples (a dropped message) is filled by linear "
+          "interpolation instead of restarting; fill samples are not published", 0, 1000),
     Param("diagnostics_period_s", 1.0, "period of the /diagnostics status, s", 0.05, 60.0),
 )
 
@@ -81,9 +83,11 @@ class WmraNode(Node):
         self.stream = StreamingWmra(self.cfg, 6, sample_sigma=sigma)
         self.calibrate = Calibrator(self.model)
         self.max_interval_s = values["gap_factor"] / self.cfg.sample_rate_hz
-        self.stats = {"received": 0, "published": 0, "restarts": 0, "last_restart": "none",
+        self.fill_gap_samples = values["fill_gap_samples"]
+        self.stats = {"received": 0, "published": 0, "restarts": 0, "last_restart": "none", "filled_samples": 0,
                       "busy_s": 0.0, "busy_max_s": 0.0}
         self._last_t = None
+        self._last_sample = None
         self.pub = self.create_publisher(Imu, "imu/data_corrected", SENSOR_QOS)
         self.create_subscription(Imu, "imu/data_raw", self.on_imu, SENSOR_QOS_IN)
         self.diagnostics = Diagnostics(self, "wmra", hardware_id=values["sensor_model_path"])
@@ -97,14 +101,29 @@ class WmraNode(Node):
         start = time.perf_counter()
         t, gyro, accel = imu_to_arrays(msg)
         self.stats["received"] += 1
-        if self._last_t is not None and not 0.0 < t - self._last_t <= self.max_interval_s:
-            self._restart(t)
-        self._last_t = t
         sample = self.calibrate(gyro, accel)
+        if self._last_t is not None and not 0.0 < t - self._last_t <= self.max_interval_s:
+            if not self._fill(t, sample):
+                self._restart(t)
+        self._last_t = t
+        self._last_sample = sample
         self._publish(self.stream.push(sample, tag=(msg.header.stamp, msg.header.frame_id)))
         busy = time.perf_counter() - start
         self.stats["busy_s"] += busy
         self.stats["busy_max_s"] = max(self.stats["busy_max_s"], busy)
+
+    def _fill(self, t: float, sample) -> bool:
+        """Fill a gap of a few whole missing samples by linear interpolation; False if it is not such a gap."""
+        period = 1.0 / self.cfg.sample_rate_hz
+        steps = int(round((t - self._last_t) / period))
+        missing = steps - 1
+        if not 1 <= missing <= self.fill_gap_samples or abs(t - self._last_t - steps * period) > 0.25 * period:
+            return False
+        for k in range(1, steps):
+            filler = self._last_sample + (sample - self._last_sample) * (k / steps)
+            self._publish(self.stream.push(filler, tag=None))
+        self.stats["filled_samples"] += missing
+        return True
 
     def _restart(self, t: float) -> None:
         kind = "time jump" if t <= self._last_t else "gap"
@@ -115,7 +134,10 @@ class WmraNode(Node):
         self._publish(self.stream.restart())
 
     def _publish(self, outputs) -> None:
-        for (stamp, frame_id), value in outputs:
+        for tag, value in outputs:
+            if tag is None:  # a fill sample: it kept the window going, it is not a measurement
+                continue
+            stamp, frame_id = tag
             self.pub.publish(imu_from_arrays(0.0, value[:3], value[3:], frame_id=frame_id, stamp=stamp))
             self.stats["published"] += 1
 
@@ -129,6 +151,7 @@ class WmraNode(Node):
                   "thresholds_gyro_rad_s": "pending" if lam is None else _levels_text(lam[:, :3]),
                   "thresholds_accel_m_s2": "pending" if lam is None else _levels_text(lam[:, 3:]),
                   "received": s["received"], "published": s["published"], "restarts": s["restarts"],
+                  "filled_samples": s["filled_samples"],
                   "last_restart": s["last_restart"],
                   "processing_mean_us": 1e6 * s["busy_s"] / max(s["received"], 1),
                   "processing_max_us": 1e6 * s["busy_max_s"]}
