@@ -65,20 +65,24 @@ def main(argv=None) -> int:
     parser.add_argument("--calibration-out", default=str(CALIBRATION_FILE))
     parser.add_argument("--nulls", nargs="*", default=None, help=f"null cases to run (default all: {NULLS})")
     parser.add_argument("--merge", nargs="*", default=[], help="rows.json of earlier runs to add (calibration)")
+    parser.add_argument("--resume", default=None,
+                        help="rows.json of an interrupted run of the same code: its (case, seed) rows are reused")
     args = parser.parse_args(argv)
     n_eff, n_null = (2, 2) if args.quick else (args.seeds, args.null_seeds)
     effects = [] if args.calibrate else (args.effects or (["earth_rotation", "scale_factor", "quantization"]
                                                           if args.quick else list(EFFECT_CASES) + list(GNSS_CASES)))
     nulls = [] if args.no_nulls else list(NULLS if args.nulls is None else args.nulls)
     base = 5000 if args.calibrate else 2000
-    cases = [(e, 1000 + s) for e in effects for s in range(n_eff)] + [(e, base + s) for e in nulls
-                                                                          for s in range(n_null)]
+    # null cases first: the false-alarm rate is the figure a cut-short run must not lose
+    cases = [(e, base + s) for e in nulls for s in range(n_null)] + [(e, 1000 + s) for e in effects
+                                                                     for s in range(n_eff)]
+    done = {(r["effect"], r["seed"]): r for r in json.loads(Path(args.resume).read_text())} if args.resume else {}
     factors = {} if args.calibrate else None
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
     rows, start = [], time.perf_counter()
     for eff, seed in tqdm(cases, desc="diagnose-suite", file=sys.stderr):
-        rows.append(run_case(eff, seed, factors=factors))
+        rows.append(done.get((eff, seed)) or run_case(eff, seed, factors=factors))
         (out / "rows.json").write_text(json.dumps(rows, indent=1, default=float))
     text = table(summarise(rows))
     (out / "table.md").write_text(text + "\n")
