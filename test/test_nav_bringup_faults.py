@@ -7,13 +7,12 @@ and a NaN fix at 240 s. (A time jump in a replayed bag is covered by the filter 
 import numpy as np
 import pytest
 import rclpy
-import yaml
 from diagnostic_msgs.msg import DiagnosticArray
 from nav_msgs.msg import Odometry
 
+from nav_bringup.demo import simulate_scenario
 from nav_bringup.graph import PARAMS_FILE, REPO, Graph, NodeSpec
 from nav_bringup.truth import TruthTrack
-from nav_core import sensor_model
 from nav_core.ros_node import Probe, stamp_to_s
 
 pytestmark = [pytest.mark.ros, pytest.mark.slow]
@@ -25,14 +24,9 @@ RECOVERY_S = 40.0  # stated recovery time after the last fault
 
 @pytest.fixture(scope="module")
 def sim_dir(tmp_path_factory):
-    from imu_sim.simulate import simulate, write_outputs
-
-    scen = yaml.safe_load((REPO / "config" / "scenarios" / "paper_drive.yaml").read_text())
-    scen["duration_s"] = SIM_S + 2
-    path = tmp_path_factory.mktemp("scenario") / "paper_drive_head.yaml"
-    path.write_text(yaml.safe_dump(scen))
-    out = tmp_path_factory.mktemp("sim")
-    write_outputs(simulate(path, model=sensor_model.load(MODEL), seed=11), out, fmt="csv")
+    out = tmp_path_factory.mktemp("sim") / "run"
+    scen = simulate_scenario(REPO / "config" / "scenarios" / "paper_drive.yaml", MODEL, 11, out,
+                             duration_s=SIM_S + 2, fmt="csv")
     return out, scen
 
 

@@ -3,7 +3,6 @@
 scenario_player (emulator -> pty, GPS, /clock) -> bp3010_driver -> wmra_node -> ins_gps_kf_node,
 with allan_node and bag_record, on the first 100 s of the paper drive at 2x real time.
 """
-import time
 from pathlib import Path
 
 import numpy as np
@@ -13,9 +12,10 @@ import yaml
 from diagnostic_msgs.msg import DiagnosticArray
 from nav_msgs.msg import Odometry
 
+from nav_bringup.demo import simulate_scenario
 from nav_bringup.graph import PARAMS_FILE, REPO, Graph, NodeSpec
 from nav_bringup.truth import TruthTrack
-from nav_core import recording, sensor_model
+from nav_core import recording
 from nav_core.ros_node import Probe, stamp_to_s
 
 pytestmark = [pytest.mark.ros, pytest.mark.slow]
@@ -26,14 +26,9 @@ RATE = 2.0
 
 @pytest.fixture(scope="module")
 def sim_dir(tmp_path_factory):
-    from imu_sim.simulate import simulate, write_outputs
-
-    scen = yaml.safe_load((REPO / "config" / "scenarios" / "paper_drive.yaml").read_text())
-    scen["duration_s"] = SIM_SECONDS + 2
-    path = tmp_path_factory.mktemp("scenario") / "paper_drive_head.yaml"
-    path.write_text(yaml.safe_dump(scen))
-    out = tmp_path_factory.mktemp("sim")
-    write_outputs(simulate(path, model=sensor_model.load(MODEL), seed=7), out, fmt="csv")
+    out = tmp_path_factory.mktemp("sim") / "run"
+    simulate_scenario(REPO / "config" / "scenarios" / "paper_drive.yaml", MODEL, 7, out,
+                             duration_s=SIM_SECONDS + 2, fmt="csv")
     return out
 
 

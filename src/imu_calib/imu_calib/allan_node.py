@@ -22,7 +22,9 @@ from sensor_msgs.msg import Imu
 from imu_calib.allan import AllanError
 from imu_calib.characterise import characterise, write_outputs
 from nav_core.recording import IMU_TOPIC, ImuRecording, RecordingError, read_imu
-from nav_core.ros_node import SENSOR_QOS, SENSOR_QOS_IN, ConfigError, Diagnostics, Param, declare_parameters, imu_to_arrays, run_node
+from nav_core.params import ConfigError, Param
+from nav_core.ros_node import (SENSOR_QOS_IN, Diagnostics, declare_parameters,
+                               imu_to_arrays, run_node)
 
 PARAMS = (
     Param("recording", "", "rosbag2 bag or recording CSV to characterise; empty = subscribe to topic live"),

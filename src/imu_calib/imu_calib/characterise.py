@@ -12,7 +12,7 @@ from pathlib import Path
 import numpy as np
 
 from imu_calib.allan import AllanDeviation, AllanError, log_taus, octave_taus, overlapping_adev, psd
-from imu_calib.noise_fit import SCHEMA_NAMES, TERMS, NoiseFit, fit_noise
+from imu_calib.noise_fit import SCHEMA_NAMES, TERMS, fit_noise
 from nav_core import sensor_model
 from nav_core.recording import ImuRecording
 

@@ -17,7 +17,8 @@ from rclpy.serialization import deserialize_message
 from rosgraph_msgs.msg import Clock
 
 from nav_core import bagio
-from nav_core.ros_node import SENSOR_QOS, ConfigError, Param, declare_parameters, run_node
+from nav_core.params import ConfigError, Param
+from nav_core.ros_node import SENSOR_QOS, declare_parameters, run_node
 
 SENSOR_TYPES = {"sensor_msgs/msg/Imu", "sensor_msgs/msg/NavSatFix", "sensor_msgs/msg/Temperature"}
 

@@ -11,7 +11,8 @@ from rclpy.qos import QoSProfile, ReliabilityPolicy
 
 from imu_driver.bag_play_node import message_class
 from nav_core.bagio import BagWriter
-from nav_core.ros_node import ConfigError, Param, declare_parameters, run_node
+from nav_core.params import ConfigError, Param
+from nav_core.ros_node import declare_parameters, run_node
 
 PARAMS = (
     Param("output", "", "path of the new bag folder (must not exist)"),

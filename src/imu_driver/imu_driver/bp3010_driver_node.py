@@ -14,7 +14,8 @@ from sensor_msgs.msg import Imu
 
 from imu_driver.bp3010_codec import FIELDS, RATE_SELECT, FrameFormat
 from imu_driver.driver_core import DriverCore
-from nav_core.ros_node import SENSOR_QOS, ConfigError, Diagnostics, Param, declare_parameters, imu_from_arrays, run_node
+from nav_core.params import ConfigError, Param
+from nav_core.ros_node import SENSOR_QOS, Diagnostics, declare_parameters, imu_from_arrays, run_node
 from rclpy.node import Node
 
 PARAMS = (

@@ -10,6 +10,7 @@ from pathlib import Path
 
 import yaml
 
+from nav_core.params import Param
 from nav_core.units import DEG, MG, DEG_PER_H
 
 NODE_NAME = "ins_gps_kf_node"
@@ -19,64 +20,52 @@ class FilterConfigError(ValueError):
     """A parameter is invalid; the message names it (the node turns it into ConfigError)."""
 
 
-@dataclass(frozen=True)
-class Spec:
-    """One parameter: name, default, description (with unit), optional range or choices."""
-
-    name: str
-    default: object
-    description: str
-    low: float | None = None
-    high: float | None = None
-    choices: tuple | None = None
-
-
 PARAMETERS = (
-    Spec("imu_topic", "imu/data_corrected", "IMU input topic (remap to imu/data_raw for raw data)"),
-    Spec("gps_topic", "gps/fix", "NavSatFix input topic"),
-    Spec("sensor_model_path", "", "sensor-model YAML (nav_core.sensor_model); empty = hand-tuned MEMS default"),
-    Spec("apply_sensor_model_calibration", False, "subtract the model's bias/scale/misalignment from the IMU"),
-    Spec("imu_rate_hz", 64.0, "nominal IMU rate, Hz (stamps give the real dt)", 1.0, 5000.0),
-    Spec("gps_rate_hz", 1.0, "nominal GPS rate, Hz (GPS age warning at 3 periods)", 0.05, 100.0),
-    Spec("filter_rate_hz", 2.0, "Kalman filter (covariance propagation and update) rate, Hz", 0.1, 100.0),
-    Spec("alignment_time_s", 45.0, "stationary time used for coarse alignment, s", 1.0, 600.0),
-    Spec("min_alignment_time_s", 5.0, "shortest stationary period accepted if motion starts early, s", 0.5, 600.0),
-    Spec("stationary_gyro_dps", 2.0, "stationarity: rms angular rate below this, deg/s", 0.0, 100.0),
-    Spec("stationary_accel_mg", 50.0, "stationarity: |f| deviation from its mean below this, mg", 0.0, 1000.0),
-    Spec("initial_yaw_deg", float("nan"), "initial yaw (ENU, 0 = east, CCW), deg; NaN = from GPS course"),
-    Spec("heading_min_speed_mps", 0.3, "GPS ground speed needed to take the heading from the course, m/s",
+    Param("imu_topic", "imu/data_corrected", "IMU input topic (remap to imu/data_raw for raw data)"),
+    Param("gps_topic", "gps/fix", "NavSatFix input topic"),
+    Param("sensor_model_path", "", "sensor-model YAML (nav_core.sensor_model); empty = hand-tuned MEMS default"),
+    Param("apply_sensor_model_calibration", False, "subtract the model's bias/scale/misalignment from the IMU"),
+    Param("imu_rate_hz", 64.0, "nominal IMU rate, Hz (stamps give the real dt)", 1.0, 5000.0),
+    Param("gps_rate_hz", 1.0, "nominal GPS rate, Hz (GPS age warning at 3 periods)", 0.05, 100.0),
+    Param("filter_rate_hz", 2.0, "Kalman filter (covariance propagation and update) rate, Hz", 0.1, 100.0),
+    Param("alignment_time_s", 45.0, "stationary time used for coarse alignment, s", 1.0, 600.0),
+    Param("min_alignment_time_s", 5.0, "shortest stationary period accepted if motion starts early, s", 0.5, 600.0),
+    Param("stationary_gyro_dps", 2.0, "stationarity: rms angular rate below this, deg/s", 0.0, 100.0),
+    Param("stationary_accel_mg", 50.0, "stationarity: |f| deviation from its mean below this, mg", 0.0, 1000.0),
+    Param("initial_yaw_deg", float("nan"), "initial yaw (ENU, 0 = east, CCW), deg; NaN = from GPS course"),
+    Param("heading_min_speed_mps", 0.3, "GPS ground speed needed to take the heading from the course, m/s",
          0.0, 100.0),
-    Spec("datum_lat_deg", float("nan"), "local ENU datum latitude, deg; NaN = first valid fix", -90.0, 90.0),
-    Spec("datum_lon_deg", float("nan"), "local ENU datum longitude, deg; NaN = first valid fix", -180.0, 180.0),
-    Spec("datum_h_m", 0.0, "local ENU datum height, m (used with datum_lat_deg)", -1000.0, 10000.0),
-    Spec("lever_arm_x_m", 0.0, "GPS antenna position in body x (forward), m", -100.0, 100.0),
-    Spec("lever_arm_y_m", 0.0, "GPS antenna position in body y (left), m", -100.0, 100.0),
-    Spec("lever_arm_z_m", 0.0, "GPS antenna position in body z (up), m", -100.0, 100.0),
-    Spec("gps_std_m", 0.0, "GPS horizontal std, m; 0 = use the NavSatFix covariance", 0.0, 1000.0),
-    Spec("gps_std_up_m", 0.0, "GPS vertical std, m; 0 = use the NavSatFix covariance", 0.0, 1000.0),
-    Spec("min_gps_std_m", 0.05, "floor on the GPS std taken from messages, m", 0.0, 100.0),
-    Spec("gate_probability", 0.9999, "chi-square gate: fixes with NIS above this quantile are rejected", 0.5, 1.0),
-    Spec("max_rejected_fixes", 5, "this many gated-out fixes in a row reset the position to GPS", 1, 1000),
-    Spec("reuse_last_fix", False, "paper option: re-use the last GPS fix at intermediate filter epochs"),
-    Spec("zupt_enabled", True, "zero-velocity updates when the IMU is stationary"),
-    Spec("zupt_max_gps_speed_mps", 0.1, "no ZUPT while the GPS speed (less 3 sigma of its noise) exceeds this, "
+    Param("datum_lat_deg", float("nan"), "local ENU datum latitude, deg; NaN = first valid fix", -90.0, 90.0),
+    Param("datum_lon_deg", float("nan"), "local ENU datum longitude, deg; NaN = first valid fix", -180.0, 180.0),
+    Param("datum_h_m", 0.0, "local ENU datum height, m (used with datum_lat_deg)", -1000.0, 10000.0),
+    Param("lever_arm_x_m", 0.0, "GPS antenna position in body x (forward), m", -100.0, 100.0),
+    Param("lever_arm_y_m", 0.0, "GPS antenna position in body y (left), m", -100.0, 100.0),
+    Param("lever_arm_z_m", 0.0, "GPS antenna position in body z (up), m", -100.0, 100.0),
+    Param("gps_std_m", 0.0, "GPS horizontal std, m; 0 = use the NavSatFix covariance", 0.0, 1000.0),
+    Param("gps_std_up_m", 0.0, "GPS vertical std, m; 0 = use the NavSatFix covariance", 0.0, 1000.0),
+    Param("min_gps_std_m", 0.05, "floor on the GPS std taken from messages, m", 0.0, 100.0),
+    Param("gate_probability", 0.9999, "chi-square gate: fixes with NIS above this quantile are rejected", 0.5, 1.0),
+    Param("max_rejected_fixes", 5, "this many gated-out fixes in a row reset the position to GPS", 1, 1000),
+    Param("reuse_last_fix", False, "paper option: re-use the last GPS fix at intermediate filter epochs"),
+    Param("zupt_enabled", True, "zero-velocity updates when the IMU is stationary"),
+    Param("zupt_max_gps_speed_mps", 0.1, "no ZUPT while the GPS speed (less 3 sigma of its noise) exceeds this, "
          "m/s", 0.0, 100.0),
-    Spec("zupt_max_ins_speed_mps", 0.2, "no ZUPT while the INS speed exceeds this, m/s", 0.0, 100.0),
-    Spec("zupt_std_mps", 0.02, "zero-velocity measurement std, m/s", 1e-4, 10.0),
-    Spec("init_gyro_bias_std_dph", 100.0, "initial gyro bias std after alignment, deg/h", 0.0, 1e6),
-    Spec("init_accel_bias_std_mg", 20.0, "initial accel bias std, mg", 0.0, 1e4),
-    Spec("init_attitude_std_deg", 1.0, "initial roll/pitch std after alignment, deg", 0.0, 90.0),
-    Spec("heading_std_deg", 10.0, "initial heading std (course or parameter), deg", 0.0, 180.0),
-    Spec("flicker_correlation_time_s", 300.0, "Gauss-Markov time for flicker bias instability, s", 1.0, 1e6),
-    Spec("reorder_window_s", 0.1, "node: messages are held this long and processed in stamp order, s", 0.0, 5.0),
-    Spec("time_jump_s", 1.0, "backward stamp jump or IMU gap that resets the filter, s", 0.01, 1e6),
-    Spec("max_bridged_gap_s", 30.0, "a forward IMU gap up to this long (a lost serial port) is bridged by holding "
+    Param("zupt_max_ins_speed_mps", 0.2, "no ZUPT while the INS speed exceeds this, m/s", 0.0, 100.0),
+    Param("zupt_std_mps", 0.02, "zero-velocity measurement std, m/s", 1e-4, 10.0),
+    Param("init_gyro_bias_std_dph", 100.0, "initial gyro bias std after alignment, deg/h", 0.0, 1e6),
+    Param("init_accel_bias_std_mg", 20.0, "initial accel bias std, mg", 0.0, 1e4),
+    Param("init_attitude_std_deg", 1.0, "initial roll/pitch std after alignment, deg", 0.0, 90.0),
+    Param("heading_std_deg", 10.0, "initial heading std (course or parameter), deg", 0.0, 180.0),
+    Param("flicker_correlation_time_s", 300.0, "Gauss-Markov time for flicker bias instability, s", 1.0, 1e6),
+    Param("reorder_window_s", 0.1, "node: messages are held this long and processed in stamp order, s", 0.0, 5.0),
+    Param("time_jump_s", 1.0, "backward stamp jump or IMU gap that resets the filter, s", 0.01, 1e6),
+    Param("max_bridged_gap_s", 30.0, "a forward IMU gap up to this long (a lost serial port) is bridged by holding "
          "the last sample and growing the covariance, instead of resetting, s; 0 = always reset", 0.0, 3600.0),
-    Spec("bridge_accel_std_mps2", 1.0, "vehicle acceleration std assumed while bridging an IMU gap, m/s^2",
+    Param("bridge_accel_std_mps2", 1.0, "vehicle acceleration std assumed while bridging an IMU gap, m/s^2",
          0.0, 100.0),
-    Spec("bridge_rate_std_dps", 5.0, "vehicle turn-rate std assumed while bridging an IMU gap, deg/s", 0.0, 1000.0),
-    Spec("frame_id", "odom", "odometry pose frame (local ENU at the datum)"),
-    Spec("child_frame_id", "base_link", "odometry twist / body frame"),
+    Param("bridge_rate_std_dps", 5.0, "vehicle turn-rate std assumed while bridging an IMU gap, deg/s", 0.0, 1000.0),
+    Param("frame_id", "odom", "odometry pose frame (local ENU at the datum)"),
+    Param("child_frame_id", "base_link", "odometry twist / body frame"),
 )
 SPEC_BY_NAME = {s.name: s for s in PARAMETERS}
 

@@ -14,6 +14,7 @@ import os
 
 os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")  # 15x15 matrices: BLAS threads only cost time
 
+import dataclasses  # noqa: E402
 import heapq  # noqa: E402
 import itertools  # noqa: E402
 import math  # noqa: E402
@@ -25,8 +26,9 @@ from rclpy.node import Node  # noqa: E402
 from sensor_msgs.msg import Imu, NavSatFix  # noqa: E402
 
 from nav_core import sensor_model as sm  # noqa: E402
-from nav_core.ros_node import (SENSOR_QOS, SENSOR_QOS_IN, ConfigError, Diagnostics, Param, declare_parameters,  # noqa: E402
-                               imu_to_arrays, run_node, stamp_from_s, stamp_to_s)
+from nav_core.params import ConfigError, Param  # noqa: E402
+from nav_core.ros_node import (SENSOR_QOS, SENSOR_QOS_IN, Diagnostics, declare_parameters,
+                               imu_to_arrays, run_node, stamp_from_s, stamp_to_s)  # noqa: E402
 from nav_core.units import DEG  # noqa: E402
 from ins_gps_kf import config as kfconfig  # noqa: E402
 from ins_gps_kf import error_model as em  # noqa: E402
@@ -37,11 +39,10 @@ from ins_gps_kf.replay import load_model  # noqa: E402
 GPS, IMU = 0, 1  # a fix sorts before an IMU sample of the same stamp (as in the replay)
 
 
-def _param(spec: kfconfig.Spec) -> Param:
+def _param(spec: Param) -> Param:
     """ROS declaration of a core parameter; NaN defaults ('not set') get no ROS range (the core checks it)."""
     unset = isinstance(spec.default, float) and math.isnan(spec.default)
-    return Param(spec.name, spec.default, spec.description, None if unset else spec.low,
-                 None if unset else spec.high, spec.choices)
+    return dataclasses.replace(spec, low=None, high=None) if unset else spec
 
 
 class InsGpsKfNode(Node):

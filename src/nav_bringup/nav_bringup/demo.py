@@ -19,7 +19,6 @@ import sys
 import time
 from pathlib import Path
 
-import numpy as np
 import yaml
 
 from nav_bringup.graph import PARAMS_FILE, REPO, Graph, GraphError, NodeSpec
@@ -46,11 +45,23 @@ def parse_args(argv=None):
     return p.parse_args(argv)
 
 
-def simulate_once(scenario: Path, model: Path, seed: int, out: Path) -> Path:
-    """Simulate the scenario with the model (cached by seed); return the simulation folder."""
+def simulate_scenario(scenario: Path, model: Path, seed: int, out: Path, duration_s: float | None = None,
+                      fmt: str = "all") -> dict:
+    """Simulate ``scenario`` (its first ``duration_s`` when given) with ``model`` into ``out``; the scenario dict."""
     from imu_sim.simulate import simulate, write_outputs
     from nav_core import sensor_model
 
+    scen = yaml.safe_load(Path(scenario).read_text())
+    if duration_s is not None:
+        scen["duration_s"] = duration_s
+        scenario = Path(out).parent / f"{Path(out).name}_scenario.yaml"
+        scenario.write_text(yaml.safe_dump(scen))
+    write_outputs(simulate(scenario, model=sensor_model.load(model), seed=seed), out, fmt=fmt)
+    return scen
+
+
+def simulate_once(scenario: Path, model: Path, seed: int, out: Path) -> Path:
+    """Simulate the scenario with the model (cached by seed); return the simulation folder."""
     sim_dir = out / f"sim_seed{seed}"
     newest_input = max(scenario.stat().st_mtime, model.stat().st_mtime)
     if (sim_dir / "bp3010.bin").exists() and (sim_dir / "bp3010.bin").stat().st_mtime > newest_input:
@@ -58,7 +69,7 @@ def simulate_once(scenario: Path, model: Path, seed: int, out: Path) -> Path:
         return sim_dir
     print(f"[demo] simulating {scenario.name} with {model.name} (seed {seed}) into {sim_dir}")
     shutil.rmtree(sim_dir, ignore_errors=True)
-    write_outputs(simulate(scenario, model=sensor_model.load(model), seed=seed), sim_dir, fmt="all")
+    simulate_scenario(scenario, model, seed, sim_dir)
     return sim_dir
 
 

@@ -24,7 +24,8 @@ from sensor_msgs.msg import NavSatFix, NavSatStatus
 
 from imu_driver.emulator import Emulator, FaultPlan, PtyPort, counts_from_source
 from nav_core import recording
-from nav_core.ros_node import SENSOR_QOS, ConfigError, Diagnostics, Param, declare_parameters, run_node, stamp_from_s
+from nav_core.params import ConfigError, Param
+from nav_core.ros_node import SENSOR_QOS, Diagnostics, declare_parameters, run_node, stamp_from_s
 
 PARAMS = (
     Param("sim_dir", "", "output folder of `imu-sim simulate` (bp3010.bin, gnss.csv)"),

@@ -5,17 +5,18 @@ The only module of ``nav_core`` that imports rclpy.
 from __future__ import annotations
 
 import time
-from dataclasses import dataclass
 
 import numpy as np
 import rclpy
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
-from rcl_interfaces.msg import FloatingPointRange, IntegerRange, ParameterDescriptor, SetParametersResult
+from rcl_interfaces.msg import SetParametersResult
 from rclpy.executors import ExternalShutdownException
 from rclpy.node import Node
 from rclpy.qos import QoSProfile, ReliabilityPolicy, qos_profile_sensor_data
 from geometry_msgs.msg import Vector3
 from sensor_msgs.msg import Imu
+
+from nav_core.params import ConfigError
 
 SENSOR_QOS = qos_profile_sensor_data
 """Best-effort QoS of sensor topics: a reliable subscriber will not connect to them."""
@@ -26,10 +27,6 @@ falls behind for a moment (a GC pause, a busy core) catches up instead of droppi
 
 DIAG_LEVELS = {"OK": DiagnosticStatus.OK, "WARN": DiagnosticStatus.WARN,
                "ERROR": DiagnosticStatus.ERROR, "STALE": DiagnosticStatus.STALE}
-
-
-class ConfigError(ValueError):
-    """A parameter value is invalid; the node stops with this message."""
 
 
 def run_node(node_factory, args=None) -> int:
@@ -53,41 +50,6 @@ def run_node(node_factory, args=None) -> int:
             node.destroy_node()
         rclpy.try_shutdown()
     return status
-
-
-@dataclass(frozen=True)
-class Param:
-    """A parameter declaration: name, default, description, optional numeric range or choices."""
-
-    name: str
-    default: object
-    description: str
-    low: float | None = None
-    high: float | None = None
-    choices: tuple | None = None
-
-    def descriptor(self) -> ParameterDescriptor:
-        """The ROS ParameterDescriptor with description and range."""
-        desc = ParameterDescriptor(description=self.description)
-        if self.choices:
-            desc.additional_constraints = f"one of {list(self.choices)}"
-        if self.low is not None and self.high is not None:
-            if isinstance(self.default, bool):
-                pass
-            elif isinstance(self.default, int):
-                desc.integer_range = [IntegerRange(from_value=int(self.low), to_value=int(self.high), step=0)]
-            elif isinstance(self.default, float):
-                desc.floating_point_range = [FloatingPointRange(from_value=float(self.low),
-                                                                to_value=float(self.high), step=0.0)]
-        return desc
-
-    def check(self, value) -> None:
-        """Raise ConfigError if ``value`` is outside the range or choices."""
-        if self.choices and value not in self.choices:
-            raise ConfigError(f"parameter '{self.name}': {value!r} is not one of {list(self.choices)}")
-        if isinstance(value, (int, float)) and not isinstance(value, bool):
-            if self.low is not None and value < self.low or self.high is not None and value > self.high:
-                raise ConfigError(f"parameter '{self.name}': {value!r} outside [{self.low}, {self.high}]")
 
 
 def declare_parameters(node: Node, params) -> dict:

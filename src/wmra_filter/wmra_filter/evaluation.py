@@ -14,7 +14,6 @@ peer every figure is compared with.
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from pathlib import Path
 
 import numpy as np
 from scipy import signal

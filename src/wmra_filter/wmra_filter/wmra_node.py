@@ -14,8 +14,9 @@ import numpy as np
 from sensor_msgs.msg import Imu
 
 from nav_core import sensor_model
-from nav_core.ros_node import (SENSOR_QOS, SENSOR_QOS_IN, ConfigError, Diagnostics, Param, declare_parameters, imu_from_arrays,
-                               imu_to_arrays, run_node)
+from nav_core.params import ConfigError, Param
+from nav_core.ros_node import (SENSOR_QOS, SENSOR_QOS_IN, Diagnostics, declare_parameters,
+                               imu_from_arrays, imu_to_arrays, run_node)
 from rclpy.node import Node
 from wmra_filter import levels, thresholds as thr
 from wmra_filter.streaming import StreamingWmra
