@@ -37,7 +37,7 @@ EFFECT_CASES = {
                          "accel_coeff_mps2_per_degc": [6e-5, -5e-5, 8e-5], "reference_temp_c": 25.0},
     "warmup_drift": {"gyro_amplitude_rad_per_s": [4e-4, -3e-4, 5e-4], "accel_amplitude_mps2": [2e-3, -2e-3, 3e-3],
                      "time_constant_s": 60.0},
-    "scale_factor": {"gyro": [1.5e-3, -1e-3, 2e-3], "accel": [5e-4, -4e-4, 6e-4]},
+    "scale_factor": {"gyro": [1.0e-3, -0.7e-3, 1.4e-3], "accel": [5e-4, -4e-4, 6e-4]},
     "axis_misalignment": {"gyro": MIS_G.tolist(), "accel": MIS_A.tolist()},
     "vibration": {"sinusoids": [{"frequency_hz": 13.7, "phase_rad": 0.4, "accel_amplitude_mps2": [0.0, 0.0, 3e-3],
                                  "gyro_amplitude_rad_per_s": [5e-4, 0.0, 0.0]}]},
@@ -51,7 +51,7 @@ TRUE_PARAMS = {
     "gyro_g_sensitivity": {f"gyro_coeff_rad_per_s_per_mps2[{a}]": v for a, v in zip("xyz", [3e-5, -2e-5, 2.5e-5])},
     "warmup_drift": {"time_constant_s": 60.0, **{f"gyro_amplitude_rad_per_s[{a}]": v
                                                  for a, v in zip("xyz", [4e-4, -3e-4, 5e-4])}},
-    "scale_factor": {f"gyro[{a}]": v for a, v in zip("xyz", [1.5e-3, -1e-3, 2e-3])},
+    "scale_factor": {f"gyro[{a}]": v for a, v in zip("xyz", [1.0e-3, -0.7e-3, 1.4e-3])},
     "axis_misalignment": {f"gyro[{'xyz'[i]}{'xyz'[j]}]": MIS_G[i, j] for i in range(3) for j in range(3) if i != j},
     "quantization": {f"gyro_lsb_rad[{a}]": 1e-5 for a in "xyz"},
     "temperature_bias": {f"gyro_coeff_rad_per_s_per_degc[{a}]": v for a, v in zip("xyz", [8e-6, -6e-6, 1e-5])},
@@ -60,13 +60,13 @@ TRUE_PARAMS = {
 }
 GNSS_CASES = {
     "gps_latency": {"latency_s": 0.03},
-    "gps_lever_arm": {"lever_arm_m": [0.4, -0.3, 0.5]},
+    "gps_lever_arm": {"lever_arm_m": [0.35, -0.25, 0.4]},
     "colored_gps_noise": {"sigma_m": [0.3, 0.3, 0.5], "correlation_time_s": 30.0},
 }
 """GNSS effects, below the per-fix noise (0.5, 0.5, 1.0 m): 0.03 s x 10 m/s = 0.3 m at most."""
 TRUE_PARAMS.update({
     "gps_latency": {"latency_s": 0.03},
-    "gps_lever_arm": {"lever_arm_m[x]": 0.4, "lever_arm_m[y]": -0.3},
+    "gps_lever_arm": {"lever_arm_m[x]": 0.35, "lever_arm_m[y]": -0.25},
     "colored_gps_noise": {"sigma_m[e]": 0.3, "sigma_m[n]": 0.3, "sigma_m[u]": 0.5},
 })
 NULL_GNSS_COLORED = {"sigma_m": [0.4, 0.4, 0.6], "correlation_time_s": 30.0}
