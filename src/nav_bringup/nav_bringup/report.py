@@ -153,7 +153,11 @@ def write_report(run_dir: Path, sim_dir: Path | None = None, truth_csv: Path | N
     """Write ``run_dir/report.html`` and PNGs from ``run_dir/bag``; return a one-screen summary."""
     run_dir = Path(run_dir)
     bag = run_dir / "bag"
-    odom = recording.read_odometry(bag)
+    diags = last_diagnostics(bag)
+    try:
+        odom = recording.read_odometry(bag)
+    except recording.RecordingError:
+        return _no_odometry(run_dir, diags, exit_codes or {})
     gnss = recording.read_gnss(bag)
     gnss = _finite(gnss)
     if sim_dir is not None:
@@ -176,9 +180,21 @@ def write_report(run_dir: Path, sim_dir: Path | None = None, truth_csv: Path | N
     if (run_dir / "allan" / "allan.png").exists():
         shutil.copy(run_dir / "allan" / "allan.png", run_dir / "allan.png")
         figures.append("allan.png")
-    diags = last_diagnostics(bag)
     _write_html(run_dir, res, odom, gnss, raw, den, diags, figures, exit_codes or {})
     return _summary(run_dir, res, odom, gnss, raw, den, diags, exit_codes or {})
+
+
+def _no_odometry(run_dir: Path, diags: dict, codes: dict) -> str:
+    """The run ended before the filter navigated (too short to align, or no GPS): say so, with its state."""
+    state = next((f"{m} ({v.get('alignment', '')})" for n, (_, m, v) in diags.items() if "ins_gps_kf" in n),
+                 "no diagnostics from the filter")
+    text = (f"=== Navigation report: {run_dir}\n    the filter published no odometry: {state}. "
+            "It aligns on the first 45 s at rest and takes its heading from the GPS course once the vehicle "
+            "moves, so a run must last beyond that.")
+    if codes:
+        text += "\n    exit codes: " + ", ".join(f"{k} {v}" for k, v in codes.items())
+    (run_dir / "report.html").write_text(f"<!doctype html><html><body><pre>{html.escape(text)}</pre></body></html>")
+    return text
 
 
 def _finite(gnss):
