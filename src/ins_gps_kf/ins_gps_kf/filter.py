@@ -101,7 +101,6 @@ class InsGpsFilter:
         self.mem = None
         self.cov = None
         self.t_last = None
-        self._last_sample = None
         self._recent = None
         self.pending_fix: Fix | None = None
         self.prev_fix: Fix | None = None
@@ -152,9 +151,11 @@ class InsGpsFilter:
         start = 0
         for bad in self._time_breaks(t):
             out += self._process_span(t[start:bad], gyro[start:bad], accel[start:bad])
+            if bad > start:
+                self._remember(gyro[start:bad], accel[start:bad])
             prev_t = t[bad - 1] if bad > 0 else self.t_last
             gap = t[bad] - prev_t
-            if 0.0 < gap <= self.cfg.max_bridged_gap and self.nav is not None and self._last_sample is not None:
+            if 0.0 < gap <= self.cfg.max_bridged_gap and self.nav is not None and self._recent is not None:
                 out += self._bridge(prev_t, float(t[bad]))
             else:
                 self.reset(f"time jump of {gap:+.3f} s at t={t[bad]:.3f} s")
@@ -164,16 +165,12 @@ class InsGpsFilter:
         return out
 
     def _remember(self, gyro, accel) -> None:
-        """Keep the last second of samples (a ring): the bridge holds their mean, not one noisy sample."""
+        """Keep the last second of samples (n, 6): a bridged gap holds their mean, not one noisy sample."""
         n = max(int(self.cfg.imu_rate_hz), 1)
-        if self._recent is None:
-            self._recent, self._recent_n, self._recent_i = np.zeros((n, 6)), 0, 0
-        rows = np.hstack([gyro, accel])[-n:]
-        idx = (self._recent_i + np.arange(len(rows))) % n
-        self._recent[idx] = rows
-        self._recent_i = (self._recent_i + len(rows)) % n
-        self._recent_n = min(self._recent_n + len(rows), n)
-        self._last_sample = self._recent[:self._recent_n].mean(axis=0)
+        rows = np.hstack([gyro[-n:], accel[-n:]])
+        if len(rows) < n and self._recent is not None:
+            rows = np.vstack([self._recent, rows])[-n:]
+        self._recent = rows
 
     def _bridge(self, t_from: float, t_to: float) -> list[Estimate]:
         """Cross a forward IMU gap: hold the last second's mean sample; grow the covariance by what
@@ -190,7 +187,7 @@ class InsGpsFilter:
         if n < 1:
             return []
         ts = t_from + np.arange(1, n + 1) / self.cfg.imu_rate_hz
-        held = np.tile(self._last_sample, (n, 1))
+        held = np.tile(self._recent.mean(axis=0), (n, 1))
         return self._process_span(ts, held[:, :3], held[:, 3:])
 
     def _time_breaks(self, t):
