@@ -13,7 +13,7 @@ import numpy as np
 import yaml
 
 from nav_core.recording import RecordingError, read_trajectory_csv
-from nav_core.sensor_model import EFFECTS
+from nav_core.sensor_model import SensorModelError, validate_physics
 
 from imu_sim import trajectory as traj_mod
 from imu_sim.errors import TERMS
@@ -160,16 +160,10 @@ def _temperature(data, where):
 def _physics(data, where):
     if data is None:
         return None
-    if isinstance(data, list):
-        data = {name: {} for name in data}
-    if not isinstance(data, dict):
-        raise ScenarioError(f"{where}: physics: expected a mapping effect -> parameters (or a list of names)")
-    for name, params in data.items():
-        if name not in EFFECTS:
-            raise ScenarioError(f"{where}: physics.{name}: unknown effect; the vocabulary is {', '.join(EFFECTS)}")
-        if params is not None and not isinstance(params, dict):
-            raise ScenarioError(f"{where}: physics.{name}: parameters must be a mapping")
-    return {k: dict(v or {}) for k, v in data.items()}
+    try:
+        return validate_physics(data, where)
+    except SensorModelError as err:
+        raise ScenarioError(str(err)) from None
 
 
 def load(path) -> Scenario:

@@ -257,14 +257,16 @@ def from_dict(data, where: str = "<sensor model>") -> SensorModel:
         raise SensorModelError(f"{where}.sample_rate_hz: expected a positive number, got {rate!r}")
     physics = data.get("physics", None)
     if "physics" in data:
-        physics = _physics_from(physics, where)
+        physics = validate_physics(physics, where)
     return SensorModel(gyro=_triad_from_dict("gyro", data.get("gyro"), where),
                        accel=_triad_from_dict("accel", data.get("accel"), where),
                        sample_rate_hz=float(rate), provenance=dict(data.get("provenance") or {}),
                        physics=physics)
 
 
-def _physics_from(physics, where: str) -> dict:
+def validate_physics(physics, where: str) -> dict:
+    """A ``physics`` section (mapping, or a list of names for physical defaults) checked against
+    :data:`EFFECTS`; returns effect -> parameters. Errors name ``where`` and the effect."""
     if physics is None:
         return {}
     if isinstance(physics, list):  # a bare list of names: physical defaults
