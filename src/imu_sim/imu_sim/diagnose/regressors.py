@@ -83,18 +83,30 @@ def design_g_sensitivity(case: Case, model: SensorModel) -> Design:
                   lambda th: {"gyro_coeff_rad_per_s_per_mps2": (base + th).tolist()})
 
 
+def _unit(triad: str) -> str:
+    return "rad_per_s" if triad == "gyro" else "mps2"
+
+
+def _channel_columns(n: int, signal, name) -> tuple:
+    """One parameter per channel: channel c's design has ``signal`` (shared (n,), or column c of (n, 6)) in
+    column c; ``name(triad, axis)`` names the parameters. Returns (columns by channel, names)."""
+    sig = np.broadcast_to(np.asarray(signal, dtype=float).reshape(n, -1), (n, 6))
+    cols, names = {}, []
+    for c in range(6):
+        x = np.zeros((n, 6))
+        x[:, c] = sig[:, c]
+        cols[c] = x
+        tri, i = _axis_name(c)
+        names.append(name(tri, AXES[i]))
+    return cols, names
+
+
 def design_temperature(case: Case, model: SensorModel, ref_c: float = 25.0) -> Design | None:
     """Bias linear in (temperature - reference) on every channel; None without a temperature."""
     if case.temp_c is None:
         return None
-    d_temp = case.temp_c - ref_c
-    cols, names = {}, []
-    for c in range(6):
-        x = np.zeros((case.n, 6))
-        x[:, c] = d_temp
-        cols[c] = x
-        tri, i = _axis_name(c)
-        names.append(f"{tri}_coeff_{'rad_per_s' if tri == 'gyro' else 'mps2'}_per_degc[{AXES[i]}]")
+    cols, names = _channel_columns(case.n, case.temp_c - ref_c,
+                                   lambda tri, ax: f"{tri}_coeff_{_unit(tri)}_per_degc[{ax}]")
     return Design("temperature_bias", cols, names,
                   lambda th: {"gyro_coeff_rad_per_s_per_degc": th[:3].tolist(),
                               "accel_coeff_mps2_per_degc": th[3:].tolist(), "reference_temp_c": ref_c})
@@ -108,14 +120,8 @@ def warmup_taus(duration_s: float, dt: float) -> np.ndarray:
 
 def design_warmup(case: Case, model: SensorModel, tau_s: float) -> Design:
     """Bias decaying as exp(-t / tau) on every channel, for one time constant tau (s)."""
-    decay = np.exp(-(case.t - case.t[0]) / tau_s)
-    cols, names = {}, []
-    for c in range(6):
-        x = np.zeros((case.n, 6))
-        x[:, c] = decay
-        cols[c] = x
-        tri, i = _axis_name(c)
-        names.append(f"{tri}_amplitude_{'rad_per_s' if tri == 'gyro' else 'mps2'}[{AXES[i]}]")
+    cols, names = _channel_columns(case.n, np.exp(-(case.t - case.t[0]) / tau_s),
+                                   lambda tri, ax: f"{tri}_amplitude_{_unit(tri)}[{ax}]")
     return Design("warmup_drift", cols, names,
                   lambda th: {"gyro_amplitude_rad_per_s": th[:3].tolist(), "accel_amplitude_mps2": th[3:].tolist(),
                               "time_constant_s": float(tau_s)})
@@ -123,14 +129,8 @@ def design_warmup(case: Case, model: SensorModel, tau_s: float) -> Design:
 
 def design_scale_factor(case: Case, model: SensorModel) -> Design:
     """Error proportional to the true rate / specific force on the same axis."""
-    true = np.column_stack([case.gyro_true, case.accel_true])
-    cols, names = {}, []
-    for c in range(6):
-        x = np.zeros((case.n, 6))
-        x[:, c] = true[:, c]
-        cols[c] = x
-        tri, i = _axis_name(c)
-        names.append(f"{tri}[{AXES[i]}]")
+    cols, names = _channel_columns(case.n, np.column_stack([case.gyro_true, case.accel_true]),
+                                   lambda tri, ax: f"{tri}[{ax}]")
     eff = effective_model(model)
     base = np.concatenate([eff.gyro.scale_factor, eff.accel.scale_factor])
     return Design("scale_factor", cols, names,

@@ -29,8 +29,9 @@ def write_all(diag, out_dir, sources: dict) -> dict:
     stamp_provenance(model, "imu-sim diagnose", sources.get("recording", ""),
                      added_effects=[f["effect"] for f in diag.result["findings"]])
     save(model, paths["model"])
-    pngs = {"residual": residual_png(diag, out / "residual.png"), "allan": allan_png(diag, out / "allan.png"),
-            "psd": psd_png(diag, out / "psd.png")}
+    noise = model_noise(diag)
+    pngs = {"residual": residual_png(diag, out / "residual.png"), "allan": allan_png(diag, noise, out / "allan.png"),
+            "psd": psd_png(diag, noise, out / "psd.png")}
     if diag.case.gnss is not None:
         gpng = gnss_png(diag, out / "gnss_residual.png")
         if gpng is not None:
@@ -68,11 +69,15 @@ def residual_png(diag, path) -> Path:
     return Path(path)
 
 
-def allan_png(diag, path) -> Path:
+def model_noise(diag) -> np.ndarray:
+    """The updated model's simulated noise on this case (n, 6): what a matching residual should look like."""
+    case, model = diag.case, diag.model_updated
+    return deterministic(case, model, stochastic=True, seed=7) - deterministic(case, model)
+
+
+def allan_png(diag, sim_noise, path) -> Path:
     """Allan deviation with 95 % intervals: residual before / after, and simulated model noise."""
-    case = diag.case
-    rate = 1.0 / case.dt
-    sim_noise = deterministic(case, diag.model_updated, stochastic=True, seed=7) - deterministic(case, diag.model_updated)
+    rate = 1.0 / diag.case.dt
     fig, axes = plt.subplots(2, 3, figsize=(12, 7))
     try:
         curves = [(overlapping_adev(x, rate), lab) for x, lab in ((diag.resid_before, "real residual, before"),
@@ -94,11 +99,10 @@ def allan_png(diag, path) -> Path:
     return Path(path)
 
 
-def psd_png(diag, path) -> Path:
+def psd_png(diag, sim_noise, path) -> Path:
     """Welch PSD of the real residual (before, after) against the updated model's simulated noise."""
     case = diag.case
     rate = 1.0 / case.dt
-    sim_noise = deterministic(case, diag.model_updated, stochastic=True, seed=7) - deterministic(case, diag.model_updated)
     nper = int(min(case.n, max(256, 2 ** int(np.log2(case.n / 8)))))
     fig, axes = plt.subplots(2, 3, figsize=(12, 7))
     for x, lab in ((diag.resid_before, "real residual, before"), (diag.resid_after, "real residual, after"),
