@@ -49,12 +49,6 @@ def increments_from_rates(t, gyro, accel) -> tuple[np.ndarray, np.ndarray]:
     return gyro * dt[:, None], accel * dt[:, None]
 
 
-def decimate_increments(counts: np.ndarray, factor: int) -> np.ndarray:
-    """Sum consecutive groups of ``factor`` increments (a lower output rate loses no motion)."""
-    n = counts.shape[0] // factor * factor
-    return counts[:n].reshape(-1, factor, counts.shape[1]).sum(axis=1)
-
-
 @dataclass
 class FaultPlan:
     """Faults to inject: per-frame probabilities, periodic garbage bursts, unplug windows (s from start)."""

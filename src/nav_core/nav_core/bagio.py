@@ -21,7 +21,7 @@ STORAGES = {"sqlite3": StoragePlugin.SQLITE3, "mcap": StoragePlugin.MCAP}
 
 
 class BagDamage(Exception):
-    """Reading stopped at damage; ``position`` says where, ``count`` how many messages were good."""
+    """Reading stopped at damage; the message names the file and where, ``count`` how many messages were good."""
 
     def __init__(self, message: str, count: int):
         super().__init__(message)

@@ -69,15 +69,6 @@ def transport_rate_n(lat_rad, height_m, velocity_n):
     return out
 
 
-def geodetic_rates(lat_rad, height_m, velocity_n):
-    """Time derivatives (dlat/dt rad/s, dlon/dt rad/s, dh/dt m/s) for ENU velocity in m/s."""
-    rm, rn = radii(lat_rad)
-    v = np.asarray(velocity_n, dtype=float)
-    return (v[..., 1] / (rm + height_m),
-            v[..., 0] / ((rn + height_m) * np.cos(lat_rad)),
-            v[..., 2])
-
-
 @dataclass(frozen=True)
 class LocalFrame:
     """A local ENU frame with its origin (datum) at a geodetic point (degrees and m at the edge)."""

@@ -37,11 +37,6 @@ def euler_from_quat_xyzw(quat_xyzw):
     return euler_from_rotation(Rotation.from_quat(quat_xyzw))
 
 
-def yaw_from_course(course_rad):
-    """REP-103 yaw (0 = east, counter-clockwise) from a compass course (0 = north, clockwise), rad."""
-    return wrap_angle(np.pi / 2 - np.asarray(course_rad, dtype=float))
-
-
 def wrap_angle(angle_rad):
     """Wrap angles in rad to [-pi, pi)."""
     return (np.asarray(angle_rad, dtype=float) + np.pi) % (2 * np.pi) - np.pi
