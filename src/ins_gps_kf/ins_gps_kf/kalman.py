@@ -71,15 +71,24 @@ def gate_threshold(dof: int, probability: float) -> float:
     return float(chi2.ppf(probability, dof))
 
 
+def innovation_covariance(cov, h, r):
+    """``S = H P H' + R`` (m, m), computed as FilterPy's update does (same operation order, same bits)."""
+    return np.dot(np.dot(h, cov), h.T) + r
+
+
 def correct(cov, z, h, r, probability):
     """Joseph-form update (FilterPy) of the zero error state by ``z`` (m,) = predicted - measured = ``H dx + v``.
 
-    Returns the new covariance (unchanged when gated out) and a :class:`Correction` whose
-    NIS uses FilterPy's innovation covariance ``S``.
+    The chi-square gate is decided first, on the innovation covariance ``S`` (the one FilterPy
+    would form), so a rejected measurement costs no update; FilterPy's ``update`` is then called
+    without ``return_all``, whose multivariate-normal log-likelihood (an eigendecomposition per
+    fix, ~15 % of replay time) nothing uses. Returns the new covariance (unchanged when gated
+    out) and a :class:`Correction`.
     """
-    dx, cov_new, y, _, s, _ = kf_update(np.zeros(len(cov)), cov, z, r, h, return_all=True)
-    nis = float(y @ np.linalg.solve(s, y))
+    s = innovation_covariance(cov, h, r)
+    nis = float(z @ np.linalg.solve(s, z))
     gate = gate_threshold(len(z), probability)
     if not np.isfinite(nis) or nis > gate:
         return cov, Correction(None, nis, gate, len(z), z)
+    dx, cov_new = kf_update(np.zeros(len(cov)), cov, z, r, h)
     return 0.5 * (cov_new + cov_new.T), Correction(dx, nis, gate, len(z), z)
