@@ -123,3 +123,120 @@ class StationaryAligner:
 def yaw_from_displacement(d_enu):
     """Course yaw (rad, ENU: 0 = east, CCW) of a horizontal displacement (m, ENU)."""
     return float(np.arctan2(d_enu[1], d_enu[0]))
+
+
+# ----------------------------------------------------------------------------- alignment in motion
+
+
+@dataclass
+class MotionAlignment:
+    """Alignment of a moving vehicle: roll, pitch, yaw (rad), ENU velocity (m/s) and position (m) at ``t`` (s),
+    their 1-sigma (rad, m/s, m), the fitted horizontal acceleration (m/s^2), span (s) and sample count."""
+
+    t: float
+    roll: float
+    pitch: float
+    yaw: float
+    velocity_n: np.ndarray
+    position_n: np.ndarray
+    tilt_std: float
+    yaw_std: float
+    velocity_std: float
+    position_std: np.ndarray
+    accel_h: float
+    duration_s: float
+    samples: int
+    gyro_bias: np.ndarray
+
+
+def fit_track(t, enu, t_end):
+    """Quadratic least-squares fit per ENU axis of fixes ``enu`` (n, 3) m at ``t`` (n,) s, evaluated at ``t_end``.
+
+    Returns position (m), velocity (m/s), acceleration (m/s^2), each (3,), and the rms residual per axis (m).
+    """
+    tau = np.asarray(t, float) - t_end
+    design = np.column_stack([np.ones_like(tau), tau, 0.5 * tau**2])
+    coef, *_ = np.linalg.lstsq(design, np.asarray(enu, float), rcond=None)
+    resid = np.asarray(enu, float) - design @ coef
+    dof = max(len(tau) - 3, 1)
+    return coef[0], coef[1], coef[2], np.sqrt(np.sum(resid**2, axis=0) / dof)
+
+
+class InMotionAligner:
+    """Alignment while driving at nearly constant velocity: roll/pitch from the mean specific force over a
+    ``window_s`` window, yaw and velocity from a quadratic fit of the GPS fixes in it.
+
+    The window is accepted when the fitted horizontal acceleration (speed change and
+    centripetal, m/s^2) is below ``max_accel`` (the level error is about ``max_accel / g``
+    rad), the mean turn rate below ``max_rate`` (rad/s) and the speed at the window's end
+    at least ``min_speed`` (m/s); otherwise a new window starts. Yaw is the GPS course,
+    which assumes the body x axis points along the motion. The gyro bias starts at zero
+    (or from a sensor model already applied to the input).
+    """
+
+    def __init__(self, window_s, max_accel, max_rate, min_speed, min_fixes=4):
+        self.window_s, self.max_accel, self.max_rate = window_s, max_accel, max_rate
+        self.min_speed, self.min_fixes = min_speed, min_fixes
+        self.restarts = -1
+        self.fixes = []
+        self.restart()
+
+    def restart(self):
+        """Start a new window (fixes older than it are dropped when the next one closes)."""
+        self.t0 = None
+        self.t_last = None
+        self.n = 0
+        self.sum_gyro = np.zeros(3)
+        self.sum_accel = np.zeros(3)
+        self.restarts += 1
+        self.result = None
+
+    @property
+    def elapsed_s(self) -> float:
+        """Span of the current window so far, s."""
+        return 0.0 if self.t0 is None else self.t_last - self.t0
+
+    def add_fix(self, t, enu):
+        """Remember one GPS fix (s, ENU m)."""
+        self.fixes.append((float(t), np.asarray(enu, float)))
+
+    def add(self, t, gyro, accel) -> bool:
+        """Add one IMU sample (s, rad/s, m/s^2); True when a window passed the tests (see :meth:`finish`)."""
+        if self.t0 is None:
+            self.t0 = t
+        self.t_last = t
+        self.n += 1
+        self.sum_gyro += gyro
+        self.sum_accel += accel
+        if t - self.t0 < self.window_s:
+            return False
+        return self._close_window(t)
+
+    def _close_window(self, t) -> bool:
+        self.fixes = [f for f in self.fixes if f[0] >= self.t0 - 1e-9 and f[0] <= t + 1e-9]
+        ok = len(self.fixes) >= self.min_fixes and self.fixes[-1][0] - self.fixes[0][0] >= 0.5 * self.window_s
+        if ok:
+            ts = np.array([f[0] for f in self.fixes])
+            pos, vel, acc, resid = fit_track(ts, np.array([f[1] for f in self.fixes]), t)
+            speed = float(np.hypot(vel[0], vel[1]))
+            accel_h = float(np.hypot(acc[0], acc[1]))
+            rate = float(np.linalg.norm(self.sum_gyro / self.n))
+            ok = accel_h <= self.max_accel and rate <= self.max_rate and speed >= self.min_speed
+        if not ok:
+            self.restart()
+            return False
+        # velocity std of the end-point slope of a quadratic fit: ~ sqrt(12 / N) * resid / span, doubled
+        # for the end point (an extrapolation) -- GPS errors are correlated, so the residual understates them
+        span = max(ts[-1] - ts[0], 1e-3)
+        vel_std = float(2.0 * np.sqrt(12.0 / len(ts)) * np.hypot(resid[0], resid[1]) / span)
+        roll, pitch = level_from_specific_force(self.sum_accel / self.n)
+        self.result = MotionAlignment(float(t), roll, pitch, float(np.arctan2(vel[1], vel[0])), vel, pos,
+                                      float(max(accel_h, self.max_accel) / 9.81), vel_std / speed, vel_std,
+                                      resid, accel_h, self.elapsed_s, self.n, np.zeros(3))
+        return True
+
+    def finish(self, lat_rad=None, yaw=None) -> MotionAlignment:
+        """The accepted window's alignment (``yaw`` in rad overrides the course); gyro bias zero."""
+        if yaw is not None:
+            self.result.yaw = float(yaw)
+        return self.result

@@ -32,6 +32,20 @@ PARAMETERS = (
     Param("min_alignment_time_s", 5.0, "shortest stationary period accepted if motion starts early, s", 0.5, 600.0),
     Param("stationary_gyro_dps", 2.0, "stationarity: rms angular rate below this, deg/s", 0.0, 100.0),
     Param("stationary_accel_mg", 50.0, "stationarity: |f| deviation from its mean below this, mg", 0.0, 1000.0),
+    Param("alignment_mode", "stationary", "stationary: level and gyro bias from a detected rest period; in_motion: "
+         "level from the mean specific force while the GPS track shows nearly constant velocity, heading and velocity "
+         "from the GPS course, gyro bias zero (for vehicles that never stand still)",
+         choices=("stationary", "in_motion")),
+    Param("motion_alignment_window_s", 10.0, "in_motion: window of IMU samples and GPS fixes judged at once, s",
+         0.5, 60.0),
+    Param("motion_alignment_max_accel_mps2", 0.2, "in_motion: largest fitted horizontal GPS acceleration (speed "
+         "change and centripetal) accepted; the level error is about this / g, m/s^2", 0.0, 10.0),
+    Param("motion_alignment_max_rate_dps", 2.0, "in_motion: largest mean turn rate over the window, deg/s",
+         0.0, 100.0),
+    Param("initial_roll_deg", float("nan"), "in_motion: roll from this parameter instead of the specific force, "
+         "deg; NaN = measured", -180.0, 180.0),
+    Param("initial_pitch_deg", float("nan"), "in_motion: pitch from this parameter instead of the specific force, "
+         "deg; NaN = measured", -90.0, 90.0),
     Param("initial_yaw_deg", float("nan"), "initial yaw (ENU, 0 = east, CCW), deg; NaN = from GPS course"),
     Param("heading_min_speed_mps", 0.3, "GPS ground speed needed to take the heading from the course, m/s",
          0.0, 100.0),
@@ -81,6 +95,12 @@ class FilterConfig:
     min_alignment_time_s: float = 5.0
     stationary_gyro: float = 2.0 * DEG
     stationary_accel: float = 50.0 * MG
+    alignment_mode: str = "stationary"
+    motion_window_s: float = 10.0
+    motion_max_accel: float = 0.2
+    motion_max_rate: float = 2.0 * DEG
+    initial_roll: float = math.nan
+    initial_pitch: float = math.nan
     initial_yaw: float = math.nan
     heading_min_speed: float = 0.3
     datum: tuple | None = None
@@ -140,6 +160,10 @@ def from_params(params: dict) -> FilterConfig:
         filter_rate_hz=float(p["filter_rate_hz"]), alignment_time_s=float(p["alignment_time_s"]),
         min_alignment_time_s=float(p["min_alignment_time_s"]),
         stationary_gyro=p["stationary_gyro_dps"] * DEG, stationary_accel=p["stationary_accel_mg"] * MG,
+        alignment_mode=str(p["alignment_mode"]), motion_window_s=float(p["motion_alignment_window_s"]),
+        motion_max_accel=float(p["motion_alignment_max_accel_mps2"]),
+        motion_max_rate=float(p["motion_alignment_max_rate_dps"]) * DEG,
+        initial_roll=float(p["initial_roll_deg"]) * DEG, initial_pitch=float(p["initial_pitch_deg"]) * DEG,
         initial_yaw=float(p["initial_yaw_deg"]) * DEG, heading_min_speed=float(p["heading_min_speed_mps"]),
         datum=(p["datum_lat_deg"], p["datum_lon_deg"], p["datum_h_m"]) if has_lat else None,
         lever_arm_b=(p["lever_arm_x_m"], p["lever_arm_y_m"], p["lever_arm_z_m"]),

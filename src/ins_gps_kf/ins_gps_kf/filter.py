@@ -21,7 +21,7 @@ from nav_core.units import DEG
 from ins_gps_kf import error_model as em
 from ins_gps_kf.error_model import DP, DV, PHI
 from ins_gps_kf import kalman, measurements, strapdown
-from ins_gps_kf.alignment import StationaryAligner, yaw_from_displacement
+from ins_gps_kf.alignment import InMotionAligner, MotionAlignment, StationaryAligner, yaw_from_displacement
 from ins_gps_kf.config import FilterConfig
 
 WAITING, ALIGNING, HEADING_PENDING, NAVIGATING = "waiting_for_fix", "aligning", "heading_pending", "navigating"
@@ -93,9 +93,13 @@ class InsGpsFilter:
     def _start_over(self):
         cfg = self.cfg
         self.status = WAITING if self.frame is None else ALIGNING
-        # block means: the per-block noise is far below the per-sample thresholds, hence a quarter
-        self.aligner = StationaryAligner(cfg.alignment_time_s, cfg.min_alignment_time_s, 0.25 * cfg.stationary_gyro,
-                                         cfg.stationary_accel)
+        if cfg.alignment_mode == "in_motion":
+            self.aligner = InMotionAligner(cfg.motion_window_s, cfg.motion_max_accel, cfg.motion_max_rate,
+                                           cfg.heading_min_speed)
+        else:
+            # block means: the per-block noise is far below the per-sample thresholds, hence a quarter
+            self.aligner = StationaryAligner(cfg.alignment_time_s, cfg.min_alignment_time_s,
+                                             0.25 * cfg.stationary_gyro, cfg.stationary_accel)
         self.alignment = None
         self.nav = None
         self.mem = None
@@ -134,6 +138,8 @@ class InsGpsFilter:
             self.status = ALIGNING
         cov = measurements.fix_covariance(std_enu, self.cfg.gps_std, self.cfg.gps_std_up, self.cfg.min_gps_std)
         self.pending_fix = Fix(float(t), self.frame.to_enu(lat_rad / DEG, lon_rad / DEG, h_m), cov)
+        if self.nav is None and isinstance(self.aligner, InMotionAligner):
+            self.aligner.add_fix(t, self.pending_fix.enu)
         return True
 
     # ------------------------------------------------------------------ IMU input
@@ -235,6 +241,9 @@ class InsGpsFilter:
         lat0 = self.frame.lat0_deg * DEG
         known_yaw = not math.isnan(cfg.initial_yaw)
         self.alignment = self.aligner.finish(lat0, cfg.initial_yaw if known_yaw else None)
+        if isinstance(self.alignment, MotionAlignment):
+            self._start_navigation_in_motion(t0)
+            return
         yaw = cfg.initial_yaw if known_yaw else 0.0
         quat = frames.quat_xyzw_from_euler(self.alignment.roll, self.alignment.pitch, yaw)
         pos, pos_std = np.zeros(3), 10.0
@@ -250,10 +259,41 @@ class InsGpsFilter:
         self.cov = em.initial_covariance(pos_std, cfg.zupt_std, att_std, cfg.init_gyro_bias_std,
                                          cfg.init_accel_bias_std)
         self.status = NAVIGATING if known_yaw else HEADING_PENDING
-        self.epoch_index = math.floor(t0 * cfg.filter_rate_hz + EPOCH_TOL_S) + 1
+        self._start_epochs(t0)
+
+    def _start_epochs(self, t0):
+        self.epoch_index = math.floor(t0 * self.cfg.filter_rate_hz + EPOCH_TOL_S) + 1
         self._earth_at = (math.inf, math.inf)
-        self._radii = earth.radii(lat0)
+        self._radii = earth.radii(self.frame.lat0_deg * DEG)
         self._update_earth()
+
+    def _start_navigation_in_motion(self, t0):
+        """Navigation from an in-motion alignment: level (or the roll/pitch parameters), course, fitted velocity
+        and position; gyro bias zero, or the model's when its calibration is not applied to the input."""
+        cfg, al = self.cfg, self.alignment
+        tilt_std = al.tilt_std
+        if not math.isnan(cfg.initial_roll):
+            al.roll = cfg.initial_roll
+        if not math.isnan(cfg.initial_pitch):
+            al.pitch = cfg.initial_pitch
+        if not (math.isnan(cfg.initial_roll) or math.isnan(cfg.initial_pitch)):
+            tilt_std = cfg.init_attitude_std  # both given: as good as the parameters claim
+        quat = frames.quat_xyzw_from_euler(al.roll, al.pitch, al.yaw)
+        mat_nb = Rotation.from_quat(quat).as_matrix()
+        pos = al.position_n - mat_nb @ self.lever_arm_b
+        pos_std = (np.sqrt(np.diag(self.pending_fix.cov)) if self.pending_fix is not None
+                   else np.maximum(al.position_std, 1.0))
+        self.nav = strapdown.new_state(quat, al.velocity_n, pos)
+        self.mem = strapdown.new_memory(t0)
+        model_bias = self.model.gyro.bias if not cfg.apply_calibration else np.zeros(3)
+        self.gyro_bias = al.gyro_bias + model_bias
+        self.accel_bias = np.zeros(3)
+        speed = float(np.hypot(al.velocity_n[0], al.velocity_n[1]))
+        vel_std = np.sqrt(al.velocity_std**2 + (0.05 * speed) ** 2 + 0.1**2)
+        att_std = np.array([max(tilt_std, cfg.init_attitude_std)] * 2 + [math.hypot(cfg.heading_std, al.yaw_std)])
+        self.cov = em.initial_covariance(pos_std, vel_std, att_std, cfg.init_gyro_bias_std, cfg.init_accel_bias_std)
+        self.status = NAVIGATING
+        self._start_epochs(t0)
 
     @property
     def next_epoch(self) -> float:
