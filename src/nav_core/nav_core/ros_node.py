@@ -10,12 +10,15 @@ import numpy as np
 import rclpy
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 from rcl_interfaces.msg import SetParametersResult
+from rclpy.callback_groups import CallbackGroup
+from rclpy.clock import Clock, ClockType
 from rclpy.executors import ExternalShutdownException
 from rclpy.node import Node
 from rclpy.qos import QoSProfile, ReliabilityPolicy, qos_profile_sensor_data
 from geometry_msgs.msg import Vector3
 from sensor_msgs.msg import Imu
 
+from nav_core.imu_cdr import ImuBatch, ImuCdrError, decode_imu, encode_imu
 from nav_core.params import ConfigError
 
 SENSOR_QOS = qos_profile_sensor_data
@@ -102,6 +105,79 @@ def _fmt(value) -> str:
     if isinstance(value, float):
         return f"{value:.6g}"
     return str(value)
+
+
+class _PolledGroup(CallbackGroup):
+    """A callback group the executor never waits on: a timer polls its entities instead."""
+
+    def can_execute(self, entity) -> bool:
+        return False
+
+    def beginning_execution(self, entity) -> bool:
+        return False
+
+    def ending_execution(self, entity) -> None:
+        pass
+
+
+class ImuBatchSubscription:
+    """``sensor_msgs/Imu`` taken raw in batches every ``period_s`` (steady clock): ``on_batch(ImuBatch)``.
+
+    At 1 kHz an executor callback per message costs more CPU than the work it carries (the
+    executor rebuilds its wait set each time), so the subscription stays out of the wait set
+    and a timer drains its queue (``qos`` depth must hold ``period_s`` worth of messages).
+    The price is up to ``period_s`` of added latency. Messages that are not CDR Imu are
+    counted in ``bad_messages`` and skipped.
+    """
+
+    def __init__(self, node: Node, topic: str, on_batch, period_s: float, qos=SENSOR_QOS_IN,
+                 max_batch: int = 20000):
+        self._on_batch, self._max_batch, self._node = on_batch, max_batch, node
+        self.bad_messages = 0
+        self.subscription = node.create_subscription(Imu, topic, _never_called, qos, raw=True,
+                                                     callback_group=_PolledGroup())
+        # steady clock: under use_sim_time a paused or slow /clock must not stall the intake
+        self.timer = node.create_timer(period_s, self.drain, clock=Clock(clock_type=ClockType.STEADY_TIME))
+
+    def drain(self) -> int:
+        """Take every queued message, hand the batch on; returns how many were taken."""
+        blobs = []
+        handle = self.subscription.handle
+        with handle:
+            while len(blobs) < self._max_batch:
+                taken = handle.take_message(Imu, True)
+                if taken is None:
+                    break
+                blobs.append(taken[0])
+        if blobs:
+            self._on_batch(self._decode(blobs))
+        return len(blobs)
+
+    def _decode(self, blobs) -> ImuBatch:
+        try:
+            return decode_imu(blobs)
+        except ImuCdrError:
+            good = []
+            for blob in blobs:
+                try:
+                    decode_imu([blob])
+                    good.append(blob)
+                except ImuCdrError as err:
+                    self.bad_messages += 1
+                    self._node.get_logger().warning(f"skipped a message on {self.subscription.topic_name}: {err}")
+            return decode_imu(good)
+
+
+def _never_called(msg) -> None:
+    raise RuntimeError("polled subscription callback called by an executor")
+
+
+def publish_imu_batch(pub, sec, nanosec, gyro, accel, frame_id: str, **fields) -> int:
+    """Publish one Imu per row as raw CDR (``fields`` as :func:`nav_core.imu_cdr.encode_imu`); returns the count."""
+    blobs = encode_imu(sec, nanosec, gyro, accel, frame_id, **fields)
+    for blob in blobs:
+        pub.publish(blob)
+    return len(blobs)
 
 
 def stamp_from_s(t_s: float):
