@@ -140,6 +140,21 @@ def test_streaming_equals_batch_sample_for_sample(hop, extra, n, level, mode, se
                                rtol=0, atol=1e-12)
 
 
+@settings(max_examples=25, deadline=None)
+@given(hop=st.integers(1, 300), n=st.integers(1, 1500), cuts=st.lists(st.integers(0, 1500), max_size=8),
+       mode=st.sampled_from(("model", "mad")), seed=st.integers(0, 2**31))
+def test_pushing_blocks_equals_pushing_sample_by_sample(hop, n, cuts, mode, seed):
+    x = _walk(np.random.default_rng(seed), n)
+    cfg = WmraConfig(64.0, 2, hop=hop, noise=mode)
+    one, blocks = StreamingWmra(cfg, 6, sample_sigma=np.full(6, 0.3)), StreamingWmra(cfg, 6, sample_sigma=np.full(6, 0.3))
+    singles = [out for i in range(n) for out in one.push(x[i], tag=i)]
+    edges = [0, *sorted(c for c in cuts if c < n), n]
+    batched = [out for a, b in zip(edges, edges[1:]) for out in blocks.push_many(x[a:b], tags=range(a, b))]
+    assert [tag for tag, _ in batched] == [tag for tag, _ in singles]
+    if singles:
+        np.testing.assert_array_equal(np.array([v for _, v in batched]), np.array([v for _, v in singles]))
+
+
 def test_streaming_releases_one_output_per_input_at_the_fixed_delay():
     cfg = WmraConfig(64.0, 2, hop=8)
     stream = StreamingWmra(cfg, 1, sample_sigma=[0.1])

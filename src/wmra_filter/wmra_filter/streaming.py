@@ -78,12 +78,25 @@ class StreamingWmra:
         return []
 
     def push_many(self, samples, tags=None) -> list:
-        """Push rows of ``samples`` (n, k) in order; returns all released ``(tag, value)``."""
-        tags = range(len(samples)) if tags is None else tags
-        out = []
-        for row, tag in zip(samples, tags):
-            out.extend(self.push(row, tag))
-        return out
+        """Push rows of ``samples`` (n, k) in order; returns all released ``(tag, value)``.
+
+        Same outputs as calling :meth:`push` row by row (the SWT runs at the same sample
+        counts), with the copying done in blocks: what a node taking batches calls.
+        """
+        samples = np.asarray(samples, dtype=float).reshape(-1, self.n_axes)
+        tags = list(range(len(samples)) if tags is None else tags)
+        released_before = max(0, self._count - self.delay_samples)
+        i = 0
+        while i < len(samples):
+            due = self._next + self.cfg.hop + self.right  # sample count at which push() would compute
+            take = max(1, min(len(samples) - i, due - self._count, self.window))
+            self._append_block(samples[i:i + take])
+            self._tags.extend(tags[i:i + take])
+            i += take
+            if self._count >= due:
+                self._compute(self.cfg.hop, right_pad=0)
+        released = max(0, self._count - self.delay_samples) - released_before
+        return [self._ready.popleft() for _ in range(released)]
 
     def flush(self) -> list:
         """Release every pending output, the last ones computed with the last sample repeated."""
@@ -103,6 +116,18 @@ class StreamingWmra:
         self._buf[self._fill] = sample
         self._fill += 1
         self._count += 1
+
+    def _append_block(self, block: np.ndarray) -> None:
+        """Append rows (at most ``window`` of them) as :meth:`_append` would one by one."""
+        if self._first is None:
+            self._first = block[0].copy()
+        if self._fill + len(block) > len(self._buf):
+            keep = self.window - 1
+            self._buf[:keep] = self._buf[self._fill - keep:self._fill]
+            self._fill = keep
+        self._buf[self._fill:self._fill + len(block)] = block
+        self._fill += len(block)
+        self._count += len(block)
 
     def _span(self, start: int) -> np.ndarray:
         """Samples ``start .. newest`` (absolute indices), edge-extended to the left of sample 0."""

@@ -4,7 +4,12 @@ Each output carries the stamp and frame of the input sample it denoises and leav
 ``delay_samples`` (= right support + hop - 1) samples after it. A sample interval
 that is not positive or exceeds ``gap_factor / sample_rate_hz`` restarts the
 window: the pending samples are flushed (published, edge-extended) first, and the
-restart is counted in the diagnostics and logged.
+restart is counted in the diagnostics and logged; a gap of up to ``fill_gap_samples``
+whole samples (a dropped message) is filled by interpolation instead.
+
+Input is taken in batches every ``intake_period_s`` and output published as raw CDR
+(:mod:`nav_core.imu_cdr`): the per-message executor callback and Imu object building
+cost ten times the denoising at 1 kHz.
 """
 from __future__ import annotations
 
@@ -15,8 +20,8 @@ from sensor_msgs.msg import Imu
 
 from nav_core import sensor_model
 from nav_core.params import ConfigError, Param
-from nav_core.ros_node import (SENSOR_QOS, SENSOR_QOS_IN, Diagnostics, declare_parameters,
-                               imu_from_arrays, imu_to_arrays, run_node)
+from nav_core.ros_node import (SENSOR_QOS, Diagnostics, ImuBatchSubscription, declare_parameters,
+                               publish_imu_batch, run_node)
 from rclpy.node import Node
 from wmra_filter import levels, thresholds as thr
 from wmra_filter.streaming import StreamingWmra
@@ -41,6 +46,9 @@ PARAMS = (
     Param("gap_factor", 1.5, "a sample interval above gap_factor / sample_rate_hz restarts the window", 1.01, 1e3),
     Param("fill_gap_samples", 4, "a gap of up to this many missing samples (a dropped message) is filled by linear "
           "interpolation instead of restarting; fill samples are not published", 0, 1000),
+    Param("intake_period_s", 0.01, "imu/data_raw is taken in batches at this period, s (adds up to this much "
+          "latency; one executor callback per message would cost more CPU than the denoising at 1 kHz)",
+          0.0005, 1.0),
     Param("diagnostics_period_s", 1.0, "period of the /diagnostics status, s", 0.05, 60.0),
 )
 
@@ -90,57 +98,71 @@ class WmraNode(Node):
         self._last_t = None
         self._last_sample = None
         self.pub = self.create_publisher(Imu, "imu/data_corrected", SENSOR_QOS)
-        self.create_subscription(Imu, "imu/data_raw", self.on_imu, SENSOR_QOS_IN)
+        self.intake = ImuBatchSubscription(self, "imu/data_raw", self.on_batch, values["intake_period_s"])
         self.diagnostics = Diagnostics(self, "wmra", hardware_id=values["sensor_model_path"])
         self.create_timer(values["diagnostics_period_s"], self.publish_diagnostics)
         self.get_logger().info(f"ready: level {self.cfg.level}, window {self.cfg.window_samples}, "
                                f"hop {self.cfg.hop}, delay {self.cfg.delay_samples} samples "
                                f"({self.cfg.delay_s:.3f} s at {self.cfg.sample_rate_hz:g} Hz)")
 
-    def on_imu(self, msg: Imu) -> None:
-        """Calibrate, push, publish what the window releases."""
+    def on_batch(self, batch) -> None:
+        """Calibrate a batch of samples, push the runs between gaps, publish what the window releases."""
         start = time.perf_counter()
-        t, gyro, accel = imu_to_arrays(msg)
-        self.stats["received"] += 1
-        sample = self.calibrate(gyro, accel)
-        if self._last_t is not None and not 0.0 < t - self._last_t <= self.max_interval_s:
-            if not self._fill(t, sample):
-                self._restart(t)
-        self._last_t = t
-        self._last_sample = sample
-        self._publish(self.stream.push(sample, tag=(msg.header.stamp, msg.header.frame_id)))
+        self.stats["received"] += len(batch)
+        t = batch.t_s
+        samples = self.calibrate(batch.gyro, batch.accel)
+        tags = list(zip(batch.sec.tolist(), batch.nanosec.tolist(), batch.frame_ids))
+        previous = np.concatenate([[np.nan if self._last_t is None else self._last_t], t[:-1]])
+        interval = t - previous
+        is_break = np.isfinite(previous) & ~((interval > 0.0) & (interval <= self.max_interval_s))
+        edges = [0, *np.flatnonzero(is_break).tolist(), len(t)]
+        released = []
+        for a, b in zip(edges[:-1], edges[1:]):
+            if a == b:
+                continue
+            if is_break[a]:
+                before = samples[a - 1] if a else self._last_sample
+                if not self._fill(previous[a], before, t[a], samples[a], released):
+                    self._restart(previous[a], t[a], released)
+            released += self.stream.push_many(samples[a:b], tags[a:b])
+        self._last_t, self._last_sample = t[-1], samples[-1]
+        self._publish(released)
         busy = time.perf_counter() - start
         self.stats["busy_s"] += busy
         self.stats["busy_max_s"] = max(self.stats["busy_max_s"], busy)
 
-    def _fill(self, t: float, sample) -> bool:
+    def _fill(self, t0: float, sample0, t1: float, sample1, released: list) -> bool:
         """Fill a gap of a few whole missing samples by linear interpolation; False if it is not such a gap."""
         period = 1.0 / self.cfg.sample_rate_hz
-        steps = int(round((t - self._last_t) / period))
+        steps = int(round((t1 - t0) / period))
         missing = steps - 1
-        if not 1 <= missing <= self.fill_gap_samples or abs(t - self._last_t - steps * period) > 0.25 * period:
+        if not 1 <= missing <= self.fill_gap_samples or abs(t1 - t0 - steps * period) > 0.25 * period:
             return False
-        for k in range(1, steps):
-            filler = self._last_sample + (sample - self._last_sample) * (k / steps)
-            self._publish(self.stream.push(filler, tag=None))
+        fillers = sample0 + (sample1 - sample0) * (np.arange(1, steps)[:, None] / steps)
+        released += self.stream.push_many(fillers, [None] * missing)
         self.stats["filled_samples"] += missing
         return True
 
-    def _restart(self, t: float) -> None:
-        kind = "time jump" if t <= self._last_t else "gap"
+    def _restart(self, t0: float, t1: float, released: list) -> None:
+        kind = "time jump" if t1 <= t0 else "gap"
         self.stats["restarts"] += 1
-        self.stats["last_restart"] = f"{kind} of {t - self._last_t:.6g} s at t={t:.6f}"
-        self.get_logger().warning(f"{kind} in imu/data_raw ({t - self._last_t:.6g} s at t={t:.6f} s): "
+        self.stats["last_restart"] = f"{kind} of {t1 - t0:.6g} s at t={t1:.6f}"
+        self.get_logger().warning(f"{kind} in imu/data_raw ({t1 - t0:.6g} s at t={t1:.6f} s): "
                                   "flushing and restarting the window")
-        self._publish(self.stream.restart())
+        released += self.stream.restart()
 
     def _publish(self, outputs) -> None:
-        for tag, value in outputs:
-            if tag is None:  # a fill sample: it kept the window going, it is not a measurement
-                continue
-            stamp, frame_id = tag
-            self.pub.publish(imu_from_arrays(0.0, value[:3], value[3:], frame_id=frame_id, stamp=stamp))
-            self.stats["published"] += 1
+        """Publish released ``((sec, nanosec, frame_id), value)`` pairs; fill samples (tag None) are not."""
+        kept = [(tag, value) for tag, value in outputs if tag is not None]
+        if not kept:
+            return
+        sec, nanosec, frames = zip(*(tag for tag, _ in kept))
+        values = np.array([value for _, value in kept])
+        frames = np.array(frames)
+        for frame_id in dict.fromkeys(frames):  # one run per frame_id, normally a single one
+            rows = np.flatnonzero(frames == frame_id)
+            self.stats["published"] += publish_imu_batch(self.pub, np.array(sec)[rows], np.array(nanosec)[rows],
+                                                         values[rows, :3], values[rows, 3:], str(frame_id))
 
     def publish_diagnostics(self) -> None:
         """Delay, window, thresholds in use and processing time per message on /diagnostics."""
@@ -155,6 +177,8 @@ class WmraNode(Node):
                   "filled_samples": s["filled_samples"],
                   "last_restart": s["last_restart"],
                   "processing_mean_us": 1e6 * s["busy_s"] / max(s["received"], 1),
+                  "intake_period_s": self.intake.timer.timer_period_ns * 1e-9,
+                  "bad_messages": self.intake.bad_messages,
                   "processing_max_us": 1e6 * s["busy_max_s"]}
         level = "WARN" if s["restarts"] else "OK"
         self.diagnostics.publish(level, "denoising" if s["received"] else "waiting for imu/data_raw", values)
@@ -162,6 +186,7 @@ class WmraNode(Node):
     def close(self) -> None:
         """Publish the samples still in the window before shutting down."""
         try:
+            self.intake.drain()
             self._publish(self.stream.flush())
         except Exception:  # the context may already be shut down on SIGINT; losing the tail is acceptable
             pass
