@@ -14,8 +14,9 @@ from sensor_msgs.msg import Imu
 
 from imu_driver.bp3010_codec import FIELDS, RATE_SELECT, FrameFormat
 from imu_driver.driver_core import DriverCore
+from nav_core.imu_cdr import stamps_from_s
 from nav_core.params import ConfigError, Param
-from nav_core.ros_node import SENSOR_QOS, Diagnostics, declare_parameters, imu_from_arrays, run_node
+from nav_core.ros_node import SENSOR_QOS, Diagnostics, declare_parameters, publish_imu_batch, run_node
 from rclpy.node import Node
 
 PARAMS = (
@@ -126,9 +127,11 @@ class Bp3010Driver(Node):
             self.core.clock.reset()
             return
         samples = self.core.feed(data, now_ns * 1e-9)
-        for i in range(len(samples.t)):
-            self.pub.publish(imu_from_arrays(samples.t[i], samples.gyro[i], samples.accel[i], self.p["frame_id"],
-                                             self._gyro_var, self._accel_var))
+        if len(samples.t):
+            # raw CDR for the whole read: building rclpy Imu objects cost ~70 us a frame, 7 % of a core at 1 kHz
+            sec, nanosec = stamps_from_s(samples.t)
+            publish_imu_batch(self.pub, sec, nanosec, samples.gyro, samples.accel, self.p["frame_id"],
+                              gyro_var=self._gyro_var, accel_var=self._accel_var)
 
     def _close_port(self) -> None:
         if self._serial is not None:

@@ -27,8 +27,9 @@ from sensor_msgs.msg import Imu, NavSatFix  # noqa: E402
 
 from nav_core import sensor_model as sm  # noqa: E402
 from nav_core.params import ConfigError, Param  # noqa: E402
-from nav_core.ros_node import (SENSOR_QOS, SENSOR_QOS_IN, Diagnostics, declare_parameters,
-                               imu_to_arrays, run_node, stamp_from_s, stamp_to_s)  # noqa: E402
+from nav_core.imu_cdr import stamps_from_s  # noqa: E402
+from nav_core.ros_node import (SENSOR_QOS, SENSOR_QOS_IN, Diagnostics, ImuBatchSubscription,  # noqa: E402
+                               declare_parameters, publish_imu_batch, run_node, stamp_from_s, stamp_to_s)
 from nav_core.units import DEG  # noqa: E402
 from ins_gps_kf import config as kfconfig  # noqa: E402
 from ins_gps_kf import error_model as em  # noqa: E402
@@ -37,6 +38,9 @@ from ins_gps_kf.filter import ALIGNING, NAVIGATING, Estimate, InsGpsFilter  # no
 from ins_gps_kf.replay import load_model  # noqa: E402
 
 GPS, IMU = 0, 1  # a fix sorts before an IMU sample of the same stamp (as in the replay)
+
+INTAKE = Param("intake_period_s", 0.01, "IMU messages are taken in batches at this period, s (adds up to this "
+               "much latency; an executor callback per message costs more than the filter at 1 kHz)", 0.0005, 1.0)
 
 
 def _param(spec: Param) -> Param:
@@ -51,8 +55,8 @@ class InsGpsKfNode(Node):
     def __init__(self, **kwargs):
         super().__init__(kfconfig.NODE_NAME, **kwargs)
         try:
-            self.params = declare_parameters(self, [_param(s) for s in kfconfig.PARAMETERS])
-            cfg = kfconfig.from_params(self.params)
+            self.params = declare_parameters(self, [_param(s) for s in kfconfig.PARAMETERS] + [INTAKE])
+            cfg = kfconfig.from_params({k: v for k, v in self.params.items() if k != INTAKE.name})
             model = load_model(self.params["sensor_model_path"] or "default")
         except (kfconfig.FilterConfigError, sm.SensorModelError, InvalidParameterValueException,
                 InvalidParameterTypeException) as err:
@@ -70,7 +74,9 @@ class InsGpsKfNode(Node):
         self.closing = False
         self.odom_pub = self.create_publisher(Odometry, "odometry/filtered", 10)
         self.imu_pub = self.create_publisher(Imu, "imu/data", SENSOR_QOS)
-        self.create_subscription(Imu, self.params["imu_topic"], self.on_imu, SENSOR_QOS_IN)
+        self.imu_out = []
+        self.intake = ImuBatchSubscription(self, self.params["imu_topic"], self.on_imu_batch,
+                                           self.params["intake_period_s"])
         self.create_subscription(NavSatFix, self.params["gps_topic"], self.on_gps, SENSOR_QOS_IN)
         self.diag = Diagnostics(self, "ins_gps_kf")
         self.create_timer(1.0, self.publish_diagnostics)
@@ -80,10 +86,11 @@ class InsGpsKfNode(Node):
 
     # ------------------------------------------------------------------ input
 
-    def on_imu(self, msg: Imu):
-        """Queue one IMU sample."""
-        t, gyro, accel = imu_to_arrays(msg)
-        self._push(t, IMU, (gyro, accel))
+    def on_imu_batch(self, batch):
+        """Queue a batch of IMU samples in arrival order, then publish the oriented samples it released."""
+        for t, gyro, accel in zip(batch.t_s.tolist(), batch.gyro, batch.accel):
+            self._push(t, IMU, (gyro, accel))
+        self._publish_imu_out()
 
     def on_gps(self, msg: NavSatFix):
         """Queue one fix (NaN and NO_FIX fixes are counted and ignored by the filter)."""
@@ -91,6 +98,7 @@ class InsGpsKfNode(Node):
         std = np.sqrt(np.clip(np.diag(cov), 0.0, None)) if msg.position_covariance_type > 0 else np.zeros(3)
         self._push(stamp_to_s(msg.header.stamp), GPS,
                    (msg.latitude * DEG, msg.longitude * DEG, msg.altitude, std, msg.status.status))
+        self._publish_imu_out()
 
     def _push(self, t, kind, payload):
         # IMU stamps are the clock: only they can signal a restart; a very late fix is just late
@@ -125,29 +133,31 @@ class InsGpsKfNode(Node):
     def close(self):
         """Run what is still buffered through the filter without publishing (called by run_node on shutdown)."""
         self.closing = True
+        self.intake.drain()
         self._drain(math.inf)
 
     # ------------------------------------------------------------------ output
 
     def publish_imu(self, t, gyro, accel):
-        """The input sample, bias-corrected, with the estimated orientation and its covariance."""
+        """Queue the input sample, bias-corrected, with the estimated orientation and its covariance."""
         f = self.filter
         if not f.navigating or self.closing:
             return
-        msg = Imu()
-        msg.header.stamp = stamp_from_s(t)
-        msg.header.frame_id = self.params["child_frame_id"]
-        q = f.nav[strapdown.Q]
-        msg.orientation.x, msg.orientation.y, msg.orientation.z, msg.orientation.w = (float(v) for v in q)
-        msg.orientation_covariance = f.cov[em.PHI, em.PHI].flatten().tolist()
-        w, a = gyro - f.gyro_bias, accel - f.accel_bias
-        msg.angular_velocity.x, msg.angular_velocity.y, msg.angular_velocity.z = (float(v) for v in w)
-        msg.linear_acceleration.x, msg.linear_acceleration.y, msg.linear_acceleration.z = (float(v) for v in a)
-        rate = f.cfg.imu_rate_hz
-        for i in range(3):
-            msg.angular_velocity_covariance[4 * i] = float(f.noise.gyro_white[i] ** 2 * rate)
-            msg.linear_acceleration_covariance[4 * i] = float(f.noise.accel_white[i] ** 2 * rate)
-        self.imu_pub.publish(msg)
+        self.imu_out.append((t, f.nav[strapdown.Q].copy(), f.cov[em.PHI, em.PHI].ravel(),
+                             gyro - f.gyro_bias, accel - f.accel_bias))
+
+    def _publish_imu_out(self):
+        """Publish the queued oriented samples on imu/data in one raw-CDR batch."""
+        if not self.imu_out:
+            return
+        t, quat, quat_cov, gyro, accel = (np.array(col) for col in zip(*self.imu_out))
+        self.imu_out.clear()
+        f = self.filter
+        sec, nanosec = stamps_from_s(t)
+        publish_imu_batch(self.imu_pub, sec, nanosec, gyro, accel, self.params["child_frame_id"],
+                          gyro_var=f.noise.gyro_white ** 2 * f.cfg.imu_rate_hz,
+                          accel_var=f.noise.accel_white ** 2 * f.cfg.imu_rate_hz,
+                          orientation_xyzw=quat, orientation_cov=quat_cov)
 
     def publish_odometry(self, est: Estimate):
         """Pose (ENU, odom) and twist (body) with covariances from the filter's P."""
