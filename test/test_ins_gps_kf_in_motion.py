@@ -18,11 +18,11 @@ RATE = 32.0
 START_S = 5.0  # the recording begins here, already moving and still accelerating
 
 
-def _moving_start(seed, params=None, gps_std=1.0, gps_rate_hz=5.0):
+def _moving_start(seed, params=None, gps_std=1.0, gps_rate_hz=5.0, gyro_bias=(2e-4, -1e-4, 3e-4)):
     """Accelerate 20 s to 10 m/s, 40 s straight, then a constant turn; recorded from t = 5 s (moving)."""
     motion = syn.Motion((20.0, 40.0, 240.0), (0.5, 0.0, 0.0), (0.0, 0.0, 0.02), yaw0=1.1)
     rng = np.random.default_rng(seed)
-    imu = syn.add_imu_errors(syn.ideal_imu(motion, RATE), rng, np.array([2e-4, -1e-4, 3e-4]),
+    imu = syn.add_imu_errors(syn.ideal_imu(motion, RATE), rng, np.array(gyro_bias),
                              np.array([0.005, -0.004, 0.003]), 0.02 * DEG, 2e-3)
     gnss = syn.gnss(motion, RATE, gps_std, rng, gps_rate_hz=gps_rate_hz)
     k, g = imu.t >= START_S, gnss.t >= START_S
@@ -75,6 +75,15 @@ def test_in_motion_alignment_takes_roll_and_pitch_from_parameters():
     assert filt.alignment.roll == pytest.approx(2.0 * DEG)
     assert filt.alignment.pitch == pytest.approx(-1.0 * DEG)
     assert any(e.status == NAVIGATING for e in est)
+
+
+def test_in_motion_alignment_finds_large_horizontal_gyro_biases():
+    bias = (-0.03, 0.05, 0.0)  # rad/s: the order of the balzer car's uncalibrated roll/pitch gyros (2-3 deg/s)
+    _, filt, est = _moving_start(seed=6, gyro_bias=bias)
+    # 10 s of 0.02 deg/sqrt(s) white noise: ~1e-4 rad/s
+    np.testing.assert_allclose(filt.alignment.gyro_bias[:2], bias[:2], atol=5e-4)
+    _, filt0, _ = _moving_start(seed=6, gyro_bias=bias, params={"motion_alignment_gyro_bias": False})
+    assert np.all(filt0.alignment.gyro_bias == 0.0)
 
 
 def test_bad_alignment_mode_is_a_config_error():

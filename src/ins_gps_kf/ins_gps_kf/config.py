@@ -40,8 +40,9 @@ PARAMETERS = (
          0.5, 60.0),
     Param("motion_alignment_max_accel_mps2", 0.2, "in_motion: largest fitted horizontal GPS acceleration (speed "
          "change and centripetal) accepted; the level error is about this / g, m/s^2", 0.0, 10.0),
-    Param("motion_alignment_max_rate_dps", 2.0, "in_motion: largest mean turn rate over the window, deg/s",
-         0.0, 100.0),
+    Param("motion_alignment_gyro_bias", True, "in_motion: initial x/y gyro bias = mean rate over the window minus "
+         "the GPS course rate (a constant-velocity window turns only about the vertical), z zero; false = zero, or "
+         "the sensor model's bias when its calibration is not applied"),
     Param("initial_roll_deg", float("nan"), "in_motion: roll from this parameter instead of the specific force, "
          "deg; NaN = measured", -180.0, 180.0),
     Param("initial_pitch_deg", float("nan"), "in_motion: pitch from this parameter instead of the specific force, "
@@ -98,7 +99,7 @@ class FilterConfig:
     alignment_mode: str = "stationary"
     motion_window_s: float = 10.0
     motion_max_accel: float = 0.2
-    motion_max_rate: float = 2.0 * DEG
+    motion_gyro_bias: bool = True
     initial_roll: float = math.nan
     initial_pitch: float = math.nan
     initial_yaw: float = math.nan
@@ -162,7 +163,7 @@ def from_params(params: dict) -> FilterConfig:
         stationary_gyro=p["stationary_gyro_dps"] * DEG, stationary_accel=p["stationary_accel_mg"] * MG,
         alignment_mode=str(p["alignment_mode"]), motion_window_s=float(p["motion_alignment_window_s"]),
         motion_max_accel=float(p["motion_alignment_max_accel_mps2"]),
-        motion_max_rate=float(p["motion_alignment_max_rate_dps"]) * DEG,
+        motion_gyro_bias=bool(p["motion_alignment_gyro_bias"]),
         initial_roll=float(p["initial_roll_deg"]) * DEG, initial_pitch=float(p["initial_pitch_deg"]) * DEG,
         initial_yaw=float(p["initial_yaw_deg"]) * DEG, heading_min_speed=float(p["heading_min_speed_mps"]),
         datum=(p["datum_lat_deg"], p["datum_lon_deg"], p["datum_h_m"]) if has_lat else None,

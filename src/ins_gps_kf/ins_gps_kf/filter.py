@@ -94,8 +94,8 @@ class InsGpsFilter:
         cfg = self.cfg
         self.status = WAITING if self.frame is None else ALIGNING
         if cfg.alignment_mode == "in_motion":
-            self.aligner = InMotionAligner(cfg.motion_window_s, cfg.motion_max_accel, cfg.motion_max_rate,
-                                           cfg.heading_min_speed)
+            self.aligner = InMotionAligner(cfg.motion_window_s, cfg.motion_max_accel, cfg.heading_min_speed,
+                                           cfg.motion_gyro_bias)
         else:
             # block means: the per-block noise is far below the per-sample thresholds, hence a quarter
             self.aligner = StationaryAligner(cfg.alignment_time_s, cfg.min_alignment_time_s,
@@ -269,7 +269,7 @@ class InsGpsFilter:
 
     def _start_navigation_in_motion(self, t0):
         """Navigation from an in-motion alignment: level (or the roll/pitch parameters), course, fitted velocity
-        and position; gyro bias zero, or the model's when its calibration is not applied to the input."""
+        and position; gyro bias from the window, or zero (the model's when its calibration is not applied)."""
         cfg, al = self.cfg, self.alignment
         tilt_std = al.tilt_std
         if not math.isnan(cfg.initial_roll):
@@ -285,8 +285,8 @@ class InsGpsFilter:
                    else np.maximum(al.position_std, 1.0))
         self.nav = strapdown.new_state(quat, al.velocity_n, pos)
         self.mem = strapdown.new_memory(t0)
-        model_bias = self.model.gyro.bias if not cfg.apply_calibration else np.zeros(3)
-        self.gyro_bias = al.gyro_bias + model_bias
+        from_model = not (cfg.motion_gyro_bias or cfg.apply_calibration)
+        self.gyro_bias = self.model.gyro.bias.copy() if from_model else al.gyro_bias.copy()
         self.accel_bias = np.zeros(3)
         speed = float(np.hypot(al.velocity_n[0], al.velocity_n[1]))
         vel_std = np.sqrt(al.velocity_std**2 + (0.05 * speed) ** 2 + 0.1**2)

@@ -146,6 +146,9 @@ def _evaluate(args) -> int:
     from ins_gps_kf import evaluate
     if args.dataset == "paper-sim":
         figures = evaluate.paper_sim(args.out, seed=args.seed)
+    elif args.dataset == "balzer":
+        from ins_gps_kf import datasets
+        figures = datasets.evaluate_balzer(args.out)
     else:
         from ins_gps_kf import datasets
         figures = datasets.evaluate_rover(args.dataset, args.out)
@@ -169,7 +172,7 @@ def main(argv=None) -> int:
     rp.add_argument("--no-plot", action="store_true", help="do not write the PNG next to --out")
     rp.add_argument("--quiet", action="store_true", help="no progress bar")
     ev = sub.add_parser("evaluate", help="accuracy figures and plots on a simulated or real dataset")
-    ev.add_argument("--dataset", required=True, choices=("paper-sim", "katwijk", "canada"))
+    ev.add_argument("--dataset", required=True, choices=("paper-sim", "katwijk", "canada", "balzer"))
     ev.add_argument("--out", required=True, help="output folder (JSON figures and PNG plots)")
     ev.add_argument("--seed", type=int, default=0, help="simulation seed (paper-sim)")
     args = parser.parse_args(argv)
