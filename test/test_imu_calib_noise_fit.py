@@ -1,4 +1,4 @@
-"""imu_calib.noise_fit: five-term WLS fit, intervals, term selection, Gauss-Markov alternative, IEEE readings."""
+"""imu_calib.noise_fit: five-term WLS fit, Whittle refinement, intervals, term selection, Gauss-Markov, IEEE readings."""
 import numpy as np
 import pytest
 
@@ -10,37 +10,71 @@ RATE_HZ = 20.0
 TWO_HOURS = int(2 * 3600 * RATE_HZ)
 SEPARATED = synthetic.NoiseTerms(N=5e-4, B=7.5e-4, K=1.2e-4)
 """White, flicker and random walk that each dominate a decade or more within 2 h."""
+K_TARGET_CASE = synthetic.NoiseTerms(N=5e-4, B=7.5e-4, K=1.8e-4)
+"""Same N and B, K raised until the Cramer-Rao bound lets K within 15 % in 90 % of seeds (README, Allan fit):
+at SEPARATED's K the bound on the relative sd of K is 10.5 %, so no estimator gets there in more than ~85 %."""
 TABLE1_GYRO = synthetic.NoiseTerms(Q=1e-5, N=8.7e-4, B=1.5e-4, K=2e-5)
 TABLE1_ACCEL = synthetic.NoiseTerms(N=1.2e-3, B=5e-4, K=5e-5)
 """Stand-ins for the paper's Table 1 (BP3010 / ADXRS300-grade; see src/imu_calib/README.md)."""
 
 
-def _fit(terms, seed, n=TWO_HOURS, rate=RATE_HZ):
+def _fit(terms, seed, n=TWO_HOURS, rate=RATE_HZ, whittle=True):
+    """Fit of synthetic noise; ``whittle``: with the samples (the pipeline's path), else the Allan fit alone."""
     x = synthetic.noise(n, rate, terms, np.random.default_rng(seed))
-    return fit_noise(overlapping_adev(x, rate))
+    return fit_noise(overlapping_adev(x, rate), samples=x if whittle else None)
 
 
-def test_two_hours_recover_n_within_3_percent_and_b_k_within_15_percent():
-    fits = [_fit(SEPARATED, seed) for seed in range(8)]
-    n_err = [abs(f.values["N"] / SEPARATED.N - 1) for f in fits]
-    b_err = [abs(f.values["B"] / SEPARATED.B - 1) for f in fits]
-    k_err = [abs(f.values["K"] / SEPARATED.K - 1) for f in fits]
-    assert max(n_err) < 0.03
-    assert np.median(b_err) < 0.15 and np.median(k_err) < 0.15
+def _relative_errors(fits, truth, term):
+    return np.array([abs(f.values[term] / getattr(truth, term) - 1) for f in fits])
+
+
+@pytest.mark.slow
+def test_two_hours_recover_n_within_3_percent_and_b_k_within_15_percent_in_90_percent_of_seeds():
+    fits = [_fit(K_TARGET_CASE, seed) for seed in range(30)]
+    assert all(f.kept == ("N", "B", "K") and f.estimator == "whittle" for f in fits)
+    assert np.all(_relative_errors(fits, K_TARGET_CASE, "N") < 0.03)
+    for term in ("B", "K"):
+        within = np.mean(_relative_errors(fits, K_TARGET_CASE, term) < 0.15)
+        assert within >= 0.9, (term, within)
+
+
+def test_two_hours_of_the_separated_case_recover_n_within_3_percent_and_b_within_15_percent():
+    fits = [_fit(SEPARATED, seed) for seed in range(6)]
+    assert np.all(_relative_errors(fits, SEPARATED, "N") < 0.03)
+    assert np.all(_relative_errors(fits, SEPARATED, "B") < 0.15)
+    # K's spread here is about its Cramer-Rao bound (10.5 %): a median, not every seed
+    assert np.median(_relative_errors(fits, SEPARATED, "K")) < 0.15
     assert all(f.kept == ("N", "B", "K") for f in fits)
+
+
+def _coverage(truth, seeds, whittle):
+    inside = {t: 0 for t in ("N", "B", "K")}
+    for seed in seeds:
+        fit = _fit(truth, seed, whittle=whittle)
+        for t in inside:
+            lo, hi = fit.intervals[t]
+            inside[t] += lo <= getattr(truth, t) <= hi
+    return {t: count / len(seeds) for t, count in inside.items()}
 
 
 @pytest.mark.slow
 def test_fitted_values_fall_inside_their_95_percent_intervals_in_90_percent_of_seeds():
-    seeds = range(100, 130)
-    inside = {t: 0 for t in ("N", "B", "K")}
-    for seed in seeds:
-        fit = _fit(SEPARATED, seed)
-        for t in inside:
-            lo, hi = fit.intervals[t]
-            inside[t] += lo <= getattr(SEPARATED, t) <= hi
-    for t, count in inside.items():
-        assert count / len(seeds) >= 0.9, (t, count)
+    # intervals from the Whittle Fisher information, no tuned factor
+    for t, share in _coverage(SEPARATED, range(100, 130), whittle=True).items():
+        assert share >= 0.9, (t, share)
+
+
+@pytest.mark.slow
+def test_allan_fit_alone_intervals_cover_the_truth_in_90_percent_of_seeds():
+    # the path without samples (imu_sim's real-data check) keeps the Monte Carlo correlation factor
+    for t, share in _coverage(SEPARATED, range(100, 130), whittle=False).items():
+        assert share >= 0.9, (t, share)
+
+
+def test_fit_refuses_samples_that_do_not_match_the_allan_deviation():
+    x = synthetic.noise(4096, RATE_HZ, SEPARATED, np.random.default_rng(0))
+    with pytest.raises(ValueError, match="samples"):
+        fit_noise(overlapping_adev(x, RATE_HZ), samples=x[:-1])
 
 
 @pytest.mark.slow

@@ -80,12 +80,13 @@ def characterise(rec: ImuRecording, per_decade: int | None = None, taus=None, pr
             if progress:
                 progress(f"{triad} {AXIS_NAMES[i]}")
         adevs[triad] = _stack(per_axis)
-        fits[triad] = [fit_noise(a) for a in per_axis]
+        fits[triad] = [fit_noise(a, samples=data[:, i]) for i, a in enumerate(per_axis)]
         white[triad] = psd(data, rate).white_noise
         _write_fits(model.triad(triad), fits[triad], white[triad])
     sensor_model.stamp_provenance(model, "imu_calib allan", rec.source or "<memory>",
                                   n_samples=len(rec), duration_s=float(len(rec) / rate),
-                                  estimator="overlapping Allan variance, 5-term IRLS WLS fit")
+                                  estimator="overlapping Allan variance, 5-term IRLS WLS fit and term selection, "
+                                            "Whittle likelihood refinement where the model fits")
     return Characterisation(adevs, fits, model, white)
 
 

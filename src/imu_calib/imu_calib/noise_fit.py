@@ -32,6 +32,7 @@ from scipy import optimize
 from imu_calib.allan import (ALPHA_FLICKER_FM, ALPHA_RW_FM, ALPHA_WHITE_FM, ALPHA_WHITE_PM, AllanDeviation,
                              edf_overlapping)
 from imu_calib.synthetic import FLICKER_LEVEL, gm_avar
+from imu_calib.whittle import WHITTLE_TERMS, fit_whittle
 
 TERMS = ("Q", "N", "B", "K", "R")
 """Term names: quantization, white noise, bias instability, rate random walk, rate ramp."""
@@ -65,6 +66,8 @@ class NoiseFit:
     """Relative model-error floor added to each point's sigma when the terms cannot explain the data."""
     slope_readings: dict = field(default_factory=dict)
     gauss_markov: dict = field(default_factory=dict)
+    estimator: str = "avar_wls"
+    """``whittle`` when the values and intervals come from the likelihood refinement, else ``avar_wls``."""
 
     def avar(self, taus) -> np.ndarray:
         """Model Allan variance at ``taus`` s."""
@@ -81,7 +84,8 @@ class NoiseFit:
     def summary(self) -> dict:
         """Plain mapping for the sensor-model ``info`` field."""
         return {"terms_kept": list(self.kept), "chi2_reduced": float(self.chi2_reduced),
-                "n_points": int(self.n_points), "relative_model_error": float(self.model_error), "ieee_slope_readings": self.slope_readings,
+                "n_points": int(self.n_points), "relative_model_error": float(self.model_error),
+                "estimator": self.estimator, "ieee_slope_readings": self.slope_readings,
                 "gauss_markov_alternative": self.gauss_markov}
 
 
@@ -138,10 +142,18 @@ class _Problem:
         return 10.0 ** hi
 
 
-def fit_noise(adev: AllanDeviation, terms=TERMS, min_share: float = 0.1, try_gauss_markov: bool = True) -> NoiseFit:
-    """Fit the noise terms to one axis of an overlapping Allan deviation (see module doc)."""
+def fit_noise(adev: AllanDeviation, terms=TERMS, min_share: float = 0.1, try_gauss_markov: bool = True,
+              samples=None) -> NoiseFit:
+    """Fit the noise terms to one axis of an overlapping Allan deviation (see module doc).
+
+    With ``samples`` (the axis's rate samples the Allan deviation came from) the
+    kept terms are refined by the Whittle likelihood (:func:`refine_whittle`).
+    """
     if adev.adev.ndim != 1:
         raise ValueError("fit_noise takes one axis: use AllanDeviation.axis(i)")
+    if samples is not None and np.shape(samples) != (adev.n_samples,):
+        raise ValueError(f"fit_noise: samples of shape {np.shape(samples)} do not match the Allan deviation's "
+                         f"{adev.n_samples} samples of one axis")
     prob = _Problem(adev)
     terms = list(terms)
     tau_c, gm_info = 0.0, {}
@@ -164,7 +176,33 @@ def fit_noise(adev: AllanDeviation, terms=TERMS, min_share: float = 0.1, try_gau
     fit.bias_correlation_time = tau_c if "B" in kept else 0.0
     fit.gauss_markov = gm_info
     fit.slope_readings = ieee_slope_readings(adev)
+    if samples is not None:
+        refine_whittle(fit, samples, adev.rate_hz)
     return fit
+
+
+def refine_whittle(fit: NoiseFit, samples, rate_hz: float) -> bool:
+    """Replace the kept terms' values and intervals by the Whittle ML estimate (in place); True if done.
+
+    Skipped (the Allan fit stays) when the Allan fit needed a model-error floor
+    (the five-term spectrum does not describe the data, so a likelihood built on
+    it would be overconfident), when a rate ramp is kept (deterministic, not in
+    the likelihood) or when the optimiser does not converge. Intervals are Wald
+    intervals of log theta from the Fisher information: theta = coefficient^2.
+    """
+    kept = fit.kept
+    if fit.model_error > 0 or any(t not in WHITTLE_TERMS for t in kept):
+        return False
+    theta0 = [fit.values[t] ** 2 for t in kept]
+    w = fit_whittle(samples, rate_hz, kept, theta0, fit.bias_correlation_time)
+    if not w.converged or not np.all(np.isfinite(w.theta)):
+        return False
+    rel_sd = np.sqrt(np.maximum(np.diag(w.cov), 0.0)) / w.theta
+    for i, t in enumerate(kept):
+        fit.values[t] = float(np.sqrt(w.theta[i]))
+        fit.intervals[t] = tuple(float(fit.values[t] * np.exp(0.5 * z * rel_sd[i])) for z in (-Z95, Z95))
+    fit.estimator = "whittle"
+    return True
 
 
 def _choose_bias_law(prob: _Problem, terms) -> tuple:
