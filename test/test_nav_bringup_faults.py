@@ -2,7 +2,7 @@
 
 On 300 s of the paper drive at 2x: a garbage burst on the serial line every 20 s, the port
 unplugged for 5 s at 120 s (driving), a 60 s GPS outage from 150 s, a fix 500 m off at 230 s
-and a NaN fix at 240 s. (A time jump in a replayed bag is covered by the filter node's tests.)
+and a NaN fix at 240 s. (A time jump in a replayed bag: test_nav_bringup_bag_time_jump.py.)
 """
 import numpy as np
 import pytest
