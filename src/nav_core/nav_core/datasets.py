@@ -227,6 +227,22 @@ def read_canada_truth_utm(path):
     return a[:, 0], a[:, 1:4]
 
 
+def read_canada_truth_attitude(path):
+    """UTIAS reference attitude: (t unix s, (n, 4) quaternion x y z w of base_link in the UTM 'world' frame)."""
+    path = Path(path)
+    rows = []
+    for line_no, line in enumerate(path.read_text().splitlines(), start=1):
+        parts = line.strip().split(";")
+        if len(parts) < 12:
+            continue
+        try:
+            rows.append([int(parts[3]) + 1e-9 * int(parts[4]), *map(float, parts[8:12])])
+        except ValueError as err:
+            raise RecordingError(f"{path}: line {line_no}: {err}") from err
+    a = np.asarray(rows)
+    return a[:, 0], a[:, 1:5]
+
+
 def _fit_plane_transform(src_xy, dst_xy):
     """Rotation + translation (2-D least squares, Kabsch) mapping ``src_xy`` onto ``dst_xy``."""
     sc, dc = src_xy.mean(axis=0), dst_xy.mean(axis=0)
