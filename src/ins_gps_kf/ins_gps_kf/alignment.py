@@ -48,13 +48,17 @@ class StationaryAligner:
 
     Samples are judged in blocks of ``block_s`` s so that sensor noise and engine vibration
     average out: a block is stationary when its mean rate (rad/s) and mean specific force
-    (m/s^2) stay within ``gyro_threshold`` and ``accel_threshold`` of the mean so far.
-    Motion before ``min_duration_s`` restarts the accumulation (the period was not stationary).
+    (m/s^2) stay within ``gyro_threshold`` and ``accel_threshold`` of the mean so far, and
+    its mean rate is below ``max_rate`` (rad/s: a steady turn in place keeps a constant
+    mean, which is not rest). Motion before ``min_duration_s`` restarts the accumulation
+    (the period was not stationary).
     """
 
-    def __init__(self, duration_s, min_duration_s, gyro_threshold, accel_threshold, block_s=1.0):
+    def __init__(self, duration_s, min_duration_s, gyro_threshold, accel_threshold, block_s=1.0,
+                 max_rate=np.inf):
         self.duration_s, self.min_duration_s = duration_s, min_duration_s
         self.gyro_threshold, self.accel_threshold = gyro_threshold, accel_threshold
+        self.max_rate = max_rate
         self.block_s = block_s
         self.restarts = -1
         self.restart()
@@ -94,6 +98,12 @@ class StationaryAligner:
 
     def _close_block(self, t) -> bool:
         mean_g, mean_a = self.block_gyro / self.block_n, self.block_accel / self.block_n
+        if np.linalg.norm(mean_g) > self.max_rate:
+            if self.n > 0 and self.elapsed_s >= self.min_duration_s:
+                self.moving = True
+                return True
+            self.restart()
+            return False
         if self.n > 0:
             ref_g, ref_a = self.sum_gyro / self.n, self.sum_accel / self.n
             if (np.linalg.norm(mean_g - ref_g) > self.gyro_threshold
