@@ -68,47 +68,34 @@ class Sampler(threading.Thread):
                   f"end {have[-1][name][1]:6.1f} MB, peak {peak:6.1f} MB")
 
 
-def _diag(diags, node):
-    st = diags.get(node)
-    return {kv.key: kv.value for kv in st.values} if st else {}
-
-
 def run_graph(specs, env, player: str, timeout_s: float, topics: dict, imu_topics=()):
     """Start the graph, probe ``topics`` and /diagnostics until the player exits; return what was seen.
 
     ``imu_topics`` are taken in raw batches (cheap enough not to load the machine at 1 kHz); they
     appear in the result as (receive time, stamp ns array) pairs.
     """
-    import rclpy
-    from diagnostic_msgs.msg import DiagnosticArray
-
     from nav_bringup.graph import PARAMS_FILE, Graph
-    from nav_core.ros_node import ImuBatchSubscription, Probe
+    from nav_bringup.live_status import diag_values, graph_probe
+    from nav_core.ros_node import ImuBatchSubscription
 
     graph = Graph(specs, env, PARAMS_FILE)
-    rclpy.init()
-    probe = Probe(topics)
-    for topic in imu_topics:
-        probe.received[topic] = []
-        ImuBatchSubscription(probe, topic, lambda b, topic=topic: probe.received[topic].append(
-            (time.monotonic(), b.t_ns)), 0.002)
-    diags = {}
-    probe.create_subscription(DiagnosticArray, "/diagnostics",
-                              lambda m: diags.update({s.name.split(":")[0]: s for s in m.status}), 100)
     sampler = Sampler(graph)
     try:
-        graph.start(timeout_s=90)
-        sampler.start()
-        t0 = time.monotonic()
-        probe.spin_until(lambda p: player in graph.dead(), timeout_s)
-        t1 = time.monotonic()
-        probe.spin_until(lambda p: False, 3.0)
+        with graph_probe(topics) as probe:
+            for topic in imu_topics:
+                probe.received[topic] = []
+                ImuBatchSubscription(probe, topic, lambda b, topic=topic: probe.received[topic].append(
+                    (time.monotonic(), b.t_ns)), 0.002)
+            graph.start(timeout_s=90)
+            sampler.start()
+            t0 = time.monotonic()
+            probe.spin_until(lambda p: player in graph.dead(), timeout_s)
+            t1 = time.monotonic()
+            probe.spin_until(lambda p: False, 3.0)
     finally:
         sampler.stop.set()
-        probe.destroy_node()
-        rclpy.try_shutdown()
         codes = graph.stop()
-    return probe.received, diags, sampler, (t0, t1), codes
+    return probe.received, diag_values(probe), sampler, (t0, t1), codes
 
 
 def bench_load(env, quick: bool) -> None:
@@ -141,8 +128,8 @@ def bench_load(env, quick: bool) -> None:
                  NodeSpec("scenario_player", {"sim_dir": str(tmp / "sim"), "link": str(link), "rate": rate})]
         seen, diags, sampler, (t0, t1), codes = run_graph(
             specs, env, "scenario_player", 1200, {}, imu_topics=("imu/data_raw", "imu/data_corrected"))
-    frames = int(_diag(diags, "scenario_player").get("frames_sent", 0))
-    drv, wm, kf = _diag(diags, "bp3010_driver"), _diag(diags, "wmra_node"), _diag(diags, "ins_gps_kf_node")
+    frames = int(diags.get("scenario_player", {}).get("frames_sent", 0))
+    drv, wm, kf = (diags.get(n, {}) for n in ("bp3010_driver", "wmra_node", "ins_gps_kf_node"))
     print(f"load: {frames} frames at 1,000 Hz over {t1 - t0:.0f} s of wall time (a {frames / 64:.0f} s "
           f"drive at 15.6x; target 5 minutes)")
     print(f"  driver published {drv.get('frames_received')} (checksum errors {drv.get('checksum_errors')}, lost "
@@ -186,10 +173,10 @@ def bench_soak(env, quick: bool) -> None:
                                              topics=["imu/data_corrected", "gps/fix", "odometry/filtered"])),
                  NodeSpec("bag_play", {"bag": str(tmp / "rec"), "rate": 10.0})]
         _, diags, sampler, (t0, t1), codes = run_graph(specs, env, "bag_play", 3600, {})
-        kf = _diag(diags, "ins_gps_kf_node")
+        kf = diags.get("ins_gps_kf_node", {})
         print(f"soak: {len(imu) / 64 / 60:.0f} min recording at 10x in {t1 - t0:.0f} s; GPS fixes played "
               f"{len(gnss)}, used by the filter {kf.get('fixes')} (rejected {kf.get('rejected_fixes')}); "
-              f"wmra restarts {_diag(diags, 'wmra_node').get('restarts')}")
+              f"wmra restarts {diags.get('wmra_node', {}).get('restarts')}")
         sampler.report(["bag_play", "wmra_node", "ins_gps_kf_node", "bag_record"], t0, t1)
         _compare_offline(tmp)
         print(f"  exit codes {codes}")

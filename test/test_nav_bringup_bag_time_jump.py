@@ -2,14 +2,13 @@
 and the filter re-aligns and navigates again as well as on the first pass."""
 import numpy as np
 import pytest
-import rclpy
-from diagnostic_msgs.msg import DiagnosticArray
 from nav_msgs.msg import Odometry
 
 from nav_bringup.demo import simulate_scenario
 from nav_bringup.graph import PARAMS_FILE, REPO, Graph, NodeSpec
+from nav_bringup.live_status import diag_values, graph_probe
 from nav_bringup.truth import TruthTrack
-from nav_core.ros_node import Probe, stamp_to_s
+from nav_core.ros_node import stamp_to_s
 
 pytestmark = [pytest.mark.ros, pytest.mark.slow]
 MODEL = REPO / "config" / "sensor_models" / "bp3010.yaml"
@@ -29,11 +28,6 @@ def test_a_bag_looping_back_in_time_is_reported_and_the_filter_navigates_again(t
              NodeSpec("bag_play", {"bag": str(sim / "bag"), "rate": RATE, "loop": True, "wait_for_subscribers": 1,
                                    "topics": ["imu/data_raw", "gps/fix"]})]
     graph = Graph(specs, ros_env, PARAMS_FILE, log_dir=tmp_path / "logs")
-    rclpy.init()
-    probe = Probe({"odometry/filtered": Odometry})
-    diags = {}
-    probe.create_subscription(DiagnosticArray, "/diagnostics",
-                              lambda m: diags.update({st.name.split(":")[0]: st for st in m.status}), 50)
 
     def second_pass_done(p):
         stamps = [stamp_to_s(m.header.stamp) for _, m in p.received["odometry/filtered"]]
@@ -41,18 +35,17 @@ def test_a_bag_looping_back_in_time_is_reported_and_the_filter_navigates_again(t
         return bool(jumps.size) and stamps[-1] - stamps[jumps[0] + 1] >= SECOND_PASS_S - 50.0
 
     try:
-        graph.start(timeout_s=60)
-        done = probe.spin_until(second_pass_done, (SIM_S + SECOND_PASS_S) / RATE + 90)
-        probe.spin_until(lambda p: False, 2.0)  # a diagnostics period after the jump
-        assert done, {k: v.output[-1500:] for k, v in graph.procs.items()}
-        assert graph.dead() == {}, "no node may exit because of a time jump"
+        with graph_probe({"odometry/filtered": Odometry}) as probe:
+            graph.start(timeout_s=60)
+            done = probe.spin_until(second_pass_done, (SIM_S + SECOND_PASS_S) / RATE + 90)
+            probe.spin_until(lambda p: False, 2.0)  # a diagnostics period after the jump
+            assert done, {k: v.output[-1500:] for k, v in graph.procs.items()}
+            assert graph.dead() == {}, "no node may exit because of a time jump"
     finally:
-        probe.destroy_node()
-        rclpy.try_shutdown()
         codes = graph.stop()
     assert all(c == 0 for c in codes.values()), codes
 
-    values = {name: {kv.key: kv.value for kv in st.values} for name, st in diags.items()}
+    values = diag_values(probe)
     assert int(values["wmra_node"]["restarts"]) >= 1 and "time jump" in values["wmra_node"]["last_restart"]
     assert "jumped back" in values["ins_gps_kf_node"]["last_reset"]
 

@@ -6,14 +6,13 @@ and a NaN fix at 240 s. (A time jump in a replayed bag: test_nav_bringup_bag_tim
 """
 import numpy as np
 import pytest
-import rclpy
-from diagnostic_msgs.msg import DiagnosticArray
 from nav_msgs.msg import Odometry
 
 from nav_bringup.demo import simulate_scenario
 from nav_bringup.graph import PARAMS_FILE, REPO, Graph, NodeSpec
+from nav_bringup.live_status import diag_values, graph_probe
 from nav_bringup.truth import TruthTrack
-from nav_core.ros_node import Probe, stamp_to_s
+from nav_core.ros_node import stamp_to_s
 
 pytestmark = [pytest.mark.ros, pytest.mark.slow]
 MODEL = REPO / "config" / "sensor_models" / "bp3010.yaml"
@@ -44,24 +43,18 @@ def test_faults_are_reported_no_node_exits_and_the_filter_recovers(sim_dir, tmp_
                                           "gps_outage_duration_s": OUTAGE[1], "gps_offset_at_s": OFF_AT,
                                           "gps_offset_m": 500.0, "gps_nan_at_s": NAN_AT})]
     graph = Graph(specs, ros_env, PARAMS_FILE, log_dir=tmp_path / "logs")
-    rclpy.init()
-    probe = Probe({"odometry/filtered": Odometry})
-    diags = {}
-    probe.create_subscription(DiagnosticArray, "/diagnostics",
-                              lambda m: diags.update({st.name.split(":")[0]: st for st in m.status}), 50)
     try:
-        graph.start(timeout_s=60)
-        assert probe.spin_until(lambda p: "scenario_player" in graph.dead(), SIM_S / RATE + 120), \
-            {k: v.output[-1500:] for k, v in graph.procs.items()}
-        probe.spin_until(lambda p: False, 2.0)
-        assert graph.dead() == {"scenario_player": 0}, "no node may exit because of a fault"
+        with graph_probe({"odometry/filtered": Odometry}) as probe:
+            graph.start(timeout_s=60)
+            assert probe.spin_until(lambda p: "scenario_player" in graph.dead(), SIM_S / RATE + 120), \
+                {k: v.output[-1500:] for k, v in graph.procs.items()}
+            probe.spin_until(lambda p: False, 2.0)
+            assert graph.dead() == {"scenario_player": 0}, "no node may exit because of a fault"
     finally:
-        probe.destroy_node()
-        rclpy.try_shutdown()
         codes = graph.stop()
     assert all(c == 0 for c in codes.values()), codes
 
-    values = {name: {kv.key: kv.value for kv in st.values} for name, st in diags.items()}
+    values = diag_values(probe)
     drv, kf = values["bp3010_driver"], values["ins_gps_kf_node"]
     assert int(drv["reconnects"]) >= 1 and drv["port_state"] == "connected"
     assert int(drv["bytes_discarded"]) > 0 and int(drv["resyncs"]) > 0  # garbage bursts

@@ -7,16 +7,15 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-import rclpy
 import yaml
-from diagnostic_msgs.msg import DiagnosticArray
 from nav_msgs.msg import Odometry
 
 from nav_bringup.demo import simulate_scenario
 from nav_bringup.graph import PARAMS_FILE, REPO, Graph, NodeSpec
+from nav_bringup.live_status import diag_values, graph_probe
 from nav_bringup.truth import TruthTrack
 from nav_core import recording
-from nav_core.ros_node import Probe, stamp_to_s
+from nav_core.ros_node import stamp_to_s
 
 pytestmark = [pytest.mark.ros, pytest.mark.slow]
 MODEL = REPO / "config" / "sensor_models" / "bp3010.yaml"
@@ -50,20 +49,14 @@ def _specs(sim_dir: Path, run: Path, scen: dict) -> list:
 def test_graph_runs_the_paper_drive_and_every_node_exits_cleanly(sim_dir, tmp_path, ros_env):
     scen = yaml.safe_load((REPO / "config" / "scenarios" / "paper_drive.yaml").read_text())
     graph = Graph(_specs(sim_dir, tmp_path, scen), ros_env, PARAMS_FILE, log_dir=tmp_path / "logs")
-    rclpy.init()
-    probe = Probe({"odometry/filtered": Odometry})
-    diags = {}
-    probe.create_subscription(DiagnosticArray, "/diagnostics", lambda m: diags.update({s.name: s for s in m.status}),
-                              50)
     try:
-        graph.start(timeout_s=60)  # every node said it is ready
-        finished = probe.spin_until(lambda p: "scenario_player" in graph.dead(), SIM_SECONDS / RATE + 90)
-        assert finished, {k: v.output[-2000:] for k, v in graph.procs.items()}
-        probe.spin_until(lambda p: False, 2.0)
-        assert graph.dead() == {"scenario_player": 0}, "no other node may exit during the run"
+        with graph_probe({"odometry/filtered": Odometry}) as probe:
+            graph.start(timeout_s=60)  # every node said it is ready
+            finished = probe.spin_until(lambda p: "scenario_player" in graph.dead(), SIM_SECONDS / RATE + 90)
+            assert finished, {k: v.output[-2000:] for k, v in graph.procs.items()}
+            probe.spin_until(lambda p: False, 2.0)
+            assert graph.dead() == {"scenario_player": 0}, "no other node may exit during the run"
     finally:
-        probe.destroy_node()
-        rclpy.try_shutdown()
         codes = graph.stop()
     assert all(code == 0 for code in codes.values()), codes
 
@@ -87,7 +80,7 @@ def test_graph_runs_the_paper_drive_and_every_node_exits_cleanly(sim_dir, tmp_pa
     assert rms < 1.5 * np.sqrt(np.mean(gps_err**2)) + 0.5
 
     # Diagnostics clean: no corrupt frames, no rejected fixes, the Allan node characterised the head.
-    by_node = {name.split(":")[0]: {kv.key: kv.value for kv in st.values} for name, st in diags.items()}
+    by_node = diag_values(probe)
     assert int(by_node["bp3010_driver"]["checksum_errors"]) == 0
     assert int(by_node["bp3010_driver"]["lost_frames"]) == 0
     assert int(by_node["ins_gps_kf_node"]["rejected_fixes"]) == 0
