@@ -6,7 +6,7 @@ Subcommands (degrees and deg/s only here, at the edge; SI in the files)::
     imu-calib two-position --up REC --down REC --axis x --lat-deg 51.08 --height-m 1100 --out MODEL.yaml
     imu-calib rate-table --rec1 REC --rate1-dps 100 --rec2 REC --rate2-dps -100 --axis z \
         --direction up --lat-deg 51.08 --out MODEL.yaml
-    imu-calib multi-position REC --out MODEL.yaml --lat-deg 51.08 [--height-m H]
+    imu-calib multi-position REC --out MODEL.yaml --lat-deg 51.08 [--height-m H] [--no-gyro-scale]
 
 REC is a rosbag2 bag or the recording CSV (``nav_core.recording.read_imu``);
 ``--format ucalgary`` / ``--format imutk`` / ``--format adis`` read the real
@@ -88,7 +88,8 @@ def build_parser() -> argparse.ArgumentParser:
     _add_format(p)
     p.set_defaults(func=cmd_rate_table)
 
-    p = sub.add_parser("multi-position", help="accel bias, scale, misalignment and gyro bias from many orientations")
+    p = sub.add_parser("multi-position", help="accel bias, scale, misalignment, gyro bias, scale and misalignment "
+                                              "from many orientations")
     p.add_argument("recording")
     p.add_argument("--out", required=True)
     p.add_argument("--gyro-file", help="gyro file for --format imutk")
@@ -97,6 +98,8 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--threshold-factor", type=float, default=4.0,
                    help="static if window variance < factor x initial level")
     p.add_argument("--min-static-s", type=float, default=2.0, help="shortest static segment kept, s")
+    p.add_argument("--no-gyro-scale", action="store_true",
+                   help="skip the gyro scale/misalignment fit from the moves (gyro bias only)")
     _add_site(p, required=False)
     _add_format(p)
     p.set_defaults(func=cmd_multi_position)
@@ -177,11 +180,12 @@ def cmd_rate_table(args) -> int:
 
 
 def cmd_multi_position(args) -> int:
-    """Static detection and least-squares accel fit; update the model."""
+    """Static detection, least-squares accel fit, gyro scale/misalignment from the moves; update the model."""
     rec = load_recording(args.recording, args.topic, args.format, args.gyro_file)
     lat = None if args.lat_deg is None else args.lat_deg * DEG
     res = multi_position.multi_position(rec, lat, args.height_m, args.gravity, init_static_s=args.init_static_s,
-                                        threshold_factor=args.threshold_factor, min_static_s=args.min_static_s)
+                                        threshold_factor=args.threshold_factor, min_static_s=args.min_static_s,
+                                        with_gyro=not args.no_gyro_scale)
     model = model_io.load_or_new(args.out, rec.rate_hz)
     multi_position.apply_to_model(model, res)
     sensor_model.stamp_provenance(model, "imu_calib multi-position", args.recording, lat_deg=args.lat_deg,
@@ -192,6 +196,13 @@ def cmd_multi_position(args) -> int:
     print(f"accel bias {np.round(res.bias, 5)}, scale factor {np.round(res.scale_factor, 5)}")
     print(f"misalignment (upper triangle) {np.round(res.misalignment[[0, 0, 1], [1, 2, 2]], 6)}")
     print(f"gyro bias {np.round(res.gyro_bias, 6)}")
+    if res.gyro is not None:
+        gyro = res.gyro
+        print(f"gyro from {gyro.n_moves} moves: gravity direction error RMS "
+              f"{np.degrees(np.sqrt(np.mean(gyro.residuals ** 2))):.3g} deg after, "
+              f"{np.degrees(np.sqrt(np.mean(gyro.residuals_before ** 2))):.3g} deg with one common scale")
+        print(f"gyro scale factor {np.round(gyro.scale_factor, 6)}")
+        print(f"gyro misalignment (rows x, y, z) {np.round(gyro.misalignment, 6).tolist()}")
     print(f"wrote {args.out}")
     return 0
 

@@ -17,7 +17,8 @@ Works in any units (raw counts too): initial guesses come from the data.
 The gyro bias is the mean rate over the initial static interval, minus the
 vertical Earth rate along the sensed "up" (when the latitude is given and the
 data are in rad/s); the unknown horizontal Earth rate (heading unknown) is
-added to its interval.
+added to its interval. Gyro scale factors and misalignment then come from the
+moves between the static positions (:mod:`imu_calib.gyro_multi_position`).
 """
 from __future__ import annotations
 
@@ -27,6 +28,7 @@ import numpy as np
 from scipy import optimize
 from scipy.ndimage import uniform_filter1d
 
+from imu_calib.gyro_multi_position import GyroCalibration, fit_gyro, moves_between
 from nav_core.earth import RATE, normal_gravity
 from nav_core.recording import ImuRecording
 
@@ -59,6 +61,8 @@ class MultiPositionResult:
     residuals_before: np.ndarray
     """The same for the naive six-position style start (mid-range bias, half-range scale), for comparison."""
     segments: list = field(default_factory=list)
+    gyro: GyroCalibration | None = None
+    """Gyro scale factors and misalignment from the moves (None when not asked for)."""
 
     @property
     def rms_residual(self) -> float:
@@ -137,11 +141,12 @@ def fit_accel(means, gravity: float):
 
 
 def multi_position(rec: ImuRecording, lat_rad: float | None = None, height_m: float = 0.0,
-                   gravity: float | None = None, **detect_kwargs) -> MultiPositionResult:
+                   gravity: float | None = None, with_gyro: bool = True, **detect_kwargs) -> MultiPositionResult:
     """Detect static segments of ``rec`` and fit the accelerometer model; gyro bias from the initial interval.
 
     ``gravity`` (input units) defaults to WGS-84 normal gravity at ``lat_rad``,
     ``height_m`` (m/s^2); pass it explicitly for raw counts scaled otherwise.
+    ``with_gyro``: also fit gyro scale factors and misalignment from the moves.
     """
     if gravity is None:
         if lat_rad is None:
@@ -158,7 +163,11 @@ def multi_position(rec: ImuRecording, lat_rad: float | None = None, height_m: fl
                     "misalignment": _mis_interval(mis, sd[6:9])}
     gyro_bias, gyro_ci = _gyro_bias(rec, segs, bias, scale, mis, lat_rad, detect_kwargs.get("init_static_s", 30.0))
     intervals_95["gyro_bias"] = gyro_ci
-    return MultiPositionResult(bias, scale, mis, gyro_bias, intervals_95, gravity, resid, before, segs)
+    gyro = None
+    if with_gyro:
+        moves = moves_between(segs, rec.gyro, gyro_bias, np.eye(3) + np.diag(scale) + mis, bias)
+        gyro = fit_gyro(moves, rate)
+    return MultiPositionResult(bias, scale, mis, gyro_bias, intervals_95, gravity, resid, before, segs, gyro)
 
 
 def _ci(value, sd):
@@ -201,4 +210,12 @@ def apply_to_model(model, result: MultiPositionResult, with_gyro_bias: bool = Tr
     if with_gyro_bias:
         model.gyro.bias = result.gyro_bias.copy()
         model.gyro.intervals["bias"] = result.intervals["gyro_bias"]
+    if result.gyro is not None:
+        gyro = result.gyro
+        model.gyro.scale_factor, model.gyro.misalignment = gyro.scale_factor.copy(), gyro.misalignment.copy()
+        for term in ("scale_factor", "misalignment"):
+            model.gyro.intervals[term] = gyro.intervals[term]
+        model.gyro.info["multi_position"] = {"moves": gyro.n_moves,
+                                             "rms_gravity_direction_error_rad": float(np.sqrt(np.mean(gyro.residuals ** 2))),
+                                             "rms_before_rad": float(np.sqrt(np.mean(gyro.residuals_before ** 2)))}
     return model

@@ -26,7 +26,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from scipy import optimize, signal
+from scipy import fft, optimize, signal
 
 WHITTLE_TERMS = ("Q", "N", "B", "K")
 """Terms the likelihood models (a rate ramp is deterministic and differenced away)."""
@@ -67,16 +67,24 @@ def _acov_differenced(term: str, n: int, rate_hz: float, tau_c: float) -> np.nda
     return c
 
 
+def fast_length_below(n: int) -> int:
+    """Largest length <= n whose FFT is fast (5-smooth): the record is cut to it (an odd prime length is 100x slower)."""
+    m = n
+    while fft.next_fast_len(m) != m:
+        m -= 1
+    return m
+
+
 def _flicker_acov_differenced(n: int, fs: float) -> np.ndarray:
-    """Differenced flicker (B = 1) autocovariance on the generator's grid: one-sided PSD 1/(pi f) sinc^2, f >= fs/2n."""
-    size = 2 * n
+    """Differenced flicker (B = 1) autocovariance on the generator's grid: one-sided PSD 1/(pi f) sinc^2, f >= ~fs/2n."""
+    size = fft.next_fast_len(2 * n, real=True)
     k = np.arange(size // 2 + 1)
     f = k * fs / size
     power = np.zeros_like(f)
     # |gain|^2 = S(f) fs / 2 per rfft bin of unit white noise (see synthetic.flicker)
     power[1:] = 1.0 / (np.pi * f[1:]) * fs / 2.0 * np.sinc(f[1:] / fs) ** 2
     power *= 4.0 * np.sin(np.pi * k / size) ** 2
-    return np.fft.irfft(power, size)[:n]
+    return fft.irfft(power, size)[:n]
 
 
 def taper(n: int, alpha: float = TAPER_ALPHA) -> np.ndarray:
@@ -88,8 +96,8 @@ def taper(n: int, alpha: float = TAPER_ALPHA) -> np.ndarray:
 def _taper_acov(h) -> np.ndarray:
     """Lag weights sum_t h_t h_{t+k}, k = 0..n-1 (1 - k/n for the untapered record)."""
     n = len(h)
-    H = np.fft.rfft(h, 2 * n)
-    return np.fft.irfft(np.abs(H) ** 2, 2 * n)[:n]
+    size = fft.next_fast_len(2 * n, real=True)
+    return fft.irfft(np.abs(fft.rfft(h, size)) ** 2, size)[:n]
 
 
 def expected_periodogram(terms, n: int, rate_hz: float, tau_c: float = 0.0, alpha: float = TAPER_ALPHA) -> np.ndarray:
@@ -99,7 +107,7 @@ def expected_periodogram(terms, n: int, rate_hz: float, tau_c: float = 0.0, alph
     cols = []
     for term in terms:
         c = _acov_differenced(term, n, rate_hz, tau_c) * weight
-        cols.append(2.0 * np.real(np.fft.fft(c))[bins] - c[0])
+        cols.append(2.0 * fft.rfft(c)[bins].real - c[0])
     return np.column_stack(cols)
 
 
@@ -108,7 +116,7 @@ def periodogram_of_differences(x, alpha: float = TAPER_ALPHA) -> np.ndarray:
     d = np.diff(np.asarray(x, dtype=float))
     d = d - d.mean()
     n = len(d)
-    return np.abs(np.fft.rfft(d * taper(n, alpha))[1:(n - 1) // 2 + 1]) ** 2
+    return np.abs(fft.rfft(d * taper(n, alpha))[1:(n - 1) // 2 + 1]) ** 2
 
 
 def fit_whittle(x, rate_hz: float, terms, theta0, tau_c: float = 0.0, max_iter: int = 200,
@@ -117,6 +125,8 @@ def fit_whittle(x, rate_hz: float, terms, theta0, tau_c: float = 0.0, max_iter: 
     terms = tuple(terms)
     if not terms or any(t not in WHITTLE_TERMS for t in terms):
         raise ValueError(f"Whittle terms must be a non-empty subset of {WHITTLE_TERMS}, got {terms}")
+    x = np.asarray(x, dtype=float)
+    x = x[:fast_length_below(len(x) - 1) + 1]
     pgram = periodogram_of_differences(x, alpha)
     P = expected_periodogram(terms, len(x) - 1, rate_hz, tau_c, alpha)
     # scale each column so the start point is u = 0 for every term: a well-conditioned problem
@@ -140,3 +150,14 @@ def fit_whittle(x, rate_hz: float, terms, theta0, tau_c: float = 0.0, max_iter: 
     h = taper(len(x) - 1, alpha)
     cov = np.linalg.pinv(A.T @ A) * (len(h) * np.sum(h ** 4))
     return WhittleFit(terms, theta, cov, bool(res.success), len(pgram))
+
+
+def cramer_rao_relative_sd(n: int, rate_hz: float, terms, coefficients, tau_c: float = 0.0) -> np.ndarray:
+    """Relative sd of each coefficient (not squared) that the Whittle Fisher information allows for n samples."""
+    theta = np.asarray(coefficients, dtype=float) ** 2
+    m = fast_length_below(n - 1)
+    P = expected_periodogram(tuple(terms), m, rate_hz, tau_c)
+    A = P / (P @ theta)[:, None]
+    h = taper(m)
+    cov = np.linalg.inv(A.T @ A) * (m * np.sum(h ** 4))
+    return 0.5 * np.sqrt(np.diag(cov)) / theta
