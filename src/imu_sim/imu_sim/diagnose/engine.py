@@ -13,6 +13,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 from pathlib import Path
+from types import SimpleNamespace
 
 import numpy as np
 import yaml
@@ -59,10 +60,11 @@ EXPLAIN = {
 
 
 def load_calibration() -> dict:
-    """Per-effect threshold factors from the null Monte Carlo (1.0 when not calibrated)."""
+    """Per-effect threshold factors from the null Monte Carlo (1.0 when not calibrated; never below the floor)."""
+    from imu_sim.diagnose.calibrate import FLOOR  # calibrate imports this module
     if CALIBRATION_FILE.exists():
         data = yaml.safe_load(CALIBRATION_FILE.read_text()) or {}
-        return {k: float(v) for k, v in (data.get("factors") or {}).items()}
+        return {k: max(float(v), FLOOR) for k, v in (data.get("factors") or {}).items()}
     return {}
 
 
@@ -149,11 +151,41 @@ def _warmup(case, model, wh, resid_f, m_tests, factors) -> Candidate:
     cand = _regression(case, model, wh, resid_f, design, m_tests, factors,
                        "GLS likelihood ratio, time constant profiled")
     cand.threshold = _thr(6, m_tests, len(taus), factors.get("warmup_drift", 1.0))
-    inside = taus[lrs >= lrs[best] - 3.84]
     cand.params["time_constant_s"] = float(taus[best])
-    cand.intervals["time_constant_s"] = [float(inside.min()), float(inside.max())]
+    cand.intervals["time_constant_s"] = _profile_interval(np.log(taus), lrs, best)
+    if cand.identifiable:
+        _carry_tau_uncertainty(case, wh, resid_f, design, cand, taus[best])
     cand.block_s = min(1.0, float(taus[best]) / 5)
     return cand
+
+
+def _profile_interval(x: np.ndarray, lr: np.ndarray, best: int) -> list:
+    """exp of the 95 % profile-likelihood interval in x (log grid): where lr drops 3.84, linearly interpolated."""
+    drop = lr[best] - lr - 3.84
+    ends = []
+    for step in (-1, 1):
+        i = best
+        while 0 <= i + step < len(x) and drop[i + step] < 0:
+            i += step
+        j = i + step
+        if 0 <= j < len(x):  # crossing between grid points i and j
+            ends.append(x[i] + (x[j] - x[i]) * (-drop[i]) / (drop[j] - drop[i]))
+        else:  # profile still inside at the grid's end: the interval reaches it
+            ends.append(x[i])
+    return [float(np.exp(min(ends))), float(np.exp(max(ends)))]
+
+
+def _carry_tau_uncertainty(case, wh, resid_f, design, cand, tau) -> None:
+    """Amplitude intervals from the Jacobian covariance of amplitudes and time constant together."""
+    amps = np.array([cand.params[n] for n in design.names])
+    dt_rel = case.t - case.t[0]
+    slope = dt_rel / tau**2 * np.exp(-dt_rel / tau)
+    cols = {c: np.hstack([x, (amps[c] * slope)[:, None]]) for c, x in design.columns.items()}
+    res = gls(wh, resid_f, cols, design.k + 1)
+    if not res.identifiable:
+        return
+    sd = np.sqrt(np.clip(np.diag(res.cov)[:design.k], 0, None))
+    cand.intervals.update({n: [float(a - 1.96 * s), float(a + 1.96 * s)] for n, a, s in zip(design.names, amps, sd)})
 
 
 def _vibration(case, model, wh, resid, resid_f, m_tests, factors) -> Candidate:
@@ -213,14 +245,16 @@ def _quantization(case, model, m_tests, factors) -> Candidate:
 def _noise(case, model, resid, effect, m_tests, factors) -> Candidate:
     m = max(1, int(np.ceil(case.n / noise_tests.MAX_BLOCKS)))
     tb = m * case.dt
-    xb = noise_tests.block_means(resid, m)
+    # both tests on the end-matched series, so a random walk's end-to-end drift is not evidence for either
+    xb = noise_tests.end_matched(noise_tests.block_means(resid, m))
     freqs, pgram = noise_tests.periodogram(xb, tb)
     s0 = noise_tests.noise_model_psd(model, freqs, tb)
     if effect == "bias_random_walk":
         grids = [(None, noise_tests.rw_extra(freqs))]
     else:
         span = len(xb) * tb
-        grids = [(tc, noise_tests.gm_extra(freqs, tc)) for tc in np.logspace(np.log10(5 * tb), np.log10(span / 5), 8)]
+        # the correlation time must lie well inside the record, else the wander is a random walk here
+        grids = [(tc, noise_tests.gm_extra(freqs, tc)) for tc in np.logspace(np.log10(5 * tb), np.log10(span / 20), 8)]
     lr_ch, best = np.zeros(6), [None] * 6
     for c in range(6):
         for tc, extra in grids:
@@ -314,7 +348,61 @@ def evaluate(case: Case, model: SensorModel, resid: np.ndarray, exclude=(), fact
     for cand in out:
         if cand.effect == "coriolis" and cand.identifiable is False and "constant" in cand.reason:
             cand.reason = "the truth has no velocity here (static): Coriolis cannot show"
+    _rank_low_frequency(case, model, resid, wh, resid_f, out, m_tests, factors)
     return out
+
+
+LOW_FREQUENCY = ("temperature_bias", "warmup_drift", "gauss_markov_bias", "bias_random_walk")
+"""Effects that all show as slow residual wander, so each is ranked by its statistic given its rivals."""
+
+
+def _low_design(case, model, cand):
+    if cand.effect == "temperature_bias":
+        return regressors.design_temperature(case, model)
+    return regressors.design_warmup(case, model, cand.params["time_constant_s"])
+
+
+def _conditional_lr(case, model, resid, wh, resid_f, cand, rival, m_tests, factors) -> float:
+    """Statistic of ``cand`` with ``rival`` already in the model (its fit removed or its noise in the PSD)."""
+    if cand.kind == "noise":
+        if rival.kind == "noise":
+            return _noise(case, add_effect(model, rival), resid, cand.effect, m_tests, factors).stat
+        return _noise(case, model, resid - rival.contrib, cand.effect, m_tests, factors).stat
+    design = _low_design(case, model, cand)
+    if rival.kind == "noise":
+        # a random walk's record carries one random end-to-end drift per channel (the common part of its
+        # periodogram, the DFT of a ramp), so under the rival's noise a free ramp per channel is a nuisance
+        wh2 = Whitener.from_model(add_effect(model, rival), resid, case.dt)
+        ramp = (case.t - case.t[0])[:, None] * np.eye(6)[None, 0]
+        with_ramp = {c: np.hstack([design.columns.get(c, np.zeros((case.n, design.k))), np.roll(ramp, c, axis=1)])
+                     for c in range(6)}
+        ramp_only = {c: np.roll(ramp, c, axis=1) for c in range(6)}
+        return gls(wh2, resid_f, with_ramp, design.k + 6).lr - gls(wh2, resid_f, ramp_only, 6).lr
+    other = _low_design(case, model, rival)
+    joint = {c: np.hstack([design.columns.get(c, np.zeros((case.n, design.k))),
+                           other.columns.get(c, np.zeros((case.n, other.k)))])
+             for c in set(design.columns) | set(other.columns)}
+    return gls(wh, resid_f, joint, design.k + other.k).lr - gls(wh, resid_f, other.columns, other.k).lr
+
+
+def _rank_low_frequency(case, model, resid, wh, resid_f, cands, m_tests, factors) -> None:
+    """Rank significant slow-wander candidates by their weakest statistic given one rival, minus threshold.
+
+    A random walk, a Gauss-Markov wander, a temperature-linear bias and a warm-up exponential all
+    put power at the lowest frequencies, so their unconditional statistics all rise together;
+    the one that still stands once each rival is in the model is the one the data single out.
+    """
+    sig = [c for c in cands if c.effect in LOW_FREQUENCY and c.significant]
+    for cand in sig:
+        given = {}
+        for rival in sig:
+            if rival is not cand:
+                given[rival.effect] = _conditional_lr(case, model, resid, wh, resid_f, cand, rival, m_tests, factors)
+        if given:
+            worst = min(given, key=given.get)
+            cand.rank = given[worst] - cand.threshold
+            cand.reason = (cand.reason + "; " if cand.reason else "") + (
+                f"given {worst}: statistic {given[worst]:.4g} (ranked by it)")
 
 
 def add_effect(model: SensorModel, cand: Candidate) -> SensorModel:
@@ -348,40 +436,31 @@ def fit_metric(case: Case, cand: Candidate, model_before: SensorModel, model_aft
                      for c in range(6) if CHANNELS[c] in cand.channels]
             vals.append(float(np.sqrt(np.mean(np.square(ratio)))))
         return "RMS log10 ratio of distinct-value counts, real vs simulated (second half held out)", vals[0], vals[1]
-    return _allan_metric(case, cand, model_before, model_after, resid)
+    return _whittle_metric(case, cand, model_before, resid)
 
 
-def _allan_metric(case, cand, model_before, model_after, resid):
-    """Allan chi-square per point of the second half's residual against each model's predicted Allan variance."""
-    from imu_calib.allan import overlapping_adev
-    from imu_sim.diagnose.spectral import noise_psd
-    half = resid[case.n // 2:]
-    rate = 1.0 / case.dt
-    adev = overlapping_adev(half, rate)
+def _whittle_metric(case, cand, model_before, resid):
+    """Whittle deviance per bin of the second half's block means; the noise term and levels fitted on the first half."""
+    half = case.n // 2
+    # _noise needs only the length and the sample interval of what it tests
+    refit = _noise(SimpleNamespace(n=half, dt=case.dt), model_before, resid[:half], cand.effect, 1, {})
     chans = [CHANNELS.index(c) for c in cand.channels] or list(range(6))
+    m = max(1, int(np.ceil(half / noise_tests.MAX_BLOCKS)))
+    tb = m * case.dt
     out = []
-    for mdl in (model_before, model_after):
+    for mdl in (model_before, add_effect(model_before, refit)):
+        dev = []
+        for part in (resid[:half], resid[half:2 * half]):
+            freqs, pgram = noise_tests.periodogram(noise_tests.block_means(part, m), tb)
+            dev.append((pgram, noise_tests.noise_model_psd(mdl, freqs, tb)))
+        (p1, s1), (p2, s2) = dev
         tot = []
         for c in chans:
-            pred = noise_tests.predicted_avar(lambda f, c=c, mdl=mdl: noise_psd(mdl, np.concatenate([[1e-12], f]),
-                                                                           case.dt)[c, 1:], adev.taus)
-            pred = pred * _level(half[:, c], mdl, c, case.dt)
-            edf = adev.edf[:, c]
-            tot.append(np.log(adev.avar[:, c] / pred) ** 2 * edf / 2)
+            ratio = p2[:, c] / (np.mean(p1[:, c] / s1[c]) * s1[c])
+            tot.append(2 * (ratio - np.log(ratio) - 1))
         out.append(float(np.mean(np.concatenate(tot))))
-    return ("Allan chi-square per cluster time of the held-out second half against the model "
-            "(white level matched at the shortest cluster time)"), out[0], out[1]
-
-
-def _level(x, mdl, c, dt):
-    from imu_sim.diagnose.spectral import noise_psd
-    white = noise_psd(mdl, np.array([0.0, 0.25 / dt]), dt)[c, 1]
-    return robust_var(x) * dt / max(white, 1e-300)
-
-
-def robust_var(x):
-    """Variance of the white part of x."""
-    return metrics.robust_var(x)
+    return ("Whittle deviance per periodogram bin of the held-out second half's block means, noise term and "
+            "levels fitted on the first half (about 1.15 when the noise model is right)"), out[0], out[1]
 
 
 @dataclass

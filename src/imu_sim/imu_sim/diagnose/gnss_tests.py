@@ -123,17 +123,22 @@ def colored_fit(r: np.ndarray, gr: GnssResidual) -> ColoredFit:
     freqs, pgram = noise_tests.periodogram(r, gr.dt)
     s0 = model_psd(gr, freqs)
     taus = tau_grid(gr)
-    best, lr_by_tau = None, []
+    best, lr_by_tau, ci_by_tau = None, [], []
     for tau in taus:
         extra = ar1_psd(freqs, gr.dt, 1.0, tau)
         fits = [noise_tests.whittle_extra(pgram[:, a], s0[a], extra) for a in range(3)]
         lr_axes = np.array([f[0] for f in fits])
         lr_by_tau.append(lr_axes.sum())
+        ci_by_tau.append([f[2] for f in fits])
         if best is None or lr_axes.sum() > best.lr:
             best = ColoredFit(float(lr_axes.sum()), lr_axes, np.array([f[1] for f in fits]),
                               [f[2] for f in fits], float(tau), len(taus))
-    inside = taus[np.asarray(lr_by_tau) >= best.lr - 3.84]
+    keep = np.asarray(lr_by_tau) >= best.lr - 3.84
+    inside = taus[keep]
     best.tau_ci = [float(inside.min()), float(inside.max())]
+    # the variance interval at every tau of tau's own 95 % set, joined: tau's uncertainty is carried over
+    sets = [ci for ci, k in zip(ci_by_tau, keep) if k]
+    best.var_ci = [(min(ci[a][0] for ci in sets), max(ci[a][1] for ci in sets)) for a in range(3)]
     return best
 
 

@@ -126,6 +126,20 @@ def block_means(x: np.ndarray, m: int) -> np.ndarray:
     return x[:nb * m].reshape(nb, m, *x.shape[1:]).mean(axis=1)
 
 
+def end_matched(xb: np.ndarray, ends: int = 50) -> np.ndarray:
+    """xb minus the ramp joining the means of its first and last len/``ends`` rows (per column).
+
+    A random walk's periodogram is twice its spectrum, half of it one random ramp (the end-to-end
+    drift) shared by every bin; removing the ramp leaves the spectrum. Ends are averaged so their
+    white noise does not come back as a ramp.
+    """
+    nb = len(xb)
+    k = max(1, nb // ends)
+    idx = np.arange(nb)[:, None]
+    slope = (xb[-k:].mean(axis=0) - xb[:k].mean(axis=0)) / (nb - k)
+    return xb - slope * idx
+
+
 def periodogram(xb: np.ndarray, tb: float):
     """Two-sided periodogram (unit^2/Hz) per column without DC: freqs (nf,), I (nf, k)."""
     nb = len(xb)
@@ -143,7 +157,8 @@ def _whittle_profile(i_f, s0, extra, ratios):
 def whittle_extra(i_f: np.ndarray, s0: np.ndarray, extra: np.ndarray):
     """Best level c of ``extra`` added to a free-level ``s0``: (lr, c, c interval 95 %, loglik by c)."""
     ref = np.median(s0[:8]) / max(np.median(extra[:8]), 1e-300)
-    ratios = np.concatenate([[0.0], ref * np.logspace(-5, 4, 46)])
+    # 20 points per decade: the interval ends are read off this grid
+    ratios = np.concatenate([[0.0], ref * np.logspace(-5, 4, 181)])
     ll, a = _whittle_profile(i_f, s0, extra, ratios)
     best = int(np.argmax(ll))
     lr = 2 * (ll[best] - ll[0])

@@ -22,6 +22,11 @@ from imu_sim.scenario import from_dict
 from imu_sim.simulate import simulate
 
 RATE_HZ = 50.0
+LONG_S, LONG_RATE_HZ = 7200.0, 5.0
+"""The long static run (one level orientation) for the low-frequency effects and the single-orientation null."""
+TEMP_CYCLE_C, TEMP_PERIOD_S, TEMP_MEAN_C = 10.0, 1800.0, 25.0
+"""Its logged temperature: a chamber cycle, 25 +- 10 C with a 30-min period (not monotone, so not a warm-up)."""
+LONG_EFFECTS = ("temperature_bias", "gauss_markov_bias", "bias_random_walk")
 HOLD_S, MOVE_S = 40.0, 8.0
 POSES = [(0, 0, 0, 0, None), (180, 0, 30, 0, None), (0, -90, 60, 0, None), (0, 90, 120, 0, None),
          (90, 0, 200, 0, None), (-90, 0, 270, 0, None), (0, 0, 0, 60, [0, 0, 1]), (0, 0, 0, 60, [1, 0, 0]),
@@ -33,8 +38,8 @@ EFFECT_CASES = {
     "earth_rotation": {},
     "gravity_model": {},
     "gyro_g_sensitivity": {"gyro_coeff_rad_per_s_per_mps2": [3e-5, -2e-5, 2.5e-5]},
-    "temperature_bias": {"gyro_coeff_rad_per_s_per_degc": [8e-6, -6e-6, 1e-5],
-                         "accel_coeff_mps2_per_degc": [6e-5, -5e-5, 8e-5], "reference_temp_c": 25.0},
+    "temperature_bias": {"gyro_coeff_rad_per_s_per_degc": [3e-6, -2e-6, 4e-6],
+                         "accel_coeff_mps2_per_degc": [2e-5, -1.5e-5, 3e-5], "reference_temp_c": 25.0},
     "warmup_drift": {"gyro_amplitude_rad_per_s": [4e-4, -3e-4, 5e-4], "accel_amplitude_mps2": [2e-3, -2e-3, 3e-3],
                      "time_constant_s": 60.0},
     "scale_factor": {"gyro": [1.0e-3, -0.7e-3, 1.4e-3], "accel": [5e-4, -4e-4, 6e-4]},
@@ -42,9 +47,9 @@ EFFECT_CASES = {
     "vibration": {"sinusoids": [{"frequency_hz": 13.7, "phase_rad": 0.4, "accel_amplitude_mps2": [0.0, 0.0, 3e-3],
                                  "gyro_amplitude_rad_per_s": [5e-4, 0.0, 0.0]}]},
     "quantization": {"gyro_lsb_rad": [1e-5] * 3, "accel_lsb_mps": [5e-5] * 3},
-    "gauss_markov_bias": {"gyro_sigma_rad_per_s": [6e-5] * 3, "gyro_correlation_time_s": [20.0] * 3,
-                          "accel_sigma_mps2": [3e-4] * 3, "accel_correlation_time_s": [20.0] * 3},
-    "bias_random_walk": {"gyro_rad_per_s_per_sqrt_s": [6e-6] * 3, "accel_mps2_per_sqrt_s": [3e-5] * 3},
+    "gauss_markov_bias": {"gyro_sigma_rad_per_s": [4e-5] * 3, "gyro_correlation_time_s": [20.0] * 3,
+                          "accel_sigma_mps2": [2e-4] * 3, "accel_correlation_time_s": [20.0] * 3},
+    "bias_random_walk": {"gyro_rad_per_s_per_sqrt_s": [1.2e-6] * 3, "accel_mps2_per_sqrt_s": [6e-6] * 3},
 }
 TRUE_PARAMS = {
     "earth_rotation": {"earth_rate_rad_per_s": 7.292115e-5},
@@ -54,9 +59,9 @@ TRUE_PARAMS = {
     "scale_factor": {f"gyro[{a}]": v for a, v in zip("xyz", [1.0e-3, -0.7e-3, 1.4e-3])},
     "axis_misalignment": {f"gyro[{'xyz'[i]}{'xyz'[j]}]": MIS_G[i, j] for i in range(3) for j in range(3) if i != j},
     "quantization": {f"gyro_lsb_rad[{a}]": 1e-5 for a in "xyz"},
-    "temperature_bias": {f"gyro_coeff_rad_per_s_per_degc[{a}]": v for a, v in zip("xyz", [8e-6, -6e-6, 1e-5])},
+    "temperature_bias": {f"gyro_coeff_rad_per_s_per_degc[{a}]": v for a, v in zip("xyz", [3e-6, -2e-6, 4e-6])},
     "vibration": {"frequency_hz": 13.7, "accel_amplitude_mps2[z]": 3e-3, "gyro_amplitude_rad_per_s[x]": 5e-4},
-    "bias_random_walk": {f"gyro_rad_per_s_per_sqrt_s[{a}]": 6e-6 for a in "xyz"},
+    "bias_random_walk": {f"gyro_rad_per_s_per_sqrt_s[{a}]": 1.2e-6 for a in "xyz"},
 }
 GNSS_CASES = {
     "gps_latency": {"latency_s": 0.03},
@@ -97,6 +102,19 @@ def suite_scenario(single: bool = False) -> dict:
             "rate_hz": RATE_HZ, "gps": False, "temperature": {"start_c": 15.0, "end_c": 35.0, "time_constant_s": 900.0}}
 
 
+def long_scenario() -> dict:
+    """One level orientation for two hours at 5 Hz, Calgary; the temperature is logged (see :func:`long_temperature`)."""
+    return {"latitude_deg": 51.0784, "longitude_deg": -114.13, "height_m": 1100.0, "rate_hz": LONG_RATE_HZ,
+            "static_segments": [{"t0": 0.0, "t1": LONG_S, "roll_deg": 0.0, "pitch_deg": 0.0, "yaw_deg": 0.0}],
+            "gps": False}
+
+
+def long_temperature(n: int) -> np.ndarray:
+    """Logged temperature (deg C) of the long run's n samples: a chamber cycle, not monotone."""
+    t = np.arange(1, n + 1) / LONG_RATE_HZ
+    return TEMP_MEAN_C - TEMP_CYCLE_C * np.cos(2 * np.pi * t / TEMP_PERIOD_S)
+
+
 def drive_scenario() -> dict:
     """An 8-min level drive with turns, stops and speed changes, GPS at 1 Hz (the GNSS cases)."""
     # wide speed range (14 and 3 m/s, stands): latency scales with speed, the lever arm does not
@@ -114,12 +132,13 @@ def drive_scenario() -> dict:
 
 def make_inputs(effect: str, seed: int):
     """(recording, scenario, model the diagnosis is given, GNSS recording or None) of one case."""
-    single = effect == "null_single_orientation"
+    long = effect in LONG_EFFECTS or effect == "null_single_orientation"
     drive = effect in GNSS_CASES or effect == "null_colored_gps_noise"
-    sc = from_dict(drive_scenario() if drive else suite_scenario(single), where=f"suite:{effect}")
+    sc = from_dict(drive_scenario() if drive else long_scenario() if long else suite_scenario(),
+                   where=f"suite:{effect}")
     model = suite_model()
     truth_model = copy.deepcopy(model)
-    if single:
+    if effect == "null_single_orientation":
         model.physics = {}
     elif effect in ("earth_rotation", "gravity_model"):
         model.physics.pop(effect)
@@ -130,7 +149,8 @@ def make_inputs(effect: str, seed: int):
     elif effect == "null_colored_gps_noise":
         truth_model = truth_model.with_physics("colored_gps_noise", **NULL_GNSS_COLORED)
         model = model.with_physics("colored_gps_noise", **NULL_GNSS_COLORED)
-    res = simulate(sc, truth_model, seed=seed, with_bytes=False)
+    temp = long_temperature(int(round(LONG_S * LONG_RATE_HZ))) if long else None
+    res = simulate(sc, truth_model, seed=seed, with_bytes=False, temp_c=temp)
     rec = ImuRecording(res.imu.t, res.imu.gyro, res.imu.accel, res.imu.temp_c, source=f"suite:{effect}:{seed}")
     return rec, sc, model, res.gnss
 
