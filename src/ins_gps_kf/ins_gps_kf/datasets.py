@@ -24,6 +24,10 @@ def canada_initial_yaw(info: dict, data=NAVEGO) -> float:
     return float(frames.wrap_angle(yaw * DEG) / DEG)
 
 
+KATWIJK_PARAMS = {"imu_rate_hz": 125.0, "gps_rate_hz": 1.0 / 3.0, "alignment_time_s": 15.0,
+                  "heading_min_speed_mps": 0.1, "stationary_gyro_dps": 2.0}
+
+
 def evaluate_rover(name, out_dir) -> dict:
     """Katwijk: the filter with each axis choice, the best (by GPS NIS) reported against the reference."""
     from ins_gps_kf import evaluate
@@ -36,8 +40,7 @@ def evaluate_rover(name, out_dir) -> dict:
     out_dir.mkdir(parents=True, exist_ok=True)
     if name == "katwijk":
         loader, outage_period = load_katwijk, 90.0
-        params = {"imu_rate_hz": 125.0, "gps_rate_hz": 1.0 / 3.0, "alignment_time_s": 15.0,
-                  "heading_min_speed_mps": 0.1, "stationary_gyro_dps": 2.0}
+        params = dict(KATWIJK_PARAMS)
     else:
         loader, outage_period = load_canada, 90.0
         # the IMU is quiet only for its first second (then wheel vibration, |f| std 0.2-0.5 m/s^2, and turns in

@@ -144,7 +144,12 @@ def _parse_overrides(pairs) -> dict:
 
 def _evaluate(args) -> int:
     from ins_gps_kf import evaluate
-    if args.dataset == "paper-sim":
+    if args.claims:
+        if args.dataset not in ("paper-sim", "katwijk"):
+            raise recording.RecordingError(f"--claims: only paper-sim and katwijk, not {args.dataset}")
+        figures = (evaluate.claims_paper_sim(args.out, seed=args.seed) if args.dataset == "paper-sim"
+                   else evaluate.claims_katwijk(args.out))
+    elif args.dataset == "paper-sim":
         figures = evaluate.paper_sim(args.out, seed=args.seed)
     elif args.dataset == "balzer":
         from ins_gps_kf import datasets
@@ -175,6 +180,8 @@ def main(argv=None) -> int:
     ev.add_argument("--dataset", required=True, choices=("paper-sim", "katwijk", "canada", "balzer"))
     ev.add_argument("--out", required=True, help="output folder (JSON figures and PNG plots)")
     ev.add_argument("--seed", type=int, default=0, help="simulation seed (paper-sim)")
+    ev.add_argument("--claims", action="store_true", help="WMRA on/off x Allan-derived/hand-tuned noise model "
+                    "table (paper-sim, katwijk)")
     args = parser.parse_args(argv)
     if args.command == "evaluate":
         try:
