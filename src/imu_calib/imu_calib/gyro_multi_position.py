@@ -132,7 +132,8 @@ def fit_gyro(moves, rate_hz: float) -> GyroCalibration:
     before = _angles(_predicted(_matrix(p0), moves, dt), moves)
     res = optimize.least_squares(_residuals, p0, args=(moves, dt), x_scale=np.r_[np.full(3, k), np.full(6, k * 1e-2)],
                                  method="lm")
-    dof = max(res.fun.size - len(p0), 1)
+    # a unit-vector difference has 2 free components per move (the radial one is second order)
+    dof = max(2 * len(moves) - len(p0), 1)
     cov = np.linalg.pinv(res.jac.T @ res.jac) * float(res.fun @ res.fun) / dof
     sd = np.sqrt(np.maximum(np.diag(cov), 0.0))
     T = _matrix(res.x)

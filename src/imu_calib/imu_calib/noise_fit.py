@@ -21,6 +21,11 @@ reduced chi-square exceeds ``MISFIT_REDUCED_CHI2`` a relative model-error floor
 is added to every point's sigma (found so that the reduced chi-square is 1),
 which keeps the few precise short-tau points from dictating the fit and widens
 the intervals honestly.
+
+Given the samples (``fit_noise(..., samples=x)``, as the pipeline does), the
+kept terms are then refined by the Whittle likelihood (:mod:`imu_calib.whittle`),
+whose Fisher information gives the intervals without the Monte Carlo factor;
+the WLS stays the term selector and the fallback where the model misfits.
 """
 from __future__ import annotations
 
