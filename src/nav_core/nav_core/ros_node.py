@@ -120,38 +120,52 @@ class _PolledGroup(CallbackGroup):
         pass
 
 
-class ImuBatchSubscription:
-    """``sensor_msgs/Imu`` taken raw in batches every ``period_s`` (steady clock): ``on_batch(ImuBatch)``.
+class PolledSubscription:
+    """Messages taken raw every ``period_s`` (steady clock): ``on_messages([(cdr bytes, received system ns)])``.
 
     At 1 kHz an executor callback per message costs more CPU than the work it carries (the
     executor rebuilds its wait set each time), so the subscription stays out of the wait set
     and a timer drains its queue (``qos`` depth must hold ``period_s`` worth of messages).
-    The price is up to ``period_s`` of added latency. Messages that are not CDR Imu are
-    counted in ``bad_messages`` and skipped.
+    The price is up to ``period_s`` of added latency.
     """
 
-    def __init__(self, node: Node, topic: str, on_batch, period_s: float, qos=SENSOR_QOS_IN,
+    def __init__(self, node: Node, msg_type, topic: str, on_messages, period_s: float, qos=SENSOR_QOS_IN,
                  max_batch: int = 20000):
-        self._on_batch, self._max_batch, self._node = on_batch, max_batch, node
-        self.bad_messages = 0
-        self.subscription = node.create_subscription(Imu, topic, _never_called, qos, raw=True,
+        self._on_messages, self._max_batch, self._node, self.msg_type = on_messages, max_batch, node, msg_type
+        self.subscription = node.create_subscription(msg_type, topic, _never_called, qos, raw=True,
                                                      callback_group=_PolledGroup())
         # steady clock: under use_sim_time a paused or slow /clock must not stall the intake
         self.timer = node.create_timer(period_s, self.drain, clock=Clock(clock_type=ClockType.STEADY_TIME))
 
     def drain(self) -> int:
         """Take every queued message, hand the batch on; returns how many were taken."""
-        blobs = []
+        taken_all = []
         handle = self.subscription.handle
         with handle:
-            while len(blobs) < self._max_batch:
-                taken = handle.take_message(Imu, True)
+            while len(taken_all) < self._max_batch:
+                taken = handle.take_message(self.msg_type, True)
                 if taken is None:
                     break
-                blobs.append(taken[0])
-        if blobs:
-            self._on_batch(self._decode(blobs))
-        return len(blobs)
+                taken_all.append((taken[0], taken[1]["received_timestamp"]))
+        if taken_all:
+            self._on_messages(taken_all)
+        return len(taken_all)
+
+
+class ImuBatchSubscription(PolledSubscription):
+    """``sensor_msgs/Imu`` taken in raw batches (see :class:`PolledSubscription`): ``on_batch(ImuBatch)``.
+
+    Messages that are not CDR Imu are counted in ``bad_messages`` and skipped.
+    """
+
+    def __init__(self, node: Node, topic: str, on_batch, period_s: float, qos=SENSOR_QOS_IN,
+                 max_batch: int = 20000):
+        super().__init__(node, Imu, topic, self._on_messages_taken, period_s, qos, max_batch)
+        self._on_batch = on_batch
+        self.bad_messages = 0
+
+    def _on_messages_taken(self, taken) -> None:
+        self._on_batch(self._decode([blob for blob, _ in taken]))
 
     def _decode(self, blobs) -> ImuBatch:
         try:
