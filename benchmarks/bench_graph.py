@@ -199,9 +199,12 @@ def _compare_offline(tmp: Path) -> None:
         print(f"  offline replay failed: {run.stderr[-500:]}")
         return
     off = recording.read_trajectory_csv(traj_csv)
-    common = np.intersect1d(np.round(odom.t, 3), np.round(off.t, 3))
-    print(f"  node odometry epochs {len(odom)}, offline epochs {len(off)}, common stamps {len(common)} "
-          f"(identical output needs every message to reach the node)")
+    common, i_node, i_off = np.intersect1d(np.round(odom.t, 3), np.round(off.t, 3), return_indices=True)
+    off_enu = np.column_stack([off.extra[k] for k in ("e_m", "n_m", "u_m")])
+    gap = np.max(np.abs(odom.position[i_node] - off_enu[i_off])) if len(common) else np.nan
+    print(f"  node odometry epochs {len(odom)}, offline epochs {len(off)}, common stamps {len(common)}, "
+          f"largest position difference at common stamps {gap:.3g} m (identical output needs every message "
+          f"to reach the node and the recorder)")
 
 
 def main() -> None:

@@ -13,5 +13,10 @@ Conventions, stated once for every package:
 * Randomness enters as an ``rng`` argument (``np.random.default_rng``).
 
 Modules: :mod:`units`, :mod:`frames`, :mod:`earth`, :mod:`sensor_model`,
-:mod:`recording`. Only :mod:`nav_core.ros_node` imports rclpy.
+:mod:`recording` (with :mod:`bagio`), :mod:`datasets` (external formats),
+:mod:`params`, :mod:`imu_cdr` (Imu wire format for whole batches), :mod:`processes`.
+Only :mod:`nav_core.ros_node` imports rclpy; IMU nodes take and publish Imu
+through its ``ImuBatchSubscription`` / ``publish_imu_batch`` (raw CDR batches),
+because at 1 kHz one rclpy callback and message object per sample cost more
+than the navigation arithmetic.
 """
