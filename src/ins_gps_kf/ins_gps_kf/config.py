@@ -67,6 +67,9 @@ PARAMETERS = (
          "m/s", 0.0, 100.0),
     Param("zupt_max_ins_speed_mps", 0.2, "no ZUPT while the INS speed exceeds this, m/s", 0.0, 100.0),
     Param("zupt_std_mps", 0.02, "zero-velocity measurement std, m/s", 1e-4, 10.0),
+    Param("estimate_scale_factors", False, "21 states: also estimate gyro and accel scale-factor errors"),
+    Param("init_scale_factor_std_pct", 1.0, "initial gyro and accel scale-factor std (with estimate_scale_factors), "
+         "%", 0.0, 100.0),
     Param("init_gyro_bias_std_dph", 100.0, "initial gyro bias std after alignment, deg/h", 0.0, 1e6),
     Param("init_accel_bias_std_mg", 20.0, "initial accel bias std, mg", 0.0, 1e4),
     Param("init_attitude_std_deg", 1.0, "initial roll/pitch std after alignment, deg", 0.0, 90.0),
@@ -116,6 +119,8 @@ class FilterConfig:
     zupt_std: float = 0.02
     zupt_max_gps_speed: float = 0.1
     zupt_max_ins_speed: float = 0.2
+    estimate_scale_factors: bool = False
+    init_scale_factor_std: float = 0.01
     init_gyro_bias_std: float = 100.0 * DEG_PER_H
     init_accel_bias_std: float = 20.0 * MG
     init_attitude_std: float = 1.0 * DEG
@@ -174,6 +179,8 @@ def from_params(params: dict) -> FilterConfig:
         zupt_enabled=bool(p["zupt_enabled"]), zupt_std=float(p["zupt_std_mps"]),
         zupt_max_gps_speed=float(p["zupt_max_gps_speed_mps"]),
         zupt_max_ins_speed=float(p["zupt_max_ins_speed_mps"]),
+        estimate_scale_factors=bool(p["estimate_scale_factors"]),
+        init_scale_factor_std=float(p["init_scale_factor_std_pct"]) / 100.0,
         init_gyro_bias_std=p["init_gyro_bias_std_dph"] * DEG_PER_H,
         init_accel_bias_std=p["init_accel_bias_std_mg"] * MG, init_attitude_std=p["init_attitude_std_deg"] * DEG,
         heading_std=p["heading_std_deg"] * DEG, flicker_correlation_time=float(p["flicker_correlation_time_s"]),

@@ -8,6 +8,11 @@ bias error (body, rad/s), ``BA`` accel bias error (body, m/s^2)::
     dv'  = [f_n x] phi - C_nb ba - (2 w_ie + w_en) x dv + C_nb n_a
     phi' = -w_in x phi + C_nb bg - C_nb n_g
     b'   = -b / tau + n_b      (first-order Gauss-Markov; tau = inf: random walk)
+
+Optional (``estimate_scale_factors``): 21 states, ``SG`` gyro and ``SA`` accel scale-factor errors
+(body, unitless, random constants). With measured = (1 + s) true + b, corrected = measured (1 - s_est) - b_est::
+
+    dv'  += -C_nb diag(f_b) sa        phi' += C_nb diag(w_b) sg
 """
 from __future__ import annotations
 
@@ -23,6 +28,8 @@ DP, DV, PHI, BG, BA = (slice(0, 3), slice(3, 6), slice(6, 9), slice(9, 12), slic
 STATES = ["dpe", "dpn", "dpu", "dve", "dvn", "dvu", "phie", "phin", "phiu",
           "bgx", "bgy", "bgz", "bax", "bay", "baz"]
 N_STATES = len(STATES)
+SG, SA = slice(15, 18), slice(18, 21)
+N_STATES_SF = 21  # with gyro and accel scale-factor errors
 N_NOISES = 12  # gyro white, accel white, gyro bias driving, accel bias driving
 
 
@@ -101,8 +108,21 @@ def dynamics(mat_nb, f_n, w_ie_n, w_en_n, noise: NoiseModel):
                      noise.accel_bias_drive, 1.0 / noise.gyro_bias_tau, 1.0 / noise.accel_bias_tau)
 
 
-def initial_covariance(pos_std, vel_std, att_std, gyro_bias_std, accel_bias_std):
-    """Diagonal initial covariance from per-block stds (each scalar or (3,), SI units)."""
+def with_scale_factors(f_cont, g_cont, mat_nb, w_b, f_b):
+    """``F`` (21, 21) and ``G`` (21, 12) from the 15-state ones, adding the scale-factor columns at body rate
+    ``w_b`` (rad/s) and specific force ``f_b`` (m/s^2); the scale factors are random constants."""
+    f = np.zeros((N_STATES_SF, N_STATES_SF))
+    g = np.zeros((N_STATES_SF, g_cont.shape[1]))
+    f[:N_STATES, :N_STATES] = f_cont
+    g[:N_STATES] = g_cont
+    f[DV, SA] = -mat_nb * np.asarray(f_b)[None, :]
+    f[PHI, SG] = mat_nb * np.asarray(w_b)[None, :]
+    return f, g
+
+
+def initial_covariance(pos_std, vel_std, att_std, gyro_bias_std, accel_bias_std, *scale_stds):
+    """Diagonal initial covariance from per-block stds (each scalar or (3,), SI units); two more blocks
+    (gyro and accel scale-factor stds, unitless) give the 21-state covariance."""
     std = np.concatenate([np.broadcast_to(s, 3) for s in (pos_std, vel_std, att_std, gyro_bias_std,
-                                                           accel_bias_std)])
+                                                           accel_bias_std, *scale_stds)])
     return np.diag(std.astype(float) ** 2)

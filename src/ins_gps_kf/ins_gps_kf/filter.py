@@ -56,6 +56,7 @@ class Estimate:
     zupt_used: bool
     nis: float
     stationary: bool
+    scale_factors: np.ndarray | None = None  # gyro then accel (6,), unitless, with estimate_scale_factors
 
 
 @dataclass
@@ -75,13 +76,14 @@ class Counters:
 
 
 class InsGpsFilter:
-    """Loosely coupled INS/GPS error-state Kalman filter (15 states) with stationary alignment."""
+    """Loosely coupled INS/GPS error-state Kalman filter (15 states, 21 with scale factors) with alignment."""
 
     def __init__(self, cfg: FilterConfig, model: sm.SensorModel | None = None):
         self.cfg = cfg
         self.model = model if model is not None else em.default_mems_model()
         self.noise = em.noise_from_sensor_model(self.model, cfg.flicker_correlation_time)
         self.lever_arm_b = np.asarray(cfg.lever_arm_b, dtype=float)
+        self.n_states = em.N_STATES_SF if cfg.estimate_scale_factors else em.N_STATES
         self.frame = LocalFrame(*cfg.datum) if cfg.datum is not None else None
         self.counters = Counters()
         self.last_fix_t = -math.inf
@@ -114,6 +116,8 @@ class InsGpsFilter:
         self.gps_speed = 0.0  # horizontal speed between the last two fixes, m/s, less 3 sigma of its noise
         self.gyro_bias = np.zeros(3)
         self.accel_bias = np.zeros(3)
+        self.gyro_scale = np.zeros(3)  # estimated scale-factor errors (unitless), with estimate_scale_factors
+        self.accel_scale = np.zeros(3)
 
     def reset(self, reason: str):
         """Forget the navigation solution and re-align (keeps the datum); counted and remembered."""
@@ -220,6 +224,8 @@ class InsGpsFilter:
         return out
 
     def _integrate(self, t, gyro, accel):
+        if self.n_states == em.N_STATES_SF:
+            gyro, accel = gyro * (1.0 - self.gyro_scale), accel * (1.0 - self.accel_scale)
         strapdown.integrate(self.nav, self.mem, t, gyro, accel, self.gyro_bias, self.accel_bias,
                             self.w_ie_n, self.w_en_n, self.g_n)
         self.t_last = float(t[-1])
@@ -258,9 +264,14 @@ class InsGpsFilter:
         self.accel_bias = np.zeros(3)
         att_std = np.array([cfg.init_attitude_std, cfg.init_attitude_std, cfg.heading_std])
         self.cov = em.initial_covariance(pos_std, cfg.zupt_std, att_std, cfg.init_gyro_bias_std,
-                                         cfg.init_accel_bias_std)
+                                         cfg.init_accel_bias_std, *self._scale_stds())
         self.status = NAVIGATING if known_yaw else HEADING_PENDING
         self._start_epochs(t0)
+
+    def _scale_stds(self) -> tuple:
+        """Initial scale-factor stds (gyro, accel) when they are states, else nothing."""
+        std = self.cfg.init_scale_factor_std
+        return (std, std) if self.n_states == em.N_STATES_SF else ()
 
     def _start_epochs(self, t0):
         self.epoch_index = math.floor(t0 * self.cfg.filter_rate_hz + EPOCH_TOL_S) + 1
@@ -292,7 +303,8 @@ class InsGpsFilter:
         speed = float(np.hypot(al.velocity_n[0], al.velocity_n[1]))
         vel_std = np.sqrt(al.velocity_std**2 + (0.05 * speed) ** 2 + 0.1**2)
         att_std = np.array([max(tilt_std, cfg.init_attitude_std)] * 2 + [math.hypot(cfg.heading_std, al.yaw_std)])
-        self.cov = em.initial_covariance(pos_std, vel_std, att_std, cfg.init_gyro_bias_std, cfg.init_accel_bias_std)
+        self.cov = em.initial_covariance(pos_std, vel_std, att_std, cfg.init_gyro_bias_std, cfg.init_accel_bias_std,
+                                         *self._scale_stds())
         self.status = NAVIGATING
         self._start_epochs(t0)
 
@@ -328,7 +340,11 @@ class InsGpsFilter:
         t_e = self.t_last
         f_n, w_rms, w_mean, f_mean, f_std = strapdown.epoch_motion(self.mem)
         dt = self.mem[strapdown.M_DT]
-        f_cont, g_cont = em.dynamics(self.mat_nb(), f_n, self.w_ie_n, self.w_en_n, self.noise)
+        mat_nb = self.mat_nb()
+        f_cont, g_cont = em.dynamics(mat_nb, f_n, self.w_ie_n, self.w_en_n, self.noise)
+        if self.n_states == em.N_STATES_SF:
+            w_b = self.mem[strapdown.M_WSUM] / max(self.mem[strapdown.M_N], 1.0)
+            f_cont, g_cont = em.with_scale_factors(f_cont, g_cont, mat_nb, w_b, mat_nb.T @ f_n)
         self.cov = kalman.propagate_series(self.cov, f_cont, g_cont, dt)
         gps_used, nis = self._gps_update(t_e)
         # rms catches vibration, the mean catches a steady turn; GPS and INS speed veto smooth cruising and
@@ -340,7 +356,8 @@ class InsGpsFilter:
                           and float(np.linalg.norm(self.nav[strapdown.V])) < self.cfg.zupt_max_ins_speed)
         zupt_used = False
         if self.cfg.zupt_enabled and stationary:
-            zupt_used = self._apply(measurements.zero_velocity(self.nav[strapdown.V], self.cfg.zupt_std)) is not None
+            zupt_used = self._apply(measurements.zero_velocity(self.nav[strapdown.V], self.cfg.zupt_std,
+                                                               self.n_states)).accepted
             self.counters.zupts += zupt_used
         strapdown.reset_accumulators(self.mem)
         self._update_earth()
@@ -349,7 +366,9 @@ class InsGpsFilter:
             self.epoch_index += 1
         return Estimate(t_e, self.nav[strapdown.P].copy(), self.nav[strapdown.V].copy(),
                         self.nav[strapdown.Q].copy(), self.cov.copy(), self.gyro_bias.copy(),
-                        self.accel_bias.copy(), self.status, gps_used, zupt_used, nis, stationary)
+                        self.accel_bias.copy(), self.status, gps_used, zupt_used, nis, stationary,
+                        np.concatenate([self.gyro_scale, self.accel_scale])
+                        if self.n_states == em.N_STATES_SF else None)
 
     def _gps_update(self, t_e):
         """Use the newest pending fix (or, optionally, re-use the last one); returns (used, NIS)."""
@@ -372,7 +391,7 @@ class InsGpsFilter:
             self._reset_to_fix(fix, t_e)
             return True, math.nan
         z = measurements.gps_position(self.nav[strapdown.P], self.nav[strapdown.V], self.mat_nb(),
-                                      self.lever_arm_b, fix.enu, fix.cov, t_e - fix.t)
+                                      self.lever_arm_b, fix.enu, fix.cov, t_e - fix.t, self.n_states)
         corr = self._apply(z)
         if not reused:
             self.prev_fix = fix
@@ -404,6 +423,9 @@ class InsGpsFilter:
         strapdown.rotate_attitude(self.nav, dx[em.PHI])
         self.gyro_bias = self.gyro_bias - dx[em.BG]
         self.accel_bias = self.accel_bias - dx[em.BA]
+        if self.n_states == em.N_STATES_SF:
+            self.gyro_scale = self.gyro_scale - dx[em.SG]
+            self.accel_scale = self.accel_scale - dx[em.SA]
 
     # ------------------------------------------------------------------ heading from course
 
