@@ -2,10 +2,11 @@
 
     .venv/bin/python benchmarks/bench_diagnosis.py [--seeds 20] [--null-seeds 40] [--out /tmp/diag_suite] [--quick]
     .venv/bin/python benchmarks/bench_diagnosis.py --calibrate --null-seeds 100   # rewrite calibration.yaml
+    .venv/bin/python benchmarks/bench_diagnosis.py --concealment                  # how hidden each IMU effect is
     (add ``--nulls NAME ... --merge OLD/rows.json`` to run some null cases and reuse earlier uncalibrated rows)
 
-The suite uses the committed threshold factors (``imu_sim/diagnose/calibration.yaml``) and seeds
-1000.. (nulls 2000..); ``--calibrate`` runs the null cases only, uncalibrated, on seeds 5000.. (so the
+The suite uses the committed threshold factors (``imu_sim/diagnose/calibration.yaml``, floored at 1) and
+seeds 1000.. (nulls 3000..); ``--calibrate`` runs the null cases only, uncalibrated, on seeds 5000.. (so the
 suite's false-alarm rate is measured on runs the calibration never saw) and writes the factors.
 Writes ``rows.json`` (every case) and ``table.md`` (per effect) into ``--out``.
 """
@@ -17,6 +18,7 @@ import sys
 import time
 from pathlib import Path
 
+import numpy as np
 import yaml
 from tqdm import tqdm
 
@@ -24,7 +26,7 @@ from scipy import stats
 
 from imu_sim.diagnose import calibrate
 from imu_sim.diagnose.engine import CALIBRATION_FILE
-from imu_sim.diagnose.suite import EFFECT_CASES, GNSS_CASES, NULLS, run_case, summarise
+from imu_sim.diagnose.suite import EFFECT_CASES, GNSS_CASES, NULLS, concealment, run_case, summarise
 
 
 def table(summary: dict) -> str:
@@ -52,6 +54,19 @@ def table(summary: dict) -> str:
     return "\n".join(lines)
 
 
+def concealment_table(effects, seeds) -> str:
+    """Markdown table: peak |effect| over per-sample noise std and Allan ratio of each IMU case (max over seeds)."""
+    lines = ["| effect | peak / per-sample std | Allan ratio (noise + effect) / noise, max over channels and "
+             "tau <= run/10 | at tau | 95 % interval factor of that noise point |", "|---|---|---|---|---|"]
+    for eff in tqdm(effects, desc="concealment", file=sys.stderr):
+        rows = [concealment(eff, s) for s in seeds]
+        worst = max(rows, key=lambda r: r["allan_ratio_max"])
+        lines.append(f"| {eff} | {max(r['peak_over_noise'] for r in rows):.2f} | "
+                     f"{np.median([r['allan_ratio_max'] for r in rows]):.2f} median, {worst['allan_ratio_max']:.2f} max "
+                     f"({worst['allan_channel']}) | {worst['allan_tau_s']:.0f} s | {worst['allan_ci_factor']:.2f} |")
+    return "\n".join(lines)
+
+
 def main(argv=None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--seeds", type=int, default=20, help="seeds per effect")
@@ -67,12 +82,21 @@ def main(argv=None) -> int:
     parser.add_argument("--merge", nargs="*", default=[], help="rows.json of earlier runs to add (calibration)")
     parser.add_argument("--resume", default=None,
                         help="rows.json of an interrupted run of the same code: its (case, seed) rows are reused")
+    parser.add_argument("--concealment", action="store_true",
+                        help="only print how hidden each IMU case's effect is (seeds 1000..1002)")
     args = parser.parse_args(argv)
+    if args.concealment:
+        text = concealment_table(args.effects or list(EFFECT_CASES), range(1000, 1003))
+        Path(args.out).mkdir(parents=True, exist_ok=True)
+        (Path(args.out) / "concealment.md").write_text(text + "\n")
+        print(text)
+        return 0
     n_eff, n_null = (1, 1) if args.quick else (args.seeds, args.null_seeds)
     effects = [] if args.calibrate else (args.effects or (["scale_factor", "gps_latency"]
                                                           if args.quick else list(EFFECT_CASES) + list(GNSS_CASES)))
     nulls = [] if args.no_nulls else list(NULLS if args.nulls is None else args.nulls)
-    base = 5000 if args.calibrate else 2000
+    # nulls 3000..: fresh seeds (2000.. were seen while choosing the threshold floor; 5000.. calibrated)
+    base = 5000 if args.calibrate else 3000
     # null cases first: the false-alarm rate is the figure a cut-short run must not lose
     cases = [(e, base + s) for e in nulls for s in range(n_null)] + [(e, 1000 + s) for e in effects
                                                                      for s in range(n_eff)]

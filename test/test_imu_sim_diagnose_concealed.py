@@ -10,7 +10,8 @@ from nav_core.sensor_model import load as load_model, save as save_model
 from imu_sim.cli import main
 from imu_sim.diagnose.case import make_case
 from imu_sim.diagnose.engine import diagnose
-from imu_sim.diagnose.suite import TRUE_PARAMS, drive_scenario, make_inputs, make_recording, run_case, suite_scenario
+from imu_sim.diagnose.suite import (TRUE_PARAMS, concealment, drive_scenario, make_inputs,
+                                    make_recording, run_case, suite_scenario)
 
 import yaml
 
@@ -47,6 +48,23 @@ def test_single_orientation_says_earth_rate_is_not_identifiable():
     earth = next(t for t in res["tested"] if t["effect"] == "earth_rotation")
     assert not earth["identifiable"] and "bias" in earth["note"]
     assert "earth_rotation" not in [f["effect"] for f in res["findings"]]
+    coning = next(t for t in res["tested"] if t["effect"] == "coning_sculling")
+    assert not coning["identifiable"] and "turn-on bias" in coning["note"]
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("effect", ["gauss_markov_bias", "bias_random_walk"])
+def test_slow_wander_effect_is_told_from_its_rivals_on_the_long_run(effect):
+    row = run_case(effect, seed=11)
+    assert row["first"] == effect
+    assert row["fit_after"] < row["fit_before"]
+
+
+@pytest.mark.slow
+def test_long_run_random_walk_is_concealed_in_samples_and_allan_plot():
+    hidden = concealment("bias_random_walk", 11)
+    assert hidden["peak_over_noise"] < 0.5
+    assert hidden["allan_ratio_max"] < 2.0
 
 
 def test_concealed_effect_is_below_the_per_sample_noise():

@@ -96,5 +96,47 @@ def test_calibration_of_a_maximum_statistic_uses_its_gumbel_tail():
 def test_committed_calibration_has_a_positive_factor_per_tested_effect():
     factors = load_calibration()
     assert factors, "calibration.yaml missing: run benchmarks/bench_diagnosis.py --calibrate"
-    assert all(f > 0 for f in factors.values())
+    assert all(f >= calibrate.FLOOR for f in factors.values())
     assert {"scale_factor", "vibration", "quantization", "gps_latency"} <= set(factors)
+
+
+def test_calibration_never_lowers_an_analytic_threshold():
+    rng = np.random.default_rng(9)
+    level = 0.05 / 16
+    # a null far lighter than chi-square (u tiny): the fitted quantile is < 1, the factor stays at the floor
+    rows = [{"effect": "null_a", "seed": s, "stats": {"bias_random_walk": (0.1 * rng.chisquare(6), 19.7)}}
+            for s in range(50)]
+    out = calibrate.calibrate(rows, ("null_a",))
+    assert out["produced"]["detail"]["bias_random_walk"]["fitted_quantile"] < 1
+    assert out["factors"]["bias_random_walk"] == calibrate.FLOOR
+    assert level == out["produced"]["per_effect_level"]
+
+
+@settings(max_examples=20, deadline=None)
+@given(st.floats(-1e3, 1e3), st.floats(-10, 10), st.integers(100, 3000))
+def test_end_matching_turns_any_ramp_into_a_constant(offset, slope, n):
+    x = (offset + slope * np.arange(n))[:, None]
+    y = noise_tests.end_matched(x)
+    assert np.ptp(y) <= 1e-9 * max(1.0, abs(offset), abs(slope) * n)
+
+
+def test_end_matched_random_walk_periodogram_follows_its_spectrum():
+    rng = np.random.default_rng(10)
+    n, dt, k = 1024, 1.0, 1e-3
+    walks = np.cumsum(rng.standard_normal((n, 400)), axis=0) * k * np.sqrt(dt)
+    f, raw = noise_tests.periodogram(walks, dt)
+    _, matched = noise_tests.periodogram(noise_tests.end_matched(walks), dt)
+    spectrum = k**2 / (2 * np.pi * f[1:6]) ** 2
+    # the raw periodogram carries the end-to-end drift on top (about twice the spectrum); end-matched does not
+    assert np.all(np.mean(raw[1:6], axis=1) / spectrum > 1.6)
+    assert np.all(np.abs(np.mean(matched[1:6], axis=1) / spectrum - 1) < 0.3)
+
+
+def test_profile_interval_is_read_between_grid_points():
+    from imu_sim.diagnose.engine import _profile_interval
+    x = np.log(np.logspace(0, 3, 13))  # coarse grid, 4 per decade
+    x0, s = np.log(40.0), 0.5
+    lr = 200 - ((x - x0) / s) ** 2
+    lo, hi = _profile_interval(x, lr, int(np.argmax(lr)))
+    half = s * np.sqrt(3.84)
+    assert abs(np.log(lo) - (x0 - half)) < 0.05 and abs(np.log(hi) - (x0 + half)) < 0.05

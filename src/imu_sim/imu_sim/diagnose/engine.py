@@ -59,6 +59,12 @@ EXPLAIN = {
 }
 
 
+CONING_NOTE = ("not identifiable by any scenario of this simulator: the wobble's rectified rate (a^2 W / 2 on "
+               "gyro z) and specific force (-a A on accel z) are constant over the run (the effect has no time "
+               "window), so they are collinear with the turn-on bias; the wobble itself is a line on gyro x/y, "
+               "tested as vibration")
+
+
 def load_calibration() -> dict:
     """Per-effect threshold factors from the null Monte Carlo (1.0 when not calibrated; never below the floor)."""
     from imu_sim.diagnose.calibrate import FLOOR  # calibrate imports this module
@@ -257,11 +263,14 @@ def _noise(case, model, resid, effect, m_tests, factors) -> Candidate:
         grids = [(tc, noise_tests.gm_extra(freqs, tc)) for tc in np.logspace(np.log10(5 * tb), np.log10(span / 20), 8)]
     lr_ch, best = np.zeros(6), [None] * 6
     for c in range(6):
-        for tc, extra in grids:
-            lr, lev, ci, _, _ = noise_tests.whittle_extra(pgram[:, c], s0[c], extra)
-            if best[c] is None or lr > best[c][0]:
-                best[c] = (lr, lev, ci, tc)
-        lr_ch[c] = best[c][0]
+        fits = [(*noise_tests.whittle_extra(pgram[:, c], s0[c], extra)[:3], tc) for tc, extra in grids]
+        top = max(fits, key=lambda f: f[0])
+        # level interval joined over the correlation times of the profile's 95 % set (tc's uncertainty carried)
+        inside = [f for f in fits if f[0] >= top[0] - 3.84]
+        ci = (min(f[2][0] for f in inside), max(f[2][1] for f in inside))
+        tcs = [f[3] for f in inside if f[3] is not None]
+        best[c] = (top[0], top[1], ci, top[3], (min(tcs), max(tcs)) if tcs else None)
+        lr_ch[c] = top[0]
     dof = 6 if effect == "bias_random_walk" else 12
     thr = _thr(dof, m_tests, len(grids), factors.get(effect, 1.0))
     cand = Candidate(effect, float(lr_ch.sum()), thr, "Whittle likelihood ratio of the block-averaged residual"
@@ -271,7 +280,7 @@ def _noise(case, model, resid, effect, m_tests, factors) -> Candidate:
     phys = {}
     for c in range(6):
         tri, i, ax = ("gyro", "accel")[c // 3], c % 3, "xyz"[c % 3]
-        lr, lev, ci, tc = best[c]
+        lr, lev, ci, tc, tc_ci = best[c]
         if effect == "bias_random_walk":
             unit = "rad_per_s_per_sqrt_s" if tri == "gyro" else "mps2_per_sqrt_s"
             key = f"{tri}_{unit}[{ax}]"
@@ -288,6 +297,8 @@ def _noise(case, model, resid, effect, m_tests, factors) -> Candidate:
             cand.params[key] = sigma
             cand.intervals[key] = [float(np.sqrt(ci[0])), float(np.sqrt(ci[1]))]
             cand.params[f"{tri}_correlation_time_s[{ax}]"] = tcv
+            if sig_ch:
+                cand.intervals[f"{tri}_correlation_time_s[{ax}]"] = [float(tc_ci[0]), float(tc_ci[1])]
             phys.setdefault(f"{tri}_{unit}", [0.0] * 3)[i] = sigma
             phys.setdefault(f"{tri}_correlation_time_s", [0.0] * 3)[i] = tcv
     cand.physics = phys
@@ -343,8 +354,7 @@ def evaluate(case: Case, model: SensorModel, resid: np.ndarray, exclude=(), fact
         elif effect in ("gauss_markov_bias", "bias_random_walk"):
             out.append(_noise(case, model, resid, effect, m_tests, factors))
         elif effect == "coning_sculling":
-            out.append(_not_testable(effect, "its rectified part is a constant (collinear with the turn-on bias) "
-                                     "and its oscillation is tested as vibration"))
+            out.append(_not_testable(effect, CONING_NOTE))
     for cand in out:
         if cand.effect == "coriolis" and cand.identifiable is False and "constant" in cand.reason:
             cand.reason = "the truth has no velocity here (static): Coriolis cannot show"
@@ -451,7 +461,7 @@ def _whittle_metric(case, cand, model_before, resid):
     for mdl in (model_before, add_effect(model_before, refit)):
         dev = []
         for part in (resid[:half], resid[half:2 * half]):
-            freqs, pgram = noise_tests.periodogram(noise_tests.block_means(part, m), tb)
+            freqs, pgram = noise_tests.periodogram(noise_tests.end_matched(noise_tests.block_means(part, m)), tb)
             dev.append((pgram, noise_tests.noise_model_psd(mdl, freqs, tb)))
         (p1, s1), (p2, s2) = dev
         tot = []

@@ -16,7 +16,7 @@ import numpy as np
 from nav_core.recording import ImuRecording
 from nav_core.sensor_model import SensorModel, TriadModel
 
-from imu_sim.diagnose.case import make_case
+from imu_sim.diagnose.case import CHANNELS, make_case
 from imu_sim.diagnose.engine import diagnose
 from imu_sim.scenario import from_dict
 from imu_sim.simulate import simulate
@@ -38,8 +38,8 @@ EFFECT_CASES = {
     "earth_rotation": {},
     "gravity_model": {},
     "gyro_g_sensitivity": {"gyro_coeff_rad_per_s_per_mps2": [3e-5, -2e-5, 2.5e-5]},
-    "temperature_bias": {"gyro_coeff_rad_per_s_per_degc": [3e-6, -2e-6, 4e-6],
-                         "accel_coeff_mps2_per_degc": [2e-5, -1.5e-5, 3e-5], "reference_temp_c": 25.0},
+    "temperature_bias": {"gyro_coeff_rad_per_s_per_degc": [1.0e-6, -0.8e-6, 1.2e-6],
+                         "accel_coeff_mps2_per_degc": [5e-6, -5e-6, 5e-6], "reference_temp_c": 25.0},
     "warmup_drift": {"gyro_amplitude_rad_per_s": [4e-4, -3e-4, 5e-4], "accel_amplitude_mps2": [2e-3, -2e-3, 3e-3],
                      "time_constant_s": 60.0},
     "scale_factor": {"gyro": [1.0e-3, -0.7e-3, 1.4e-3], "accel": [5e-4, -4e-4, 6e-4]},
@@ -47,9 +47,9 @@ EFFECT_CASES = {
     "vibration": {"sinusoids": [{"frequency_hz": 13.7, "phase_rad": 0.4, "accel_amplitude_mps2": [0.0, 0.0, 3e-3],
                                  "gyro_amplitude_rad_per_s": [5e-4, 0.0, 0.0]}]},
     "quantization": {"gyro_lsb_rad": [1e-5] * 3, "accel_lsb_mps": [5e-5] * 3},
-    "gauss_markov_bias": {"gyro_sigma_rad_per_s": [4e-5] * 3, "gyro_correlation_time_s": [20.0] * 3,
-                          "accel_sigma_mps2": [2e-4] * 3, "accel_correlation_time_s": [20.0] * 3},
-    "bias_random_walk": {"gyro_rad_per_s_per_sqrt_s": [1.2e-6] * 3, "accel_mps2_per_sqrt_s": [6e-6] * 3},
+    "gauss_markov_bias": {"gyro_sigma_rad_per_s": [3.7e-5] * 3, "gyro_correlation_time_s": [10.0] * 3,
+                          "accel_sigma_mps2": [1.9e-4] * 3, "accel_correlation_time_s": [10.0] * 3},
+    "bias_random_walk": {"gyro_rad_per_s_per_sqrt_s": [4.4e-7] * 3, "accel_mps2_per_sqrt_s": [2.2e-6] * 3},
 }
 TRUE_PARAMS = {
     "earth_rotation": {"earth_rate_rad_per_s": 7.292115e-5},
@@ -59,9 +59,10 @@ TRUE_PARAMS = {
     "scale_factor": {f"gyro[{a}]": v for a, v in zip("xyz", [1.0e-3, -0.7e-3, 1.4e-3])},
     "axis_misalignment": {f"gyro[{'xyz'[i]}{'xyz'[j]}]": MIS_G[i, j] for i in range(3) for j in range(3) if i != j},
     "quantization": {f"gyro_lsb_rad[{a}]": 1e-5 for a in "xyz"},
-    "temperature_bias": {f"gyro_coeff_rad_per_s_per_degc[{a}]": v for a, v in zip("xyz", [3e-6, -2e-6, 4e-6])},
+    "temperature_bias": {f"gyro_coeff_rad_per_s_per_degc[{a}]": v for a, v in zip("xyz", [1.0e-6, -0.8e-6, 1.2e-6])},
     "vibration": {"frequency_hz": 13.7, "accel_amplitude_mps2[z]": 3e-3, "gyro_amplitude_rad_per_s[x]": 5e-4},
-    "bias_random_walk": {f"gyro_rad_per_s_per_sqrt_s[{a}]": 1.2e-6 for a in "xyz"},
+    "bias_random_walk": {f"gyro_rad_per_s_per_sqrt_s[{a}]": 4.4e-7 for a in "xyz"},
+    "gauss_markov_bias": {f"gyro_sigma_rad_per_s[{a}]": 3.7e-5 for a in "xyz"},
 }
 GNSS_CASES = {
     "gps_latency": {"latency_s": 0.03},
@@ -153,6 +154,35 @@ def make_inputs(effect: str, seed: int):
     res = simulate(sc, truth_model, seed=seed, with_bytes=False, temp_c=temp)
     rec = ImuRecording(res.imu.t, res.imu.gyro, res.imu.accel, res.imu.temp_c, source=f"suite:{effect}:{seed}")
     return rec, sc, model, res.gnss
+
+
+def concealment(effect: str, seed: int) -> dict:
+    """How hidden an IMU case's effect is: peak |added| over the per-sample noise std, and its Allan visibility.
+
+    added = recording - the same seed simulated with the diagnosis model (so only the missing effect);
+    Allan: deviation of (model noise + added) over that of the model noise alone, largest over channels
+    and cluster times up to a tenth of the run, beside the upper 95 % interval factor of the noise's
+    Allan point at that cluster time (a ratio below it is inside the plot's own scatter).
+    """
+    from imu_calib.allan import overlapping_adev
+    rec, sc, model, _ = make_inputs(effect, seed)
+    long = effect in LONG_EFFECTS
+    temp = long_temperature(len(rec.t)) if long else None
+    believed = simulate(sc, model, seed=seed, with_bytes=False, temp_c=temp).imu
+    clean = simulate(sc, model, seed=seed, with_bytes=False, temp_c=temp, terms=()).imu
+    added = np.column_stack([rec.gyro - believed.gyro, rec.accel - believed.accel])
+    noise = np.column_stack([believed.gyro - clean.gyro, believed.accel - clean.accel])
+    rate = 1.0 / float(np.median(np.diff(rec.t)))
+    sigma = np.concatenate([model.gyro.white_noise, model.accel.white_noise]) * np.sqrt(rate)
+    span = rec.t[-1] - rec.t[0]
+    taus = np.logspace(np.log10(2.0 / rate), np.log10(span / 10), 12)
+    # edf for white rate noise (alpha 0): what the model noise is; the slope-read edf is erratic at the last point
+    a0, a1 = overlapping_adev(noise, rate, taus, alphas=0.0), overlapping_adev(noise + added, rate, taus, alphas=0.0)
+    ratio = a1.adev / a0.adev
+    k, c = np.unravel_index(np.argmax(ratio), ratio.shape)
+    return {"peak_over_noise": float(np.max(np.abs(added).max(axis=0) / sigma)),
+            "allan_ratio_max": float(ratio[k, c]), "allan_tau_s": float(taus[k]), "allan_channel": CHANNELS[c],
+            "allan_ci_factor": float(a0.hi[k, c] / a0.adev[k, c]), "allan_ratio_by_channel": ratio.max(axis=0).tolist()}
 
 
 def make_recording(effect: str, seed: int):
