@@ -43,6 +43,7 @@ class BagRecorder(Node):
         self.wanted = {"/" + t.lstrip("/") for t in self.p["topics"] if t}
         self.counts = {}
         self._subs = {}
+        self._last_log_ns = 0
         self.create_timer(self.p["discovery_period_s"], self._discover)
         self._discover()
         self.get_logger().info(f"ready: recording {sorted(self.wanted)} to {self.p['output']}")
@@ -64,7 +65,10 @@ class BagRecorder(Node):
         def write(taken):
             now_ns, wall_ns = self.get_clock().now().nanoseconds, time.time_ns()
             for data, received_ns in taken:
-                self.writer.write_cdr(topic, msgtype, now_ns - max(0, wall_ns - received_ns), data)
+                # a stale /clock (sim time) can make the wall-clock back-dating overlap the previous batch:
+                # log times never go back, so readers keep the order messages were received in
+                self._last_log_ns = max(now_ns - max(0, wall_ns - received_ns), self._last_log_ns + 1)
+                self.writer.write_cdr(topic, msgtype, self._last_log_ns, data)
             self.counts[topic] += len(taken)
         return write
 

@@ -21,14 +21,16 @@ import math  # noqa: E402
 
 import numpy as np  # noqa: E402
 from nav_msgs.msg import Odometry  # noqa: E402
+from rclpy.clock import Clock, ClockType  # noqa: E402
 from rclpy.exceptions import InvalidParameterTypeException, InvalidParameterValueException  # noqa: E402
+from rclpy.serialization import deserialize_message  # noqa: E402
 from rclpy.node import Node  # noqa: E402
 from sensor_msgs.msg import Imu, NavSatFix  # noqa: E402
 
 from nav_core import sensor_model as sm  # noqa: E402
 from nav_core.params import ConfigError, Param  # noqa: E402
 from nav_core.imu_cdr import stamps_from_s  # noqa: E402
-from nav_core.ros_node import (SENSOR_QOS, SENSOR_QOS_IN, Diagnostics, ImuBatchSubscription,  # noqa: E402
+from nav_core.ros_node import (SENSOR_QOS, Diagnostics, ImuBatchSubscription, PolledSubscription,  # noqa: E402
                                declare_parameters, publish_imu_batch, run_node, stamp_from_s, stamp_to_s)
 from nav_core.units import DEG  # noqa: E402
 from ins_gps_kf import config as kfconfig  # noqa: E402
@@ -39,8 +41,9 @@ from ins_gps_kf.replay import load_model  # noqa: E402
 
 GPS, IMU = 0, 1  # a fix sorts before an IMU sample of the same stamp (as in the replay)
 
-INTAKE = Param("intake_period_s", 0.01, "IMU messages are taken in batches at this period, s (adds up to this "
-               "much latency; an executor callback per message costs more than the filter at 1 kHz)", 0.0005, 1.0)
+INTAKE = Param("intake_period_s", 0.01, "IMU and GPS messages are taken in batches at this period, s (adds up "
+               "to this much latency; an executor callback per message costs more than the filter at 1 kHz)",
+               0.0005, 1.0)
 
 
 def _param(spec: Param) -> Param:
@@ -75,9 +78,12 @@ class InsGpsKfNode(Node):
         self.odom_pub = self.create_publisher(Odometry, "odometry/filtered", 10)
         self.imu_pub = self.create_publisher(Imu, "imu/data", SENSOR_QOS)
         self.imu_out = []
-        self.intake = ImuBatchSubscription(self, self.params["imu_topic"], self.on_imu_batch,
-                                           self.params["intake_period_s"])
-        self.create_subscription(NavSatFix, self.params["gps_topic"], self.on_gps, SENSOR_QOS_IN)
+        # IMU and fixes are taken together and merged by receive time: the order per-message callbacks
+        # would have seen, so a fix is never overtaken by a batch of IMU samples that arrived after it
+        self.imu_intake = ImuBatchSubscription(self, self.params["imu_topic"], None, None)
+        self.gps_intake = PolledSubscription(self, NavSatFix, self.params["gps_topic"], None, None)
+        self.create_timer(self.params["intake_period_s"], self.take_input,
+                          clock=Clock(clock_type=ClockType.STEADY_TIME))
         self.diag = Diagnostics(self, "ins_gps_kf")
         self.create_timer(1.0, self.publish_diagnostics)
         strapdown.warm_up()  # compile or load the numba kernels now, not on the first aligned sample
@@ -86,10 +92,22 @@ class InsGpsKfNode(Node):
 
     # ------------------------------------------------------------------ input
 
-    def on_imu_batch(self, batch):
-        """Queue a batch of IMU samples in arrival order, then publish the oriented samples it released."""
-        for t, gyro, accel in zip(batch.t_s.tolist(), batch.gyro, batch.accel):
-            self._push(t, IMU, (gyro, accel))
+    def take_input(self):
+        """Queue what arrived since the last call, IMU samples and fixes in arrival order; publish imu/data."""
+        imu, fixes = self.imu_intake.take_all(), self.gps_intake.take_all()
+        if not imu and not fixes:
+            return
+        batch = self.imu_intake.decode([blob for blob, _ in imu])
+        if len(batch) != len(imu):  # a bad message was skipped: arrival order is lost for this batch only
+            imu = [(None, imu[-1][1])] * len(batch)
+        arrivals = sorted([(received, IMU, i) for i, (_, received) in enumerate(imu)]
+                          + [(received, GPS, i) for i, (_, received) in enumerate(fixes)])
+        t_s = batch.t_s.tolist()
+        for _, kind, i in arrivals:
+            if kind == IMU:
+                self._push(t_s[i], IMU, (batch.gyro[i], batch.accel[i]))
+            else:
+                self.on_gps(deserialize_message(fixes[i][0], NavSatFix))
         self._publish_imu_out()
 
     def on_gps(self, msg: NavSatFix):
@@ -98,7 +116,6 @@ class InsGpsKfNode(Node):
         std = np.sqrt(np.clip(np.diag(cov), 0.0, None)) if msg.position_covariance_type > 0 else np.zeros(3)
         self._push(stamp_to_s(msg.header.stamp), GPS,
                    (msg.latitude * DEG, msg.longitude * DEG, msg.altitude, std, msg.status.status))
-        self._publish_imu_out()
 
     def _push(self, t, kind, payload):
         # IMU stamps are the clock: only they can signal a restart; a very late fix is just late
@@ -133,7 +150,10 @@ class InsGpsKfNode(Node):
     def close(self):
         """Run what is still buffered through the filter without publishing (called by run_node on shutdown)."""
         self.closing = True
-        self.intake.drain()
+        try:
+            self.take_input()
+        except Exception:  # the context may already be shut down on SIGINT; what was queued still runs
+            pass
         self._drain(math.inf)
 
     # ------------------------------------------------------------------ output

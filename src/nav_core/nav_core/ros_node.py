@@ -129,16 +129,18 @@ class PolledSubscription:
     The price is up to ``period_s`` of added latency.
     """
 
-    def __init__(self, node: Node, msg_type, topic: str, on_messages, period_s: float, qos=SENSOR_QOS_IN,
+    def __init__(self, node: Node, msg_type, topic: str, on_messages, period_s: float | None, qos=SENSOR_QOS_IN,
                  max_batch: int = 20000):
+        """``period_s`` None: no timer, the owner calls :meth:`drain` or :meth:`take_all`."""
         self._on_messages, self._max_batch, self._node, self.msg_type = on_messages, max_batch, node, msg_type
         self.subscription = node.create_subscription(msg_type, topic, _never_called, qos, raw=True,
                                                      callback_group=_PolledGroup())
         # steady clock: under use_sim_time a paused or slow /clock must not stall the intake
-        self.timer = node.create_timer(period_s, self.drain, clock=Clock(clock_type=ClockType.STEADY_TIME))
+        self.timer = None if period_s is None else node.create_timer(
+            period_s, self.drain, clock=Clock(clock_type=ClockType.STEADY_TIME))
 
-    def drain(self) -> int:
-        """Take every queued message, hand the batch on; returns how many were taken."""
+    def take_all(self) -> list:
+        """Every queued message as ``(cdr bytes, received system ns)``, oldest first."""
         taken_all = []
         handle = self.subscription.handle
         with handle:
@@ -147,6 +149,11 @@ class PolledSubscription:
                 if taken is None:
                     break
                 taken_all.append((taken[0], taken[1]["received_timestamp"]))
+        return taken_all
+
+    def drain(self) -> int:
+        """Take every queued message, hand the batch on; returns how many were taken."""
+        taken_all = self.take_all()
         if taken_all:
             self._on_messages(taken_all)
         return len(taken_all)
@@ -158,16 +165,17 @@ class ImuBatchSubscription(PolledSubscription):
     Messages that are not CDR Imu are counted in ``bad_messages`` and skipped.
     """
 
-    def __init__(self, node: Node, topic: str, on_batch, period_s: float, qos=SENSOR_QOS_IN,
+    def __init__(self, node: Node, topic: str, on_batch, period_s: float | None, qos=SENSOR_QOS_IN,
                  max_batch: int = 20000):
         super().__init__(node, Imu, topic, self._on_messages_taken, period_s, qos, max_batch)
         self._on_batch = on_batch
         self.bad_messages = 0
 
     def _on_messages_taken(self, taken) -> None:
-        self._on_batch(self._decode([blob for blob, _ in taken]))
+        self._on_batch(self.decode([blob for blob, _ in taken]))
 
-    def _decode(self, blobs) -> ImuBatch:
+    def decode(self, blobs) -> ImuBatch:
+        """The samples of raw Imu messages; bad ones are counted, logged and skipped."""
         try:
             return decode_imu(blobs)
         except ImuCdrError:
