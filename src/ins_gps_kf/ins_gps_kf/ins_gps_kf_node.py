@@ -78,6 +78,7 @@ class InsGpsKfNode(Node):
         self.odom_pub = self.create_publisher(Odometry, "odometry/filtered", 10)
         self.imu_pub = self.create_publisher(Imu, "imu/data", SENSOR_QOS)
         self.imu_out = []
+        self.imu_received = 0
         # IMU and fixes are taken together and merged by receive time: the order per-message callbacks
         # would have seen, so a fix is never overtaken by a batch of IMU samples that arrived after it
         self.imu_intake = ImuBatchSubscription(self, self.params["imu_topic"], None, None)
@@ -98,6 +99,7 @@ class InsGpsKfNode(Node):
         if not imu and not fixes:
             return
         batch = self.imu_intake.decode([blob for blob, _ in imu])
+        self.imu_received += len(batch)
         if len(batch) != len(imu):  # a bad message was skipped: arrival order is lost for this batch only
             imu = [(None, imu[-1][1])] * len(batch)
         arrivals = sorted([(received, IMU, i) for i, (_, received) in enumerate(imu)]
@@ -222,7 +224,8 @@ class InsGpsKfNode(Node):
                                 if f.status == ALIGNING else "waiting for a GPS fix (datum)"),
                   "filter_resets": c.resets, "imu_gaps_bridged": c.gaps_bridged,
                   "last_reset": (c.reset_reasons[-1] if c.reset_reasons else ""),
-                  "late_dropped": self.late_dropped}
+                  "late_dropped": self.late_dropped, "imu_received": self.imu_received,
+                  "bad_imu_messages": self.imu_intake.bad_messages}
         if f.alignment is not None:
             values.update({"align_roll_deg": f.alignment.roll / DEG, "align_pitch_deg": f.alignment.pitch / DEG})
         self.diag.publish(level, message, values)
