@@ -28,6 +28,12 @@ KATWIJK_PARAMS = {"imu_rate_hz": 125.0, "gps_rate_hz": 1.0 / 3.0, "alignment_tim
                   "heading_min_speed_mps": 0.1, "stationary_gyro_dps": 2.0}
 
 
+CANADA_PARAMS = {"imu_rate_hz": 200.0, "gps_rate_hz": 20.0, "alignment_time_s": 1.0, "min_alignment_time_s": 0.5,
+                 "gps_std_m": 1.0, "gps_std_up_m": 2.0, "heading_min_speed_mps": 0.1, "stationary_gyro_dps": 2.0}
+"""The IMU is quiet only for its first second (then wheel vibration, |f| std 0.2-0.5 m/s^2, and turns in place):
+a one-second alignment; the yaw comes from the reference (see :func:`canada_initial_yaw`)."""
+
+
 def evaluate_rover(name, out_dir) -> dict:
     """Katwijk: the filter with each axis choice, the best (by GPS NIS) reported against the reference."""
     from ins_gps_kf import evaluate
@@ -43,10 +49,7 @@ def evaluate_rover(name, out_dir) -> dict:
         params = dict(KATWIJK_PARAMS)
     else:
         loader, outage_period = load_canada, 90.0
-        # the IMU is quiet only for its first second (then wheel vibration, |f| std 0.2-0.5 m/s^2, and turns in
-        # place): a one-second alignment; yaw from the reference (see canada_initial_yaw)
-        params = {"imu_rate_hz": 200.0, "gps_rate_hz": 20.0, "alignment_time_s": 1.0, "min_alignment_time_s": 0.5,
-                  "gps_std_m": 1.0, "gps_std_up_m": 2.0, "heading_min_speed_mps": 0.1, "stationary_gyro_dps": 2.0}
+        params = dict(CANADA_PARAMS)
     results = {}
     for axes_name in AXIS_CHOICES:
         imu, gnss, ref, info = loader(axes_name)
@@ -86,8 +89,8 @@ BALZER_PARAMS = {"imu_rate_hz": 50.0, "gps_rate_hz": 5.0, "alignment_mode": "in_
 BALZER_ACCEL_TO_FLU = -np.eye(3)
 """The logged accelerations are the negated specific force in FLU: at rest z reads -g, and in motion x falls
 when the GPS speed rises and y falls in left turns (correlations -0.75 and -0.7 with the GPS-derived along-track
-and centripetal accelerations). nav_core.datasets.FRD_TO_FLU (x forward, y right, z down) fits the resting
-reading but not these signs."""
+and centripetal accelerations). An x forward, y right, z down reading fits the resting z but not these
+signs."""
 BALZER_GYRO_TO_FLU = np.eye(3)
 """The logged rates are FLU: the z rate follows the GPS course rate (CCW positive, correlation +0.78); x and y
 as logged gave the smallest GPS NIS of the four sign choices (2.6 against 3.4-6.2)."""

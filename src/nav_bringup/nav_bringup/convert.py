@@ -19,6 +19,7 @@ from pathlib import Path
 import numpy as np
 import yaml
 
+from ins_gps_kf import datasets as kf_datasets
 from nav_core import datasets, recording, sensor_model
 from nav_core.recording import ImuRecording
 from nav_bringup.graph import PARAMS_FILE, REPO
@@ -26,29 +27,23 @@ from nav_bringup.graph import PARAMS_FILE, REPO
 EPOCH_S = 1_700_000_000.0
 DEFAULT_MODEL = REPO / "config" / "sensor_models" / "bp3010.yaml"
 BALZER_CSV = REPO / ".." / "shared" / "data" / "balzer_car" / "2014-03-26-000-Data.csv"
-# Filter settings each source needs (the source, not the filter, decides these).
-KF_OVERRIDES = {
-    "katwijk": {"alignment_time_s": 15.0, "heading_min_speed_mps": 0.1},
-    "canada": {"alignment_time_s": 3.0, "min_alignment_time_s": 2.0, "gps_std_m": 1.0, "gps_std_up_m": 2.0,
-               "heading_min_speed_mps": 0.1},
-    "balzer": {"alignment_time_s": 5.0, "min_alignment_time_s": 2.0},
-}
+# Filter settings each source needs: the ones the filter's evaluation of that recording uses.
+KF_OVERRIDES = {"katwijk": kf_datasets.KATWIJK_PARAMS, "canada": kf_datasets.CANADA_PARAMS,
+                "balzer": kf_datasets.BALZER_PARAMS}
 
 
 def load(name: str, csv: Path | None):
-    """(imu, gnss, truth or None) of a source, IMU in body FLU."""
+    """(imu, gnss, truth or None, filter parameters) of a source, IMU in body FLU."""
     if name == "katwijk":
         # forward = -x: the axis choice the filter's evaluation picked by GPS NIS (src/ins_gps_kf/README.md)
         imu, gnss, ref, _ = datasets.load_katwijk("-x_fwd")
-        return imu, gnss, ref
+        return imu, gnss, ref, KF_OVERRIDES[name]
     if name == "canada":
-        imu, gnss, truth, _ = datasets.load_canada()
-        return imu, gnss, truth
-    path = csv or BALZER_CSV
-    imu = datasets.read_balzer_csv(path)
-    flu = ImuRecording(imu.t, imu.gyro @ datasets.FRD_TO_FLU, imu.accel @ datasets.FRD_TO_FLU, imu.temp_c,
-                       source=imu.source)
-    return flu, datasets.read_balzer_gnss(path), None
+        imu, gnss, truth, info = datasets.load_canada()
+        return imu, gnss, truth, dict(KF_OVERRIDES[name], initial_yaw_deg=kf_datasets.canada_initial_yaw(info))
+    # the axes and the GPS latency the filter's evaluation found in the data (src/ins_gps_kf/README.md)
+    imu, gnss, _ = kf_datasets.load_balzer(csv or BALZER_CSV)
+    return imu, gnss, None, KF_OVERRIDES[name]
 
 
 def stationary_head_s(imu: ImuRecording) -> float:
@@ -89,11 +84,11 @@ def _fill_white_noise(model: sensor_model.SensorModel, head: ImuRecording) -> No
             tri.info["white_noise_from_differences_axes"] = [int(i) for i in np.flatnonzero(missing)]
 
 
-def write_params(out: Path, name: str, imu_rate: float, gps_rate: float) -> Path:
+def write_params(out: Path, name: str, imu_rate: float, gps_rate: float, kf_params: dict) -> Path:
     """The graph's params file with this recording's rates and the source's alignment settings."""
     params = yaml.safe_load(PARAMS_FILE.read_text())
     params["ins_gps_kf_node"]["ros__parameters"].update(
-        {"imu_rate_hz": imu_rate, "gps_rate_hz": gps_rate, "imu_topic": "imu/data_corrected", **KF_OVERRIDES[name]})
+        {**kf_params, "imu_rate_hz": imu_rate, "gps_rate_hz": gps_rate, "imu_topic": "imu/data_corrected"})
     params["wmra_node"]["ros__parameters"]["sample_rate_hz"] = imu_rate
     params["allan_node"]["ros__parameters"]["duration_s"] = 5.0
     path = out / "navigation.yaml"
@@ -104,7 +99,7 @@ def write_params(out: Path, name: str, imu_rate: float, gps_rate: float) -> Path
 
 def convert(name: str, out: Path, csv: Path | None = None) -> dict:
     """Write the bag, truth, model and params of a source into ``out``; return a summary."""
-    imu, gnss, truth = load(name, csv)
+    imu, gnss, truth, kf_params = load(name, csv)
     out.mkdir(parents=True, exist_ok=True)
     shifted_imu = ImuRecording(imu.t + EPOCH_S, imu.gyro, imu.accel, imu.temp_c, source=imu.source)
     shifted_gnss = recording.GnssRecording(gnss.t + EPOCH_S, gnss.lat, gnss.lon, gnss.h, gnss.std_enu, gnss.status,
@@ -116,7 +111,7 @@ def convert(name: str, out: Path, csv: Path | None = None) -> dict:
     head = stationary_head_s(imu)
     sensor_model.save(noise_model(imu, head), out / "sensor_model.yaml")
     gps_rate = 1.0 / float(np.median(np.diff(gnss.t)))
-    write_params(out, name, imu.rate_hz, gps_rate)
+    write_params(out, name, imu.rate_hz, gps_rate, kf_params)
     return {"imu_samples": len(imu), "imu_rate_hz": imu.rate_hz, "gps_fixes": len(gnss), "gps_rate_hz": gps_rate,
             "stationary_head_s": head, "truth": truth is not None}
 

@@ -78,6 +78,8 @@ def load_adis_npz(path) -> ImuRecording:
 def read_balzer_csv(path, sample_rate_hz: float = 50.0) -> ImuRecording:
     """The balzer82/Kalman car CSV (deg/s, m/s^2, millis) as an ImuRecording in SI on a uniform time grid.
 
+    Axes as logged; ``ins_gps_kf.datasets.load_balzer`` turns them into FLU (found from the data).
+
     The logger's sample interval jitters (11-36 ms for 1-99 %), so the channels are
     linearly interpolated onto ``sample_rate_hz``; the WMRA assumes uniform samples.
     """
@@ -95,10 +97,6 @@ def read_balzer_csv(path, sample_rate_hz: float = 50.0) -> ImuRecording:
     accel = np.column_stack([np.interp(t, t_raw, data[c][keep]) for c in ("ax", "ay", "az")])
     temp = np.interp(t, t_raw, data["temp"][keep]) if "temp" in data.dtype.names else None
     return ImuRecording(t, gyro, accel, temp, source=str(path))
-
-
-FRD_TO_FLU = np.diag([1.0, -1.0, -1.0])
-"""The car logger's axes are x forward, y right, z down (its resting z reads -g); REP-103 wants FLU."""
 
 
 def read_balzer_gnss(path) -> GnssRecording:
