@@ -251,8 +251,8 @@ def _quantization(case, model, m_tests, factors) -> Candidate:
 def _noise(case, model, resid, effect, m_tests, factors) -> Candidate:
     m = max(1, int(np.ceil(case.n / noise_tests.MAX_BLOCKS)))
     tb = m * case.dt
-    # both tests on the end-matched series, so a random walk's end-to-end drift is not evidence for either
-    xb = noise_tests.end_matched(noise_tests.block_means(resid, m))
+    # both tests on the detrended series, so a random walk's end-to-end drift is not evidence for either
+    xb = noise_tests.detrended(noise_tests.block_means(resid, m))
     freqs, pgram = noise_tests.periodogram(xb, tb)
     s0 = noise_tests.noise_model_psd(model, freqs, tb)
     if effect == "bias_random_walk":
@@ -461,7 +461,7 @@ def _whittle_metric(case, cand, model_before, resid):
     for mdl in (model_before, add_effect(model_before, refit)):
         dev = []
         for part in (resid[:half], resid[half:2 * half]):
-            freqs, pgram = noise_tests.periodogram(noise_tests.end_matched(noise_tests.block_means(part, m)), tb)
+            freqs, pgram = noise_tests.periodogram(noise_tests.detrended(noise_tests.block_means(part, m)), tb)
             dev.append((pgram, noise_tests.noise_model_psd(mdl, freqs, tb)))
         (p1, s1), (p2, s2) = dev
         tot = []

@@ -126,18 +126,18 @@ def block_means(x: np.ndarray, m: int) -> np.ndarray:
     return x[:nb * m].reshape(nb, m, *x.shape[1:]).mean(axis=1)
 
 
-def end_matched(xb: np.ndarray, ends: int = 50) -> np.ndarray:
-    """xb minus the ramp joining the means of its first and last len/``ends`` rows (per column).
+def detrended(xb: np.ndarray) -> np.ndarray:
+    """xb minus its least-squares line (per column).
 
-    A random walk's periodogram is twice its spectrum, half of it one random ramp (the end-to-end
-    drift) shared by every bin; removing the ramp leaves the spectrum. Ends are averaged so their
-    white noise does not come back as a ramp.
+    A random walk's periodogram is about twice its spectrum, half of it one random ramp (the end-to-end
+    drift) shared by every bin; removing the fitted line leaves close to the spectrum. A least-squares line
+    is a projection, so on white noise it only removes power (a line through the noisy end points would
+    add a ramp, i.e. a random-walk signature).
     """
-    nb = len(xb)
-    k = max(1, nb // ends)
-    idx = np.arange(nb)[:, None]
-    slope = (xb[-k:].mean(axis=0) - xb[:k].mean(axis=0)) / (nb - k)
-    return xb - slope * idx
+    t = np.arange(len(xb)) - (len(xb) - 1) / 2.0
+    centred = xb - xb.mean(axis=0)
+    slope = (t @ centred) / (t @ t)
+    return centred - np.multiply.outer(t, slope)
 
 
 def periodogram(xb: np.ndarray, tb: float):

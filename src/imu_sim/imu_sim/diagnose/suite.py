@@ -49,7 +49,7 @@ EFFECT_CASES = {
     "quantization": {"gyro_lsb_rad": [1e-5] * 3, "accel_lsb_mps": [5e-5] * 3},
     "gauss_markov_bias": {"gyro_sigma_rad_per_s": [3.7e-5] * 3, "gyro_correlation_time_s": [10.0] * 3,
                           "accel_sigma_mps2": [1.9e-4] * 3, "accel_correlation_time_s": [10.0] * 3},
-    "bias_random_walk": {"gyro_rad_per_s_per_sqrt_s": [4.4e-7] * 3, "accel_mps2_per_sqrt_s": [2.2e-6] * 3},
+    "bias_random_walk": {"gyro_rad_per_s_per_sqrt_s": [6e-7] * 3, "accel_mps2_per_sqrt_s": [3e-6] * 3},
 }
 TRUE_PARAMS = {
     "earth_rotation": {"earth_rate_rad_per_s": 7.292115e-5},
@@ -61,7 +61,7 @@ TRUE_PARAMS = {
     "quantization": {f"gyro_lsb_rad[{a}]": 1e-5 for a in "xyz"},
     "temperature_bias": {f"gyro_coeff_rad_per_s_per_degc[{a}]": v for a, v in zip("xyz", [1.0e-6, -0.8e-6, 1.2e-6])},
     "vibration": {"frequency_hz": 13.7, "accel_amplitude_mps2[z]": 3e-3, "gyro_amplitude_rad_per_s[x]": 5e-4},
-    "bias_random_walk": {f"gyro_rad_per_s_per_sqrt_s[{a}]": 4.4e-7 for a in "xyz"},
+    "bias_random_walk": {f"gyro_rad_per_s_per_sqrt_s[{a}]": 6e-7 for a in "xyz"},
     "gauss_markov_bias": {f"gyro_sigma_rad_per_s[{a}]": 3.7e-5 for a in "xyz"},
 }
 GNSS_CASES = {
