@@ -3,7 +3,11 @@
 Subscribes ``imu_topic`` (default ``imu/data_corrected``) and ``gps_topic`` (``gps/fix``)
 with the sensor-data QoS (best effort); publishes ``odometry/filtered`` (pose in
 ``odom`` = local ENU at the datum, twist in ``base_link``) at every filter epoch,
-``imu/data`` (with orientation) at every IMU sample once aligned, and ``/diagnostics``.
+``imu/data`` (with orientation) once aligned, and ``/diagnostics``. IMU samples are taken
+in batches every ``intake_period_s`` and run through the filter as chunks (bit-identical
+to one by one); ``imu/data`` carries the newest sample of each chunk: every sample at
+64 Hz, about one per intake period at 1 kHz (a per-sample orientation would cost more
+than the filter).
 Messages wait ``reorder_window_s`` in a buffer ordered by stamp, so late and
 out-of-order messages are processed in order; older ones are dropped and counted;
 a stamp jump beyond ``time_jump_s`` resets the filter (reported).
@@ -18,10 +22,10 @@ import dataclasses  # noqa: E402
 import heapq  # noqa: E402
 import itertools  # noqa: E402
 import math  # noqa: E402
+import threading  # noqa: E402
 
 import numpy as np  # noqa: E402
 from nav_msgs.msg import Odometry  # noqa: E402
-from rclpy.clock import Clock, ClockType  # noqa: E402
 from rclpy.exceptions import InvalidParameterTypeException, InvalidParameterValueException  # noqa: E402
 from rclpy.serialization import deserialize_message  # noqa: E402
 from rclpy.node import Node  # noqa: E402
@@ -30,8 +34,9 @@ from sensor_msgs.msg import Imu, NavSatFix  # noqa: E402
 from nav_core import sensor_model as sm  # noqa: E402
 from nav_core.params import ConfigError, Param  # noqa: E402
 from nav_core.imu_cdr import stamps_from_s  # noqa: E402
-from nav_core.ros_node import (SENSOR_QOS, Diagnostics, ImuBatchSubscription, PolledSubscription,  # noqa: E402
-                               declare_parameters, publish_imu_batch, run_node, stamp_from_s, stamp_to_s)
+from nav_core.ros_node import (SENSOR_QOS, Diagnostics, ImuBatchSubscription, IntakeLoop,  # noqa: E402
+                               PolledSubscription, declare_parameters, publish_imu_batch, run_node, stamp_from_s,
+                               stamp_to_s)
 from nav_core.units import DEG  # noqa: E402
 from ins_gps_kf import config as kfconfig  # noqa: E402
 from ins_gps_kf import error_model as em  # noqa: E402
@@ -83,13 +88,20 @@ class InsGpsKfNode(Node):
         # would have seen, so a fix is never overtaken by a batch of IMU samples that arrived after it
         self.imu_intake = ImuBatchSubscription(self, self.params["imu_topic"], None, None)
         self.gps_intake = PolledSubscription(self, NavSatFix, self.params["gps_topic"], None, None)
-        self.create_timer(self.params["intake_period_s"], self.take_input,
-                          clock=Clock(clock_type=ClockType.STEADY_TIME))
+        self.lock = threading.Lock()
         self.diag = Diagnostics(self, "ins_gps_kf")
-        self.create_timer(1.0, self.publish_diagnostics)
+        self.create_timer(1.0, self._locked(self.publish_diagnostics))
         strapdown.warm_up()  # compile or load the numba kernels now, not on the first aligned sample
+        self.intake_loop = IntakeLoop(self, self.params["intake_period_s"], self.take_input, self.lock)
         self.get_logger().info(f"ready: imu '{self.params['imu_topic']}', gps '{self.params['gps_topic']}', "
                                f"model '{self.params['sensor_model_path'] or 'hand-tuned default'}'")
+
+    def _locked(self, fn):
+        """``fn`` run holding the intake lock (it reads what the intake thread changes)."""
+        def call():
+            with self.lock:
+                fn()
+        return call
 
     # ------------------------------------------------------------------ input
 
@@ -105,27 +117,30 @@ class InsGpsKfNode(Node):
         arrivals = sorted([(received, IMU, i) for i, (_, received) in enumerate(imu)]
                           + [(received, GPS, i) for i, (_, received) in enumerate(fixes)])
         t_s = batch.t_s.tolist()
-        for _, kind, i in arrivals:
+        for _, kind, i in arrivals:  # drained once at the end, so the filter gets whole chunks
             if kind == IMU:
-                self._push(t_s[i], IMU, (batch.gyro[i], batch.accel[i]))
+                self._push(t_s[i], IMU, (batch.gyro[i], batch.accel[i]), drain=False)
             else:
-                self.on_gps(deserialize_message(fixes[i][0], NavSatFix))
+                self.on_gps(deserialize_message(fixes[i][0], NavSatFix), drain=False)
+        self._drain(self.newest_t - self.window)
         self._publish_imu_out()
 
-    def on_gps(self, msg: NavSatFix):
+    def on_gps(self, msg: NavSatFix, drain=True):
         """Queue one fix (NaN and NO_FIX fixes are counted and ignored by the filter)."""
         cov = np.asarray(msg.position_covariance, dtype=float).reshape(3, 3)
         std = np.sqrt(np.clip(np.diag(cov), 0.0, None)) if msg.position_covariance_type > 0 else np.zeros(3)
         self._push(stamp_to_s(msg.header.stamp), GPS,
-                   (msg.latitude * DEG, msg.longitude * DEG, msg.altitude, std, msg.status.status))
+                   (msg.latitude * DEG, msg.longitude * DEG, msg.altitude, std, msg.status.status), drain)
 
-    def _push(self, t, kind, payload):
+    def _push(self, t, kind, payload, drain=True):
         # IMU stamps are the clock: only they can signal a restart; a very late fix is just late
         if kind == IMU and self.last_t is not None and t < self.last_t - self.time_jump:
+            self._drain(self.newest_t - self.window)  # what the stamps before the jump released
             self._reset(f"stamp jumped back {self.last_t - t:.3f} s (bag restart?)")
         heapq.heappush(self.heap, (t, kind, next(self.seq), payload))
         self.newest_t = max(self.newest_t, t)
-        self._drain(self.newest_t - self.window)
+        if drain:
+            self._drain(self.newest_t - self.window)
 
     def _reset(self, reason):
         self.get_logger().warn(f"time jump: {reason}; filter reset")
@@ -136,21 +151,34 @@ class InsGpsKfNode(Node):
         self.last_reset = reason
 
     def _drain(self, until_t):
+        run = []  # consecutive IMU samples go to the filter as one chunk (the same bits as one by one)
         while self.heap and self.heap[0][0] <= until_t:
             t, kind, _, payload = heapq.heappop(self.heap)
             if self.last_t is not None and (t < self.last_t or (kind == GPS and t == self.last_t)):
                 self.late_dropped += 1  # arrived after its place in the stamp order was processed
                 continue
             if kind == GPS:
+                self._process_imu_run(run)
+                run = []
                 self.filter.process_gps(t, *payload)
                 continue
             self.last_t = t
-            for est in self.filter.process_imu(t, payload[0][None], payload[1][None]):
-                self.publish_odometry(est)
-            self.publish_imu(t, *payload)
+            run.append((t, payload))
+        self._process_imu_run(run)
+
+    def _process_imu_run(self, run):
+        """Run IMU samples through the filter; queue the newest one, oriented, for imu/data."""
+        if not run:
+            return
+        t = np.array([t for t, _ in run])
+        gyro, accel = np.array([p[0] for _, p in run]), np.array([p[1] for _, p in run])
+        for est in self.filter.process_imu(t, gyro, accel):
+            self.publish_odometry(est)
+        self.publish_imu(t[-1], gyro[-1], accel[-1])
 
     def close(self):
         """Run what is still buffered through the filter without publishing (called by run_node on shutdown)."""
+        self.intake_loop.stop()
         self.closing = True
         try:
             self.take_input()

@@ -4,6 +4,7 @@ The only module of ``nav_core`` that imports rclpy.
 """
 from __future__ import annotations
 
+import threading
 import time
 
 import numpy as np
@@ -188,6 +189,41 @@ class ImuBatchSubscription(PolledSubscription):
                     self.bad_messages += 1
                     self._node.get_logger().warning(f"skipped a message on {self.subscription.topic_name}: {err}")
             return decode_imu(good)
+
+
+class IntakeLoop:
+    """Calls ``fn()`` every ``period_s`` on its own thread, holding ``lock``, until :meth:`stop`.
+
+    The intake of polled subscriptions: waking the rclpy executor with a timer costs a few
+    hundred microseconds per wake (it rebuilds its wait set), a plain thread a few. Node
+    callbacks that read what ``fn`` changes (diagnostics) take the same ``lock``. An
+    exception in ``fn`` is logged and the loop goes on: the intake must outlive a bad batch.
+    """
+
+    def __init__(self, node: Node, period_s: float, fn, lock: threading.Lock):
+        self._node, self._period_s, self._fn, self.lock = node, period_s, fn, lock
+        self._stop = threading.Event()
+        self._thread = threading.Thread(target=self._run, name=f"{node.get_name()}_intake", daemon=True)
+        self._thread.start()
+
+    def _run(self) -> None:
+        next_t = time.monotonic()
+        while not self._stop.is_set():
+            next_t = max(next_t + self._period_s, time.monotonic())
+            self._stop.wait(max(0.0, next_t - time.monotonic()))
+            if self._stop.is_set() or not self._node.context.ok():
+                return
+            try:
+                with self.lock:
+                    self._fn()
+            except Exception as err:  # noqa: BLE001 - report and keep taking input
+                self._node.get_logger().error(f"intake: {type(err).__name__}: {err}")
+
+    def stop(self) -> None:
+        """Stop the loop and wait for a call in progress."""
+        self._stop.set()
+        if self._thread is not threading.current_thread():
+            self._thread.join(timeout=5.0)
 
 
 def _never_called(msg) -> None:

@@ -13,6 +13,7 @@ cost ten times the denoising at 1 kHz.
 """
 from __future__ import annotations
 
+import threading
 import time
 
 import numpy as np
@@ -20,7 +21,7 @@ from sensor_msgs.msg import Imu
 
 from nav_core import sensor_model
 from nav_core.params import ConfigError, Param
-from nav_core.ros_node import (SENSOR_QOS, Diagnostics, ImuBatchSubscription, declare_parameters,
+from nav_core.ros_node import (SENSOR_QOS, Diagnostics, ImuBatchSubscription, IntakeLoop, declare_parameters,
                                publish_imu_batch, run_node)
 from rclpy.node import Node
 from wmra_filter import levels, thresholds as thr
@@ -98,9 +99,12 @@ class WmraNode(Node):
         self._last_t = None
         self._last_sample = None
         self.pub = self.create_publisher(Imu, "imu/data_corrected", SENSOR_QOS)
-        self.intake = ImuBatchSubscription(self, "imu/data_raw", self.on_batch, values["intake_period_s"])
+        self.intake = ImuBatchSubscription(self, "imu/data_raw", self.on_batch, None)
         self.diagnostics = Diagnostics(self, "wmra", hardware_id=values["sensor_model_path"])
-        self.create_timer(values["diagnostics_period_s"], self.publish_diagnostics)
+        self.lock = threading.Lock()
+        self.create_timer(values["diagnostics_period_s"], self._publish_diagnostics_locked)
+        self.intake_period_s = values["intake_period_s"]
+        self.intake_loop = IntakeLoop(self, self.intake_period_s, self.intake.drain, self.lock)
         self.get_logger().info(f"ready: level {self.cfg.level}, window {self.cfg.window_samples}, "
                                f"hop {self.cfg.hop}, delay {self.cfg.delay_samples} samples "
                                f"({self.cfg.delay_s:.3f} s at {self.cfg.sample_rate_hz:g} Hz)")
@@ -164,6 +168,10 @@ class WmraNode(Node):
             self.stats["published"] += publish_imu_batch(self.pub, np.array(sec)[rows], np.array(nanosec)[rows],
                                                          values[rows, :3], values[rows, 3:], str(frame_id))
 
+    def _publish_diagnostics_locked(self) -> None:
+        with self.lock:  # the intake thread changes what the diagnostics read
+            self.publish_diagnostics()
+
     def publish_diagnostics(self) -> None:
         """Delay, window, thresholds in use and processing time per message on /diagnostics."""
         s, cfg = self.stats, self.cfg
@@ -177,7 +185,7 @@ class WmraNode(Node):
                   "filled_samples": s["filled_samples"],
                   "last_restart": s["last_restart"],
                   "processing_mean_us": 1e6 * s["busy_s"] / max(s["received"], 1),
-                  "intake_period_s": self.intake.timer.timer_period_ns * 1e-9,
+                  "intake_period_s": self.intake_period_s,
                   "bad_messages": self.intake.bad_messages,
                   "processing_max_us": 1e6 * s["busy_max_s"]}
         level = "WARN" if s["restarts"] else "OK"
@@ -185,6 +193,7 @@ class WmraNode(Node):
 
     def close(self) -> None:
         """Publish the samples still in the window before shutting down."""
+        self.intake_loop.stop()
         try:
             self.intake.drain()
             self._publish(self.stream.flush())
