@@ -13,7 +13,6 @@ import time
 import rclpy
 from rclpy.node import Node
 from rclpy.qos import QoSProfile
-from rclpy.serialization import deserialize_message
 from rosgraph_msgs.msg import Clock
 
 from nav_core import bagio
@@ -29,7 +28,7 @@ PARAMS = (
     Param("loop", False, "play again from the start when done"),
     Param("topics", [""], "topics to play (empty: all with a known type)"),
     Param("publish_clock", True, "publish /clock with the bag's time"),
-    Param("clock_rate_hz", 100.0, "/clock rate between messages, Hz (of bag time)", 1.0, 10000.0),
+    Param("clock_rate_hz", 100.0, "/clock messages per wall second (as ros2 bag play --clock)", 1.0, 10000.0),
     Param("start_delay_s", 0.5, "wait this long after start so subscribers can connect, s", 0.0, 60.0),
     Param("wait_for_subscribers", 0, "before playing, wait until every topic has this many subscribers", 0, 100),
     Param("wait_timeout_s", 30.0, "give up waiting for subscribers after this long, s", 0.0, 3600.0),
@@ -105,7 +104,9 @@ class BagPlayer(Node):
     def _play_once(self) -> None:
         rate, offset_ns = self.p["rate"], int(self.p["start_offset_s"] * 1e9)
         first_ns, wall0, next_clock_ns = None, None, None
-        clock_step_ns = int(1e9 / self.p["clock_rate_hz"])
+        # /clock at a wall rate, not once per message: every use_sim_time node wakes for each one
+        clock_step_ns = max(1, int(1e9 * rate / self.p["clock_rate_hz"]))
+        last_ns = None
         try:
             for topic, _, log_ns, raw in bagio.iter_raw(self.p["bag"], list(self.publishers_by_topic)):
                 if first_ns is None:
@@ -114,18 +115,18 @@ class BagPlayer(Node):
                     next_clock_ns = first_ns
                 if log_ns < first_ns:
                     continue
-                # Between messages, /clock ticks at clock_rate_hz so sim-time timers keep running.
-                while next_clock_ns < log_ns and not self._stop.is_set():
+                while next_clock_ns <= log_ns and not self._stop.is_set():
                     self._wait_until(wall0 + (next_clock_ns - first_ns) * 1e-9 / rate)
                     self._publish_clock(next_clock_ns)
                     next_clock_ns += clock_step_ns
                 if self._stop.is_set():
                     return
                 self._wait_until(wall0 + (log_ns - first_ns) * 1e-9 / rate)
-                self._publish_clock(log_ns)
-                cls, pub = self.publishers_by_topic[topic]
-                pub.publish(deserialize_message(raw, cls))
+                self.publishers_by_topic[topic][1].publish(raw)  # the recorded CDR as it is
                 self.played += 1
+                last_ns = log_ns
+            if last_ns is not None:
+                self._publish_clock(last_ns)
         except bagio.BagDamage as err:
             self.error = str(err)
             self.get_logger().error(f"stopped at damage after {self.played} messages: {err}")
