@@ -211,22 +211,16 @@ def read_canada_gps(path) -> GnssRecording:
 
 def read_canada_truth_utm(path):
     """UTIAS reference ``frame;child;seq;sec;nanosec;E;N;U;qx;qy;qz;qw`` (UTM 18T, m): (t unix s, (n, 3) ENU m)."""
-    path = Path(path)
-    rows = []
-    for line_no, line in enumerate(path.read_text().splitlines(), start=1):
-        parts = line.strip().split(";")
-        if len(parts) < 12:
-            continue
-        try:
-            rows.append([int(parts[3]) + 1e-9 * int(parts[4]), *map(float, parts[5:8])])
-        except ValueError as err:
-            raise RecordingError(f"{path}: line {line_no}: {err}") from err
-    a = np.asarray(rows)
-    return a[:, 0], a[:, 1:4]
+    return _read_canada_truth(path, slice(5, 8))
 
 
 def read_canada_truth_attitude(path):
     """UTIAS reference attitude: (t unix s, (n, 4) quaternion x y z w of base_link in the UTM 'world' frame)."""
+    return _read_canada_truth(path, slice(8, 12))
+
+
+def _read_canada_truth(path, columns: slice):
+    """(t unix s, the float ``columns`` of each row) of the UTIAS reference file."""
     path = Path(path)
     rows = []
     for line_no, line in enumerate(path.read_text().splitlines(), start=1):
@@ -234,11 +228,11 @@ def read_canada_truth_attitude(path):
         if len(parts) < 12:
             continue
         try:
-            rows.append([int(parts[3]) + 1e-9 * int(parts[4]), *map(float, parts[8:12])])
+            rows.append([int(parts[3]) + 1e-9 * int(parts[4]), *map(float, parts[columns])])
         except ValueError as err:
             raise RecordingError(f"{path}: line {line_no}: {err}") from err
     a = np.asarray(rows)
-    return a[:, 0], a[:, 1:5]
+    return a[:, 0], a[:, 1:]
 
 
 def _fit_plane_transform(src_xy, dst_xy):
