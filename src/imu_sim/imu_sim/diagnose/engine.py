@@ -5,8 +5,9 @@ the null); its threshold is the chi-square quantile at a family-wise level ALPHA
 (Bonferroni) across the effects tested and the grid points profiled, times a factor
 calibrated by Monte Carlo on null simulations (``calibration.yaml``, written by
 ``benchmarks/bench_diagnosis.py --calibrate``, see :mod:`calibrate`). Among significant effects the one with the largest
-excess (statistic - threshold, an information-criterion-like penalty per parameter)
-is fitted, added to the model, and the model re-simulated; a finding is kept only if
+excess (statistic - threshold, an information-criterion-like penalty per parameter;
+for the slow-wander effects, their statistic given the strongest rival, see
+:func:`_rank_low_frequency`) is fitted, added to the model, and the model re-simulated; a finding is kept only if
 the held-out statistic improves.
 """
 from __future__ import annotations
