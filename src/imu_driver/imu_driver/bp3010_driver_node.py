@@ -29,6 +29,8 @@ PARAMS = (
     Param("linear_acceleration_stddev", 0.0096, "1-sigma specific force noise per sample, m/s^2", 0.0, 100.0),
     Param("reconnect_period_s", 1.0, "time between attempts to reopen a lost port, s", 0.01, 600.0),
     Param("diagnostics_period_s", 1.0, "period of /diagnostics, s", 0.05, 60.0),
+    Param("min_read_interval_s", 0.002, "the reader waits at least this long between reads, s: at 1 kHz a read "
+          "per frame costs more than the frame (adds at most this much latency; 0 = read every frame)", 0.0, 0.1),
     Param("max_stamp_offset_s", 0.1, "re-anchor the frame clock when it drifts this far from host time, s",
           0.001, 10.0),
     Param("frame.sync", 0xA5, "sync byte value", 0, 255),
@@ -111,14 +113,19 @@ class Bp3010Driver(Node):
             self._stop.wait(self.p["reconnect_period_s"])
             return
         try:
-            data = self._serial.read(max(1, self._serial.in_waiting))
+            # a whole frame per blocking read (or what is waiting): a read per byte costs more than the frame
+            data = self._serial.read(max(self.core.decoder.fmt.length, self._serial.in_waiting))
         except (serial.SerialException, OSError, TypeError) as err:
             self._close_port()
             self._set_state("disconnected", str(err))
             self._stop.wait(self.p["reconnect_period_s"])
             return
+        read_at = time.monotonic()
         if data:
             self._publish(data)
+        wait = read_at + self.p["min_read_interval_s"] - time.monotonic()
+        if wait > 0 and data:
+            self._stop.wait(wait)
 
     def _publish(self, data: bytes) -> None:
         now_ns = self.get_clock().now().nanoseconds

@@ -98,6 +98,8 @@ def encode_imu(sec, nanosec, gyro, accel, frame_id: str = "imu_link", gyro_var=0
 
 
 def _diag(var) -> tuple:
+    if isinstance(var, (int, float)):  # the common case, per published batch: no numpy
+        return (float(var),) * 3
     return tuple(float(v) for v in np.broadcast_to(np.asarray(var, float), (3,)))
 
 
