@@ -49,8 +49,9 @@ def _drive():
     return imu, type(gnss)(gnss.t[late], gnss.lat[late], gnss.lon[late], gnss.h[late], gnss.std_enu[late])
 
 
-def _events(imu, gnss):
-    events = [(t, 0, i) for i, t in enumerate(gnss.t)] + [(t, 1, i) for i, t in enumerate(imu.t)]
+def _events(imu, gnss, imu_delay_s=0.0):
+    """Publication order: by stamp, the IMU ``imu_delay_s`` behind (a denoiser's window delays it)."""
+    events = [(t, 0, i) for i, t in enumerate(gnss.t)] + [(t + imu_delay_s, 1, i) for i, t in enumerate(imu.t)]
     return sorted(events)
 
 
@@ -70,10 +71,10 @@ class Feeder:
                                      and p.count_publishers("odometry/filtered") > 0
                                      and self.odom.count_publishers("odometry/filtered") > 0, timeout_s)
 
-    def play(self, imu, gnss, msgs_per_s=150.0):
+    def play(self, imu, gnss, msgs_per_s=150.0, imu_delay_s=0.0):
         period = 1.0 / msgs_per_s
         next_t = time.monotonic()
-        for _, kind, i in _events(imu, gnss):
+        for _, kind, i in _events(imu, gnss, imu_delay_s):
             if kind == 0:
                 self.gps_pub.publish(_fix_msg(gnss.t[i], gnss.lat[i], gnss.lon[i], gnss.h[i], gnss.std_enu[i],
                                               gnss.status[i]))
@@ -96,7 +97,8 @@ def feeder(ros_env):
 
 
 @pytest.mark.slow
-def test_node_output_equals_offline_replay_of_the_same_messages(ros_env, feeder, tmp_path):
+@pytest.mark.parametrize("imu_delay_s", [0.0, 1.5], ids=["in_stamp_order", "imu_arriving_behind_the_fixes"])
+def test_node_output_equals_offline_replay_of_the_same_messages(ros_env, feeder, tmp_path, imu_delay_s):
     imu, gnss = _drive()
     bag = recording.write_bag(tmp_path / "bag", imu, gnss, imu_topic="imu/data_corrected")
     traj, _ = replay_files(bag, None, "default", tmp_path / "replay.csv", PARAMS, plot=False, progress=False)
@@ -105,7 +107,7 @@ def test_node_output_equals_offline_replay_of_the_same_messages(ros_env, feeder,
         assert node.wait_for_line("ready", 30.0), node.output
         assert feeder.wait_connected(), node.output
         feeder.probe.spin_until(lambda p: False, 1.0)  # let both ends of every match settle
-        feeder.play(imu, gnss)
+        feeder.play(imu, gnss, imu_delay_s=imu_delay_s)
         last = traj.t[traj.t < imu.t[-1] - 0.2][-1]
         assert feeder.odom.spin_until(lambda p: any(
             abs(m.header.stamp.sec + 1e-9 * m.header.stamp.nanosec - last) < 1e-6
@@ -132,6 +134,7 @@ def test_node_output_equals_offline_replay_of_the_same_messages(ros_env, feeder,
     for key in ("state", "last_nis", "rejected_fixes", "gps_age_s", "alignment"):
         assert key in values
     assert values["alignment"] == "aligned"
+    assert values["late_dropped"] == "0"  # a fix waits for the IMU to pass it, however far behind the IMU is
 
 
 def test_node_reports_a_time_jump_and_realigns(ros_env, feeder):

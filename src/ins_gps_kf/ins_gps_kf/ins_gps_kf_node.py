@@ -138,7 +138,8 @@ class InsGpsKfNode(Node):
             self._drain(self.newest_t - self.window)  # what the stamps before the jump released
             self._reset(f"stamp jumped back {self.last_t - t:.3f} s (bag restart?)")
         heapq.heappush(self.heap, (t, kind, next(self.seq), payload))
-        self.newest_t = max(self.newest_t, t)
+        if kind == IMU:  # a fix waits for the IMU to pass it: the denoised IMU arrives later than the fixes
+            self.newest_t = max(self.newest_t, t)
         if drain:
             self._drain(self.newest_t - self.window)
 
