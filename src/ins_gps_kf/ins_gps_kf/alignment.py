@@ -43,7 +43,32 @@ def gyro_bias_at_rest(mean_gyro, roll, pitch, lat_rad, yaw=None):
     return np.asarray(mean_gyro, dtype=float) - mat_nb.T @ w_ie_n
 
 
-class StationaryAligner:
+class _ImuSums:
+    """Sums of IMU samples over a span: count ``n``, first and last stamp (s), rate and specific-force sums."""
+
+    def _reset_sums(self):
+        self.t0 = None
+        self.t_last = None
+        self.n = 0
+        self.sum_gyro = np.zeros(3)
+        self.sum_accel = np.zeros(3)
+
+    def _add_sums(self, t0, t, n, gyro_sum, accel_sum):
+        """Add ``n`` samples from ``t0`` to ``t`` s with the given sums (rad/s, m/s^2)."""
+        if self.t0 is None:
+            self.t0 = t0
+        self.t_last = t
+        self.n += n
+        self.sum_gyro += gyro_sum
+        self.sum_accel += accel_sum
+
+    @property
+    def elapsed_s(self) -> float:
+        """Span accumulated so far, s."""
+        return 0.0 if self.t0 is None else self.t_last - self.t0
+
+
+class StationaryAligner(_ImuSums):
     """Accumulates IMU samples while they stay stationary; finishes after ``duration_s`` or when motion starts.
 
     Samples are judged in blocks of ``block_s`` s so that sensor noise and engine vibration
@@ -65,11 +90,7 @@ class StationaryAligner:
 
     def restart(self):
         """Forget the samples seen so far."""
-        self.t0 = None
-        self.t_last = None
-        self.n = 0
-        self.sum_gyro = np.zeros(3)
-        self.sum_accel = np.zeros(3)
+        self._reset_sums()
         self._new_block(None)
         self.moving = False
         self.restarts += 1
@@ -79,11 +100,6 @@ class StationaryAligner:
         self.block_n = 0
         self.block_gyro = np.zeros(3)
         self.block_accel = np.zeros(3)
-
-    @property
-    def elapsed_s(self) -> float:
-        """Stationary time accumulated so far (whole blocks), s."""
-        return 0.0 if self.t0 is None else self.t_last - self.t0
 
     def add(self, t, gyro, accel) -> bool:
         """Add one sample (s, rad/s, m/s^2); True when the alignment is ready to be finished."""
@@ -113,12 +129,7 @@ class StationaryAligner:
                     return True
                 self.restart()
                 return False
-        if self.t0 is None:
-            self.t0 = self.block_t0
-        self.t_last = t
-        self.n += self.block_n
-        self.sum_gyro += self.block_gyro
-        self.sum_accel += self.block_accel
+        self._add_sums(self.block_t0, t, self.block_n, self.block_gyro, self.block_accel)
         self._new_block(None)
         return self.elapsed_s >= self.duration_s
 
@@ -172,7 +183,7 @@ def fit_track(t, enu, t_end):
     return coef[0], coef[1], coef[2], np.sqrt(np.sum(resid**2, axis=0) / dof)
 
 
-class InMotionAligner:
+class InMotionAligner(_ImuSums):
     """Alignment while driving at nearly constant velocity: roll/pitch from the mean specific force over a
     ``window_s`` window, yaw and velocity from a quadratic fit of the GPS fixes in it.
 
@@ -196,18 +207,9 @@ class InMotionAligner:
 
     def restart(self):
         """Start a new window (fixes older than it are dropped when the next one closes)."""
-        self.t0 = None
-        self.t_last = None
-        self.n = 0
-        self.sum_gyro = np.zeros(3)
-        self.sum_accel = np.zeros(3)
+        self._reset_sums()
         self.restarts += 1
         self.result = None
-
-    @property
-    def elapsed_s(self) -> float:
-        """Span of the current window so far, s."""
-        return 0.0 if self.t0 is None else self.t_last - self.t0
 
     def add_fix(self, t, enu):
         """Remember one GPS fix (s, ENU m)."""
@@ -215,12 +217,7 @@ class InMotionAligner:
 
     def add(self, t, gyro, accel) -> bool:
         """Add one IMU sample (s, rad/s, m/s^2); True when a window passed the tests (see :meth:`finish`)."""
-        if self.t0 is None:
-            self.t0 = t
-        self.t_last = t
-        self.n += 1
-        self.sum_gyro += gyro
-        self.sum_accel += accel
+        self._add_sums(t, t, 1, gyro, accel)
         if t - self.t0 < self.window_s:
             return False
         return self._close_window(t)
