@@ -58,6 +58,7 @@ def test_slow_wander_effect_is_told_from_its_rivals_on_the_long_run(effect):
     row = run_case(effect, seed=11)
     assert row["first"] == effect
     assert row["fit_after"] < row["fit_before"]
+    assert row["covered"] >= row["n_params"] - 1
 
 
 @pytest.mark.slow

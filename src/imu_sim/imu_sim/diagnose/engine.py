@@ -22,7 +22,7 @@ from scipy import stats
 
 from nav_core.sensor_model import EFFECTS, SensorModel
 
-from imu_sim.diagnose import metrics, noise_tests, regressors
+from imu_sim.diagnose import local_level, metrics, noise_tests, regressors
 from imu_sim.diagnose.case import CHANNELS, Case, deterministic, effective_model, residual
 from imu_sim.diagnose.spectral import Whitener, gls
 
@@ -96,6 +96,8 @@ class Candidate:
     band: dict | None = None
     rank: float | None = None
     """Ranking key when it is not statistic - threshold (e.g. a conditional LR of correlated effects)."""
+    caveat: str = ""
+    """Added to the finding's explanation (e.g. a rival this record cannot tell it from)."""
 
     @property
     def significant(self) -> bool:
@@ -249,20 +251,61 @@ def _quantization(case, model, m_tests, factors) -> Candidate:
     return cand
 
 
-def _noise(case, model, resid, effect, m_tests, factors) -> Candidate:
-    m = max(1, int(np.ceil(case.n / noise_tests.MAX_BLOCKS)))
+def _random_walk(case, model, resid, m_tests, factors):
+    """Bias random walk by the exact block-mean likelihood (None when the model's noise has flicker)."""
+    m = noise_tests.block_interval(case.n)
     tb = m * case.dt
-    # both tests on the detrended series, so a random walk's end-to-end drift is not evidence for either
+    yb = noise_tests.block_means(resid, m)
+    bgs = noise_tests.walk_backgrounds(model, tb, yb)
+    if bgs is None:
+        return None
+    fits = [local_level.fit(yb[:, c], tb, bgs[c]) for c in range(6)]
+    lr_ch = np.array([f.lr for f in fits])
+    cand = Candidate("bias_random_walk", float(lr_ch.sum()), _thr(6, m_tests, 1, factors.get("bias_random_walk", 1.0)),
+                     f"likelihood ratio of the {tb:.3g}-s block means (Kalman filter: model noise + a walk, "
+                     "its level free)", kind="noise")
+    cand.channels = [CHANNELS[c] for c in range(6) if lr_ch[c] > stats.chi2.isf(0.01, 2)]
+    mdl = effective_model(model)
+    phys = {}
+    for c, f in enumerate(fits):
+        tri, i, ax = ("gyro", "accel")[c // 3], c % 3, "xyz"[c % 3]
+        unit = "rad_per_s_per_sqrt_s" if tri == "gyro" else "mps2_per_sqrt_s"
+        cand.params[f"{tri}_{unit}[{ax}]"] = f.k
+        cand.intervals[f"{tri}_{unit}[{ax}]"] = list(f.k_interval)
+        kept = f.k if CHANNELS[c] in cand.channels else float(mdl.triad(tri).rate_random_walk[i])
+        phys.setdefault(f"{tri}_{unit}", [0.0] * 3)[i] = kept
+    cand.physics = phys
+    return cand
+
+
+def _gauss_markov_kf(case, model, resid, m, taus):
+    """Per channel (lr, sigma^2, its interval, tau, tau interval) from the exact block-mean likelihood, or None.
+
+    None when the model's own noise has flicker or a Gauss-Markov bias (the filter holds one such state).
+    """
+    tb = m * case.dt
+    yb = noise_tests.block_means(resid, m)
+    bgs = noise_tests.walk_backgrounds(model, tb, yb)
+    if bgs is None or any(bg.gm_var > 0 for bg in bgs):
+        return None
+    out = []
+    for c in range(6):
+        f = local_level.fit_gauss_markov(yb[:, c], tb, taus, bgs[c])
+        out.append((f.lr, f.sigma**2, (f.sigma_interval[0] ** 2, f.sigma_interval[1] ** 2), f.tau, f.tau_interval))
+    return out
+
+
+def _whittle_fits(model, resid, m, tb, effect, taus):
+    """Per channel (lr, level, its interval, tau or None, tau interval) from the Whittle test on detrended block means."""
+    # detrended, so a random walk's end-to-end drift is not evidence for a Gauss-Markov bias
     xb = noise_tests.detrended(noise_tests.block_means(resid, m))
     freqs, pgram = noise_tests.periodogram(xb, tb)
     s0 = noise_tests.noise_model_psd(model, freqs, tb)
     if effect == "bias_random_walk":
         grids = [(None, noise_tests.rw_extra(freqs))]
     else:
-        span = len(xb) * tb
-        # the correlation time must lie well inside the record, else the wander is a random walk here
-        grids = [(tc, noise_tests.gm_extra(freqs, tc)) for tc in np.logspace(np.log10(5 * tb), np.log10(span / 20), 8)]
-    lr_ch, best = np.zeros(6), [None] * 6
+        grids = [(tc, noise_tests.gm_extra(freqs, tc)) for tc in taus]
+    best = []
     for c in range(6):
         fits = [(*noise_tests.whittle_extra(pgram[:, c], s0[c], extra)[:3], tc) for tc, extra in grids]
         top = max(fits, key=lambda f: f[0])
@@ -270,12 +313,32 @@ def _noise(case, model, resid, effect, m_tests, factors) -> Candidate:
         inside = [f for f in fits if f[0] >= top[0] - 3.84]
         ci = (min(f[2][0] for f in inside), max(f[2][1] for f in inside))
         tcs = [f[3] for f in inside if f[3] is not None]
-        best[c] = (top[0], top[1], ci, top[3], (min(tcs), max(tcs)) if tcs else None)
-        lr_ch[c] = top[0]
+        best.append((top[0], top[1], ci, top[3], (min(tcs), max(tcs)) if tcs else None))
+    return best
+
+
+def _noise(case, model, resid, effect, m_tests, factors) -> Candidate:
+    if effect == "bias_random_walk":
+        cand = _random_walk(case, model, resid, m_tests, factors)
+        if cand is not None:
+            return cand
+    m = noise_tests.block_interval(case.n)
+    tb = m * case.dt
+    # the correlation time must lie well inside the record, else the wander is a random walk here
+    taus = np.logspace(np.log10(5 * tb), np.log10((case.n // m) * tb / 20), 8)
+    best = _gauss_markov_kf(case, model, resid, m, taus) if effect == "gauss_markov_bias" else None
+    n_grid = 1 if effect == "bias_random_walk" else len(taus)
+    if best is not None:
+        statistic = (f"likelihood ratio of the {tb:.3g}-s block means (Kalman filter: model noise + a Gauss-Markov "
+                     "bias, its level free), correlation time profiled")
+    else:
+        best = _whittle_fits(model, resid, m, tb, effect, taus)
+        statistic = "Whittle likelihood ratio of the block-averaged residual" + (
+            ", correlation time profiled" if n_grid > 1 else "")
+    lr_ch = np.array([b[0] for b in best])
     dof = 6 if effect == "bias_random_walk" else 12
-    thr = _thr(dof, m_tests, len(grids), factors.get(effect, 1.0))
-    cand = Candidate(effect, float(lr_ch.sum()), thr, "Whittle likelihood ratio of the block-averaged residual"
-                     + (", correlation time profiled" if len(grids) > 1 else ""), kind="noise")
+    thr = _thr(dof, m_tests, n_grid, factors.get(effect, 1.0))
+    cand = Candidate(effect, float(lr_ch.sum()), thr, statistic, kind="noise")
     cand.channels = [CHANNELS[c] for c in range(6) if lr_ch[c] > stats.chi2.isf(0.01, dof // 6 + 1)]
     mdl = effective_model(model)
     phys = {}
@@ -404,16 +467,26 @@ def _rank_low_frequency(case, model, resid, wh, resid_f, cands, m_tests, factors
     the one that still stands once each rival is in the model is the one the data single out.
     """
     sig = [c for c in cands if c.effect in LOW_FREQUENCY and c.significant]
+    given = {}
     for cand in sig:
-        given = {}
         for rival in sig:
             if rival is not cand:
-                given[rival.effect] = _conditional_lr(case, model, resid, wh, resid_f, cand, rival, m_tests, factors)
-        if given:
-            worst = min(given, key=given.get)
-            cand.rank = given[worst] - cand.threshold
-            cand.reason = (cand.reason + "; " if cand.reason else "") + (
-                f"given {worst}: statistic {given[worst]:.4g} (ranked by it)")
+                given[cand.effect, rival.effect] = _conditional_lr(case, model, resid, wh, resid_f, cand, rival,
+                                                                   m_tests, factors)
+    for cand in sig:
+        mine = {r: v for (c, r), v in given.items() if c == cand.effect}
+        if not mine:
+            continue
+        worst = min(mine, key=mine.get)
+        cand.rank = mine[worst] - cand.threshold
+        cand.reason = (cand.reason + "; " if cand.reason else "") + (
+            f"given {worst}: statistic {mine[worst]:.4g} (ranked by it)")
+        thr = {c.effect: c.threshold for c in sig}
+        twins = [r for r, v in mine.items() if v <= cand.threshold and given[r, cand.effect] <= thr[r]]
+        if twins:
+            cand.caveat = (f"This record cannot tell it from {' or '.join(twins)}: each is below its threshold once "
+                           "the other is in the model; it is named because it ranks higher, not because the data "
+                           "exclude the other.")
 
 
 def add_effect(model: SensorModel, cand: Candidate) -> SensorModel:
@@ -447,7 +520,42 @@ def fit_metric(case: Case, cand: Candidate, model_before: SensorModel, model_aft
                      for c in range(6) if CHANNELS[c] in cand.channels]
             vals.append(float(np.sqrt(np.mean(np.square(ratio)))))
         return "RMS log10 ratio of distinct-value counts, real vs simulated (second half held out)", vals[0], vals[1]
+    held = _filter_metric(case, cand, model_before, resid)
+    if held is not None:
+        return held
     return _whittle_metric(case, cand, model_before, resid)
+
+
+def _filter_metric(case, cand, model_before, resid):
+    """One-step prediction deviance of the second half's block means, the noise term and level fitted on the first half.
+
+    None when the model's noise is one the filter cannot hold (then the Whittle deviance is used).
+    """
+    m = noise_tests.block_interval(case.n)
+    tb = m * case.dt
+    yb = noise_tests.block_means(resid, m)
+    half = len(yb) // 2
+    bgs = noise_tests.walk_backgrounds(model_before, tb, yb[:half])
+    if bgs is None or any(bg.gm_var > 0 for bg in bgs):
+        return None
+    taus = np.logspace(np.log10(5 * tb), np.log10(half * tb / 20), 8)
+    out = np.zeros(2)
+    chans = [CHANNELS.index(c) for c in cand.channels] or list(range(6))
+    for c in chans:
+        bg = bgs[c]
+        _, h0 = local_level.loglik(yb[:half, c], [bg.rw_ratio])
+        before = local_level.predictive_deviance(yb[:, c], bg.rw_ratio, h0[0], half, bg)
+        if cand.effect == "bias_random_walk":
+            fit = local_level.fit(yb[:half, c], tb, bg)
+            after = local_level.predictive_deviance(yb[:, c], fit.ratio, fit.h, half, bg)
+        else:
+            fit = local_level.fit_gauss_markov(yb[:half, c], tb, taus, bg)
+            after = local_level.predictive_deviance(yb[:, c], bg.rw_ratio, fit.h, half,
+                                                    local_level.Background(fit.gm_var, fit.phi, bg.rw_ratio))
+        out += [before, after]
+    out /= len(chans)
+    return ("one-step prediction deviance per block mean of the held-out second half (v^2/F + log 2 pi F over "
+            "the noise level), noise term and level fitted on the first half"), float(out[0]), float(out[1])
 
 
 def _whittle_metric(case, cand, model_before, resid):
@@ -527,7 +635,7 @@ def diagnose(case: Case, max_effects: int = 4, seed: int = 0, progress=None, fac
             "band": band, "parameters": best.params, "intervals": best.intervals,
             "metric": name, "fit_before": before, "fit_after": after,
             "statistic": {"name": best.statistic, "value": _r(best.stat), "threshold": _r(best.threshold)},
-            "explanation": EXPLAIN.get(best.effect, best.effect)})
+            "explanation": " ".join(filter(None, [EXPLAIN.get(best.effect, best.effect), best.caveat]))})
         details.append((best, resid, new_resid))
         model, resid = new_model, new_resid
     tested_out = [c.tested_entry() for c in tested]

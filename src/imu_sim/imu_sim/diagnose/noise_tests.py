@@ -5,9 +5,13 @@
 * quantization: raw recorded values lie on a lattice: Rayleigh statistic
   z = n |mean exp(2 pi i x / q)|^2 at the lattice step q found from the gaps between
   distinct values (z ~ Exp(1) for continuous values).
-* gauss_markov_bias / bias_random_walk: Whittle likelihood of the block-averaged
-  residual under the model PSD (level free) against the PSD plus the extra term,
-  its level and (GM) correlation time profiled.
+* bias_random_walk / gauss_markov_bias: exact likelihood of the block means under the model's
+  noise plus the term (:mod:`local_level`, a Kalman filter; the model's noise level free), the
+  term's level and (GM) correlation time profiled; :func:`walk_backgrounds` gives the filter the
+  model's own noise.
+* the same two when the model's noise has flicker (which no finite filter holds) or a
+  Gauss-Markov bias of its own: Whittle likelihood of the detrended block means under the model
+  PSD (level free) against the PSD plus the extra term.
 """
 from __future__ import annotations
 
@@ -18,6 +22,8 @@ from scipy import optimize
 
 from nav_core.sensor_model import SensorModel
 
+from imu_sim.diagnose import local_level
+from imu_sim.diagnose.case import effective_model
 from imu_sim.diagnose.spectral import noise_psd
 
 MAX_BLOCKS = 4096
@@ -138,6 +144,35 @@ def detrended(xb: np.ndarray) -> np.ndarray:
     centred = xb - xb.mean(axis=0)
     slope = (t @ centred) / (t @ t)
     return centred - np.multiply.outer(t, slope)
+
+
+def block_interval(n: int) -> int:
+    """Samples per block so that a run of n samples gives at most MAX_BLOCKS block means."""
+    return max(1, int(np.ceil(n / MAX_BLOCKS)))
+
+
+def walk_backgrounds(model: SensorModel, tb: float, yb: np.ndarray):
+    """Per channel the model's noise for :func:`local_level.fit` at block interval tb s; None if it has flicker.
+
+    yb (nb, 6) block means supply the white level where the model has none.
+    """
+    mdl = effective_model(model)
+    out = []
+    for c in range(6):
+        tri, i = mdl.triad(("gyro", "accel")[c // 3]), c % 3
+        b, tc = tri.bias_instability[i], tri.bias_correlation_time[i]
+        if b > 0 and tc <= 0:
+            return None
+        white = tri.white_noise[i] ** 2 / tb if tri.white_noise[i] > 0 else np.var(np.diff(yb[:, c])) / 2
+        white = max(white, 1e-300)
+        bg = local_level.Background(rw_ratio=tri.rate_random_walk[i] ** 2 * tb / white)
+        if b > 0:
+            x = tc / tb
+            phi = np.exp(-1.0 / x)
+            # exact variance of a block mean of a Gauss-Markov process of variance b^2
+            bg.gm_var, bg.phi = b**2 * 2 * x * (1 - x * (1 - phi)) / white, float(phi)
+        out.append(bg)
+    return out
 
 
 def periodogram(xb: np.ndarray, tb: float):
