@@ -78,7 +78,9 @@ def test_time_span_brackets_an_effect_in_the_middle():
 def test_calibration_factor_is_near_one_when_the_null_is_chi_square(dof, seed):
     level = 0.05 / 16
     u = np.random.default_rng(seed).chisquare(dof, 400) / stats.chi2.isf(level, dof)
-    assert 0.8 < calibrate.tail_quantile(u, "scale_factor", level) < 1.25
+    # 400 draws fix a 0.3 % tail only roughly: over seeds 0..10000 the fitted factor spans 0.64-1.54 at dof 1
+    # (0.88-1.14 at dof 12); a twofold inflation is told apart below
+    assert 0.6 < calibrate.tail_quantile(u, "scale_factor", level) < 1.6
 
 
 def test_calibration_factor_doubles_when_the_statistic_is_inflated_twofold():
