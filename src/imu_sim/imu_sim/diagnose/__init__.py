@@ -3,7 +3,8 @@
 Modules: :mod:`case` (inputs, deterministic simulation, residual), :mod:`spectral`
 (GLS by frequency-domain whitening with the model's noise PSD), :mod:`regressors`
 (one regressor set per deterministic effect), :mod:`noise_tests` (vibration line,
-quantization lattice, Gauss-Markov and random-walk bias by Whittle likelihood),
+quantization lattice, Gauss-Markov and random-walk bias), :mod:`local_level` (exact
+likelihood of block means under white noise, a walk and a Gauss-Markov bias, by Kalman filter),
 :mod:`metrics` (held-out fit, change points, Allan band), :mod:`engine` (the iterate-until-nothing-
 significant loop), :mod:`report` (JSON, HTML, PNG), :mod:`suite` (concealed-effect
 Monte Carlo), :mod:`calibrate` (threshold factors from the null cases, ``calibration.yaml``),

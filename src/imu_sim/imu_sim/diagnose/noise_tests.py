@@ -154,7 +154,9 @@ def block_interval(n: int) -> int:
 def walk_backgrounds(model: SensorModel, tb: float, yb: np.ndarray):
     """Per channel the model's noise for :func:`local_level.fit` at block interval tb s; None if it has flicker.
 
-    yb (nb, 6) block means supply the white level where the model has none.
+    The filter's unit is the white level of the block means yb (nb, 6), estimated from them (median absolute
+    difference): the model's walk and Gauss-Markov terms keep their physical size whatever its white level says
+    (a fitted term's size is physical too, so a term found and added comes back as the same ratio).
     """
     mdl = effective_model(model)
     out = []
@@ -163,8 +165,7 @@ def walk_backgrounds(model: SensorModel, tb: float, yb: np.ndarray):
         b, tc = tri.bias_instability[i], tri.bias_correlation_time[i]
         if b > 0 and tc <= 0:
             return None
-        white = tri.white_noise[i] ** 2 / tb if tri.white_noise[i] > 0 else np.var(np.diff(yb[:, c])) / 2
-        white = max(white, 1e-300)
+        white = max((np.median(np.abs(np.diff(yb[:, c]))) / 0.6745) ** 2 / 2, 1e-300)
         bg = local_level.Background(rw_ratio=tri.rate_random_walk[i] ** 2 * tb / white)
         if b > 0:
             x = tc / tb
