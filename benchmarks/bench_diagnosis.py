@@ -117,8 +117,8 @@ def main(argv=None) -> int:
         path = calibrate.write(result, Path(args.calibration_out))
         print(yaml.safe_dump(result["factors"]).strip())
         print(f"calibration written to {path}")
-    print(f"{len(rows)} cases in {time.perf_counter() - start:.0f} s ({(time.perf_counter() - start) / len(rows):.1f} "
-          f"s per case); outputs in {out}")
+    elapsed = time.perf_counter() - start
+    print(f"{len(rows)} cases in {elapsed:.0f} s ({elapsed / max(len(rows), 1):.1f} s per case); outputs in {out}")
     return 0
 
 
