@@ -63,9 +63,7 @@ def test_a_gauss_markov_bias_in_the_model_is_not_taken_for_a_walk():
     gm = lfilter([1.0], [1.0, -phi], rng.standard_normal(n) * sigma * np.sqrt(1 - phi**2))
     x = rng.standard_normal(n) * N_WHITE / np.sqrt(dt) + gm
     y = noise_tests.block_means(x[:, None], m)[:, 0]
-    white = N_WHITE**2 / TB
-    xr = tc / TB
-    bg = ll.Background(gm_var=sigma**2 * 2 * xr * (1 - xr * (1 - np.exp(-1 / xr))) / white, phi=float(np.exp(-1 / xr)))
+    bg = ll.Background(gm_var=sigma**2 * ll.block_gm_variance(tc, TB) / (N_WHITE**2 / TB), phi=float(np.exp(-TB / tc)))
     assert ll.fit(y, TB).lr > 30
     assert ll.fit(y, TB, bg).lr < 6
 

@@ -168,10 +168,7 @@ def walk_backgrounds(model: SensorModel, tb: float, yb: np.ndarray):
         white = max((np.median(np.abs(np.diff(yb[:, c]))) / 0.6745) ** 2 / 2, 1e-300)
         bg = local_level.Background(rw_ratio=tri.rate_random_walk[i] ** 2 * tb / white)
         if b > 0:
-            x = tc / tb
-            phi = np.exp(-1.0 / x)
-            # exact variance of a block mean of a Gauss-Markov process of variance b^2
-            bg.gm_var, bg.phi = b**2 * 2 * x * (1 - x * (1 - phi)) / white, float(phi)
+            bg.gm_var, bg.phi = b**2 * local_level.block_gm_variance(tc, tb) / white, float(np.exp(-tb / tc))
         out.append(bg)
     return out
 
