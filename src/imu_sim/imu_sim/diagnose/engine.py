@@ -564,7 +564,7 @@ def _whittle_metric(case, cand, model_before, resid):
     # _noise needs only the length and the sample interval of what it tests
     refit = _noise(SimpleNamespace(n=half, dt=case.dt), model_before, resid[:half], cand.effect, 1, {})
     chans = [CHANNELS.index(c) for c in cand.channels] or list(range(6))
-    m = max(1, int(np.ceil(half / noise_tests.MAX_BLOCKS)))
+    m = noise_tests.block_interval(half)
     tb = m * case.dt
     out = []
     for mdl in (model_before, add_effect(model_before, refit)):
