@@ -7,7 +7,9 @@ import pytest
 
 REPO = Path(__file__).resolve().parents[1]
 SHARED_DATA = (REPO / ".." / "shared" / "data").resolve()
-_DOMAIN_IDS = itertools.count(start=(os.getpid() % 40) + 10)
+# A random start per pytest process (and per xdist worker) so that concurrent runs on one machine do not
+# share a DDS domain; ids 100..199 are the tests', 0..99 are left for people running nodes by hand.
+_DOMAIN_IDS = itertools.count(start=int.from_bytes(os.urandom(2), "little"))
 
 
 def shared_data(*parts) -> Path:
