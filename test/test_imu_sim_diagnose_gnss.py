@@ -1,6 +1,6 @@
 """GNSS-side diagnosis on synthetic fix residuals: latency recovered, coloured noise not taken for latency."""
 import numpy as np
-from hypothesis import given, settings, strategies as st
+from scipy import stats
 from scipy.spatial.transform import Rotation
 
 from imu_sim.diagnose import gnss_tests as gt
@@ -23,13 +23,25 @@ def _residual(seed, latency_s=0.0, colored_sigma=0.0, arm=(0.0, 0.0, 0.0)):
     return gt.GnssResidual(t, r, DT, vel, rot, np.array([0.5, 0.5, 1.0]), np.zeros(3), 60.0, t)
 
 
-@settings(max_examples=8, deadline=None)
-@given(st.integers(0, 10_000))
-def test_latency_interval_covers_the_truth(seed):
-    gr = _residual(seed, latency_s=0.04)
-    fit, _, _, _ = gt.gls_whiteness_first(gr, gt.design_latency(gr))
-    sd = np.sqrt(fit.cov[0, 0])
-    assert abs(fit.theta[0] - 0.04) < 3.5 * sd and fit.lr > 10
+LATENCY_SEEDS = range(80)
+
+
+def test_latency_interval_covers_the_truth():
+    # A 95 % interval misses on 5 % of seeds by construction, so coverage is asserted over fixed seeds against the
+    # binomial distribution (a count this low has probability 0.001 when the interval is exact), and the spread of
+    # the standardised errors against chi-square (an interval too wide or too narrow by ~25 % fails). Over seeds
+    # 0..399 the measured coverage is 95.25 % and the standardised error's sd 0.996.
+    z = []
+    for seed in LATENCY_SEEDS:
+        gr = _residual(seed, latency_s=0.04)
+        fit, _, _, _ = gt.gls_whiteness_first(gr, gt.design_latency(gr))
+        z.append((fit.theta[0] - 0.04) / np.sqrt(fit.cov[0, 0]))
+        assert fit.lr > 10, f"seed {seed}: latency of 40 ms not detected (LR {fit.lr:.1f})"
+    z, n = np.array(z), len(LATENCY_SEEDS)
+    inside = int(np.sum(np.abs(z) < stats.norm.isf(0.025)))
+    assert inside >= stats.binom.ppf(0.001, n, 0.95), f"95 % interval covered the truth on {inside} of {n} seeds"
+    lo, hi = stats.chi2.ppf(0.001, n) / n, stats.chi2.isf(0.001, n) / n
+    assert lo <= np.mean(z ** 2) <= hi, f"mean squared standardised error {np.mean(z ** 2):.2f} not in {lo:.2f}..{hi:.2f}"
 
 
 def test_coloured_noise_is_not_taken_for_latency():

@@ -1,5 +1,6 @@
 """Building blocks of the diagnosis: GLS identifiability, lattice test, Whittle random walk, change points."""
 import numpy as np
+import pytest
 from hypothesis import given, settings, strategies as st
 
 from scipy import stats
@@ -73,14 +74,16 @@ def test_time_span_brackets_an_effect_in_the_middle():
     assert 35 <= a <= 41 and 59 <= b <= 65
 
 
-@settings(max_examples=10, deadline=None)
-@given(st.integers(1, 12), st.integers(0, 10_000))
-def test_calibration_factor_is_near_one_when_the_null_is_chi_square(dof, seed):
+@pytest.mark.parametrize("dof", range(1, 13))
+def test_calibration_factor_is_near_one_when_the_null_is_chi_square(dof):
+    # Fixed seeds, not one drawn per run. 400 draws fix a 0.3 % tail only roughly: over seeds 0..10000 the fitted
+    # factor spans 0.64-1.54 at dof 1 (0.88-1.14 at dof 12), so each seed is held to that band and the median of
+    # 200 seeds (measured 0.993-0.997 at every dof) to 5 %; a twofold inflation is told apart below
     level = 0.05 / 16
-    u = np.random.default_rng(seed).chisquare(dof, 400) / stats.chi2.isf(level, dof)
-    # 400 draws fix a 0.3 % tail only roughly: over seeds 0..10000 the fitted factor spans 0.64-1.54 at dof 1
-    # (0.88-1.14 at dof 12); a twofold inflation is told apart below
-    assert 0.6 < calibrate.tail_quantile(u, "scale_factor", level) < 1.6
+    factors = [calibrate.tail_quantile(np.random.default_rng(seed).chisquare(dof, 400) / stats.chi2.isf(level, dof),
+                                       "scale_factor", level) for seed in range(200)]
+    assert 0.6 < min(factors) and max(factors) < 1.6
+    assert 0.95 < np.median(factors) < 1.05
 
 
 def test_calibration_factor_doubles_when_the_statistic_is_inflated_twofold():
