@@ -10,7 +10,6 @@ import time
 import numpy as np
 import rclpy
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
-from rcl_interfaces.msg import SetParametersResult
 from rclpy.callback_groups import CallbackGroup
 from rclpy.clock import Clock, ClockType
 from rclpy.executors import ExternalShutdownException
@@ -21,6 +20,7 @@ from sensor_msgs.msg import Imu
 
 from nav_core.imu_cdr import ImuBatch, ImuCdrError, decode_imu, encode_imu
 from nav_core.params import ConfigError
+from nav_core.params_ros import declare_parameters  # noqa: F401  (re-exported for the nodes)
 
 SENSOR_QOS = qos_profile_sensor_data
 """Best-effort QoS of sensor topics: a reliable subscriber will not connect to them."""
@@ -54,31 +54,6 @@ def run_node(node_factory, args=None) -> int:
             node.destroy_node()
         rclpy.try_shutdown()
     return status
-
-
-def declare_parameters(node: Node, params) -> dict:
-    """Declare ``params`` with descriptors, validate them (ConfigError), return name -> value.
-
-    Later changes are validated by an on-set-parameters callback that rejects bad values.
-    """
-    by_name = {p.name: p for p in params}
-    values = {}
-    for p in params:
-        node.declare_parameter(p.name, p.default, p.descriptor())
-        values[p.name] = node.get_parameter(p.name).value
-        p.check(values[p.name])
-
-    def on_set(changes):
-        for change in changes:
-            if change.name in by_name:
-                try:
-                    by_name[change.name].check(change.value)
-                except ConfigError as err:
-                    return SetParametersResult(successful=False, reason=str(err))
-        return SetParametersResult(successful=True)
-
-    node.add_on_set_parameters_callback(on_set)
-    return values
 
 
 class Diagnostics:

@@ -1,0 +1,70 @@
+"""ROS glue of :mod:`nav_core.params`: descriptors and declaration with range checks on a node.
+
+A value out of range (``-p hop:=-3``), of the wrong type (``-p baud:=fast``) or refused by
+rclpy itself becomes one :class:`~nav_core.params.ConfigError` naming the parameter and the
+allowed range; :func:`nav_core.ros_node.run_node` prints it as one line and exits 2.
+"""
+from __future__ import annotations
+
+from rcl_interfaces.msg import FloatingPointRange, IntegerRange, ParameterDescriptor, SetParametersResult
+from rclpy.exceptions import (InvalidParameterTypeException, InvalidParameterValueException,
+                              ParameterException, ParameterUninitializedException)
+
+from nav_core.params import ConfigError, Param
+
+
+def descriptor(p: Param) -> ParameterDescriptor:
+    """The ROS ``ParameterDescriptor`` of ``p``: description, range, choices as a constraint."""
+    desc = ParameterDescriptor(description=p.description)
+    if p.choices:
+        desc.additional_constraints = f"one of {list(p.choices)}"
+    if p.low is not None and p.high is not None and not isinstance(p.default, bool):
+        if isinstance(p.default, int):
+            desc.integer_range = [IntegerRange(from_value=int(p.low), to_value=int(p.high), step=0)]
+        elif isinstance(p.default, float):
+            desc.floating_point_range = [FloatingPointRange(from_value=float(p.low), to_value=float(p.high),
+                                                            step=0.0)]
+    return desc
+
+
+def _override(node, name: str):
+    """The value given for ``name`` on the command line or in a params file, if any (for messages)."""
+    value = getattr(node, "_parameter_overrides", {}).get(name)
+    return None if value is None else value.value
+
+
+def declare_one(node, p: Param):
+    """Declare ``p`` on ``node`` and return its checked value; ConfigError for any bad value."""
+    try:
+        node.declare_parameter(p.name, p.default, descriptor(p))
+        value = node.get_parameter(p.name).value
+    except InvalidParameterTypeException:
+        raise ConfigError(f"parameter '{p.name}': {_override(node, p.name)!r} has the wrong type; "
+                          f"expected {p.allowed()}") from None
+    except (InvalidParameterValueException, ParameterUninitializedException, ParameterException) as err:
+        given = _override(node, p.name)
+        raise ConfigError(f"parameter '{p.name}': {given!r} is not allowed; expected {p.allowed()}"
+                          if given is not None else f"parameter '{p.name}': {err}") from None
+    p.check(value)
+    return value
+
+
+def declare_parameters(node, params) -> dict:
+    """Declare ``params`` with descriptors, validate them (ConfigError), return name -> value.
+
+    Later changes are validated by an on-set-parameters callback that rejects bad values.
+    """
+    by_name = {p.name: p for p in params}
+    values = {p.name: declare_one(node, p) for p in params}
+
+    def on_set(changes):
+        for change in changes:
+            if change.name in by_name:
+                try:
+                    by_name[change.name].check(change.value)
+                except ConfigError as err:
+                    return SetParametersResult(successful=False, reason=str(err))
+        return SetParametersResult(successful=True)
+
+    node.add_on_set_parameters_callback(on_set)
+    return values
