@@ -25,7 +25,7 @@ from tqdm import tqdm
 from scipy import stats
 
 from imu_sim.diagnose import calibrate
-from imu_sim.diagnose.engine import CALIBRATION_FILE
+from imu_sim.diagnose.candidate import CALIBRATION_FILE
 from imu_sim.diagnose.suite import EFFECT_CASES, GNSS_CASES, NULLS, concealment, run_case, summarise
 
 

@@ -6,7 +6,7 @@ from hypothesis import given, settings, strategies as st
 from scipy import stats
 
 from imu_sim.diagnose import calibrate, metrics, noise_tests
-from imu_sim.diagnose.engine import load_calibration
+from imu_sim.diagnose.candidate import load_calibration
 from imu_sim.diagnose.spectral import Whitener, gls
 from imu_sim.diagnose.suite import suite_model
 
@@ -139,10 +139,10 @@ def test_detrended_random_walk_periodogram_follows_its_spectrum_and_white_noise_
 
 
 def test_profile_interval_is_read_between_grid_points():
-    from imu_sim.diagnose.engine import _profile_interval
+    from imu_sim.diagnose.effect_tests import profile_interval
     x = np.log(np.logspace(0, 3, 13))  # coarse grid, 4 per decade
     x0, s = np.log(40.0), 0.5
     lr = 200 - ((x - x0) / s) ** 2
-    lo, hi = _profile_interval(x, lr, int(np.argmax(lr)))
+    lo, hi = profile_interval(x, lr, int(np.argmax(lr)))
     half = s * np.sqrt(3.84)
     assert abs(np.log(lo) - (x0 - half)) < 0.05 and abs(np.log(hi) - (x0 + half)) < 0.05

@@ -28,13 +28,11 @@ from scipy import stats
 
 from nav_core.sensor_model import EFFECTS
 
-from imu_sim.diagnose.engine import ALPHA
+from imu_sim.diagnose.candidate import ALPHA, FLOOR
 
 MAX_TYPE = ("vibration", "quantization")
 """Statistics that are maxima over many bins / channels: Gumbel tail rather than chi-square."""
 EULER_GAMMA = 0.5772156649
-FLOOR = 1.0
-"""Smallest factor: the calibration never lowers an analytic threshold (see module docstring)."""
 
 
 def null_ratios(rows: list, nulls) -> dict:

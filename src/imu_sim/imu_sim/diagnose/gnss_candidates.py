@@ -5,7 +5,7 @@ import numpy as np
 
 from imu_sim.diagnose import gnss_tests as gt
 from imu_sim.diagnose import metrics
-from imu_sim.diagnose.engine import Candidate, _thr, _not_testable
+from imu_sim.diagnose.candidate import Candidate, not_testable, threshold
 from imu_sim.gnss import GpsEffects
 
 BLOCK_S = 5.0
@@ -16,10 +16,10 @@ def candidates(case, model, m_tests: int, factors: dict, exclude=()) -> list:
     """gps_latency, gps_lever_arm, colored_gps_noise (those not in ``exclude``)."""
     names = [e for e in ("gps_lever_arm", "gps_latency", "colored_gps_noise") if e not in exclude]
     if case.gnss is None:
-        return [_not_testable(e, "no GNSS recording given (--gnss)") for e in names]
+        return [not_testable(e, "no GNSS recording given (--gnss)") for e in names]
     gr = gt.gnss_residual(case, model)
     if gr is None:
-        return [_not_testable(e, f"fewer than {gt.MIN_FIXES} valid fixes inside the scenario") for e in names]
+        return [not_testable(e, f"fewer than {gt.MIN_FIXES} valid fixes inside the scenario") for e in names]
     make = {"gps_latency": _latency, "gps_lever_arm": _lever_arm, "colored_gps_noise": _colored}
     out = [make[e](case, model, gr, m_tests, factors) for e in names]
     pair = [c for c in out if c.effect in ("gps_latency", "gps_lever_arm") and c.significant]
@@ -44,7 +44,7 @@ def _order_pair(pair: list, cond: dict) -> None:
 def _regression(effect, design, gr, thr, statistic, names, base, unit_note):
     fit, _, _, _ = gt.gls_whiteness_first(gr, design)
     if len(fit.used) == 0:
-        return _not_testable(effect, "its regressor is zero or constant over this scenario (" + unit_note + ")")
+        return not_testable(effect, "its regressor is zero or constant over this scenario (" + unit_note + ")")
     cand = Candidate(effect, fit.lr, thr, statistic + "; whitened by " + fit.whitened_by, kind="gnss")
     sd = np.sqrt(np.diag(fit.cov))
     for i in fit.used:
@@ -66,7 +66,7 @@ def _regression(effect, design, gr, thr, statistic, names, base, unit_note):
 def _latency(case, model, gr, m_tests, factors):
     eff = GpsEffects.from_physics(model.physics, case.scenario.gps_lever_arm_m)
     cand = _regression("gps_latency", gt.design_latency(gr), gr,
-                       _thr(1, m_tests, 1, factors.get("gps_latency", 1.0)),
+                       threshold(1, m_tests, 1, factors.get("gps_latency", 1.0)),
                        "GLS likelihood ratio of the fix residual on -velocity", ["latency_s"],
                        [eff.latency_s], "the truth velocity")
     if cand.identifiable:
@@ -78,7 +78,7 @@ def _lever_arm(case, model, gr, m_tests, factors):
     eff = GpsEffects.from_physics(model.physics, case.scenario.gps_lever_arm_m)
     names = [f"lever_arm_m[{a}]" for a in "xyz"]
     cand = _regression("gps_lever_arm", gt.design_lever_arm(gr), gr,
-                       _thr(3, m_tests, 1, factors.get("gps_lever_arm", 1.0)),
+                       threshold(3, m_tests, 1, factors.get("gps_lever_arm", 1.0)),
                        "GLS likelihood ratio of the fix residual on the body-to-ENU rotation", names,
                        eff.lever_arm_m, "the attitude does not change")
     if cand.identifiable:
@@ -91,7 +91,7 @@ def _lever_arm(case, model, gr, m_tests, factors):
 
 def _colored(case, model, gr, m_tests, factors):
     col = gt.colored_fit(gr.r, gr)
-    cand = Candidate("colored_gps_noise", col.lr, _thr(6, m_tests, col.n_grid, factors.get("colored_gps_noise", 1.0)),
+    cand = Candidate("colored_gps_noise", col.lr, threshold(6, m_tests, col.n_grid, factors.get("colored_gps_noise", 1.0)),
                      "Whittle likelihood ratio of the fix residual, extra Gauss-Markov, correlation time profiled",
                      kind="gnss")
     sig = np.sqrt(gr.colored_sigma**2 + col.var)

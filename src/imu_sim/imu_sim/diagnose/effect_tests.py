@@ -1,0 +1,190 @@
+"""The registry of per-effect tests: each takes one :class:`~imu_sim.diagnose.candidate.Context` and returns a
+:class:`~imu_sim.diagnose.candidate.Candidate` (statistic, threshold, fit with intervals, how to add it to the model).
+
+Deterministic effects are GLS regressions on a design from :mod:`regressors`; the line and the lattice are tested
+here too; the slow noise terms live in :mod:`noise_candidates`. The GNSS effects are tested together by
+:mod:`gnss_candidates` (they share one fix residual).
+"""
+from __future__ import annotations
+
+import numpy as np
+from scipy import stats
+
+from imu_sim.diagnose import noise_candidates, noise_tests, regressors
+from imu_sim.diagnose.candidate import ALPHA, CONING_NOTE, Candidate, Context, not_testable, threshold
+from imu_sim.diagnose.case import CHANNELS, effective_model
+from imu_sim.diagnose.spectral import gls
+
+KINEMATIC = ("earth_rotation", "gravity_model", "coriolis")
+
+
+def _names_values(names, theta, ci):
+    return ({n: float(v) for n, v in zip(names, theta)}, {n: [float(a), float(b)] for n, (a, b) in zip(names, ci)})
+
+
+def _channels_of(columns: dict, theta: np.ndarray, cov: np.ndarray) -> list:
+    out = []
+    for ch, x in columns.items():
+        used = np.flatnonzero(np.any(x != 0, axis=0))
+        z2 = theta[used] @ np.linalg.solve(cov[np.ix_(used, used)], theta[used]) if len(used) else 0.0
+        if z2 > stats.chi2.isf(0.01, max(len(used), 1)):
+            out.append(CHANNELS[ch])
+    return out
+
+
+def regression(ctx: Context, design, statistic: str = "GLS likelihood ratio") -> Candidate:
+    """GLS test and fit of one regressor design (columns per channel sharing one parameter vector)."""
+    case = ctx.case
+    res = gls(ctx.wh, ctx.resid_f, design.columns, design.k)
+    thr = threshold(design.k, ctx.m_tests, 1, ctx.factor(design.effect))
+    cand = Candidate(design.effect, res.lr, thr, statistic, res.identifiable, res.why, columns=design.columns)
+    if not res.identifiable:
+        return cand
+    ci = res.interval()
+    cand.params, cand.intervals = _names_values(design.names, res.theta, ci)
+    cand.physics = design.to_physics(res.theta)
+    cand.channels = _channels_of(design.columns, res.theta, res.cov)
+    cand.contrib = np.zeros((case.n, 6))
+    for ch, x in design.columns.items():
+        cand.contrib[:, ch] = x @ res.theta
+    if design.effect in ("earth_rotation", "gravity_model", "coriolis"):
+        cand.params, cand.intervals = regressors.physical_value(design.effect, res.theta, ci, case)
+    return cand
+
+
+def warmup(ctx: Context) -> Candidate:
+    """Warm-up exponential on every channel, its time constant profiled on a log grid."""
+    case, model, wh, resid_f = ctx.case, ctx.model, ctx.wh, ctx.resid_f
+    taus = regressors.warmup_taus(case.t[-1] - case.t[0], case.dt)
+    fits = [(tau, gls(wh, resid_f, regressors.design_warmup(case, model, tau).columns, 6)) for tau in taus]
+    lrs = np.array([f.lr for _, f in fits])
+    best = int(np.argmax(lrs))
+    design = regressors.design_warmup(case, model, taus[best])
+    cand = regression(ctx, design, "GLS likelihood ratio, time constant profiled")
+    cand.threshold = threshold(6, ctx.m_tests, len(taus), ctx.factor("warmup_drift"))
+    cand.params["time_constant_s"] = float(taus[best])
+    cand.intervals["time_constant_s"] = profile_interval(np.log(taus), lrs, best)
+    if cand.identifiable:
+        _carry_tau_uncertainty(case, wh, resid_f, design, cand, taus[best])
+    cand.block_s = min(1.0, float(taus[best]) / 5)
+    return cand
+
+
+def profile_interval(x: np.ndarray, lr: np.ndarray, best: int) -> list:
+    """exp of the 95 % profile-likelihood interval in x (log grid): where lr drops 3.84, linearly interpolated."""
+    drop = lr[best] - lr - 3.84
+    ends = []
+    for step in (-1, 1):
+        i = best
+        while 0 <= i + step < len(x) and drop[i + step] < 0:
+            i += step
+        j = i + step
+        if 0 <= j < len(x):  # crossing between grid points i and j
+            ends.append(x[i] + (x[j] - x[i]) * (-drop[i]) / (drop[j] - drop[i]))
+        else:  # profile still inside at the grid's end: the interval reaches it
+            ends.append(x[i])
+    return [float(np.exp(min(ends))), float(np.exp(max(ends)))]
+
+
+def _carry_tau_uncertainty(case, wh, resid_f, design, cand, tau) -> None:
+    """Amplitude intervals from the Jacobian covariance of amplitudes and time constant together."""
+    amps = np.array([cand.params[n] for n in design.names])
+    dt_rel = case.t - case.t[0]
+    slope = dt_rel / tau**2 * np.exp(-dt_rel / tau)
+    cols = {c: np.hstack([x, (amps[c] * slope)[:, None]]) for c, x in design.columns.items()}
+    res = gls(wh, resid_f, cols, design.k + 1)
+    if not res.identifiable:
+        return
+    sd = np.sqrt(np.clip(np.diag(res.cov)[:design.k], 0, None))
+    cand.intervals.update({n: [float(a - 1.96 * s), float(a + 1.96 * s)] for n, a, s in zip(design.names, amps, sd)})
+
+
+def vibration(ctx: Context) -> Candidate:
+    """Largest whitened periodogram line; when significant, its frequency refined and amplitudes fitted."""
+    case, model, wh, resid, resid_f = ctx.case, ctx.model, ctx.wh, ctx.resid, ctx.resid_f
+    f_min = 10.0 / (case.n * case.dt)
+    lr, ch, f0, n_bins = noise_tests.vibration_scan(wh, resid_f, f_min)
+    thr = 2.0 * np.log(ctx.m_tests * n_bins / ALPHA) * ctx.factor("vibration")
+    cand = Candidate("vibration", lr, thr, "max whitened periodogram ordinate (chi-square 2 per bin)",
+                     kind="vibration", block_s=case.dt)
+    if lr <= thr:
+        cand.params = {"frequency_hz": f0}
+        return cand
+    freq = noise_tests.refine_frequency(resid[:, ch] - resid[:, ch].mean(), case.dt, f0)
+    amps, sds, lrs, phase, f_sd = noise_tests.vibration_fit(wh, resid, case.sim_t_abs, freq, ch, gls)
+    cand.channels = [CHANNELS[c] for c in range(6) if lrs[c] > stats.chi2.isf(0.01, 2)]
+    names = [f"gyro_amplitude_rad_per_s[{a}]" for a in "xyz"] + [f"accel_amplitude_mps2[{a}]" for a in "xyz"]
+    cand.params = {"frequency_hz": freq, "phase_rad": phase, **{n: float(a) for n, a in zip(names, amps)}}
+    cand.intervals = {"frequency_hz": [freq - 1.96 * f_sd, freq + 1.96 * f_sd],
+                      **{n: [float(a - 1.96 * s), float(a + 1.96 * s)] for n, a, s in zip(names, amps, sds)}}
+    old = list((model.physics or {}).get("vibration", {}).get("sinusoids", []))
+    cand.physics = {**(model.physics or {}).get("vibration", {}),
+                    "sinusoids": old + [{"frequency_hz": freq, "phase_rad": phase,
+                                         "gyro_amplitude_rad_per_s": amps[:3].tolist(),
+                                         "accel_amplitude_mps2": amps[3:].tolist()}]}
+    s = noise_tests._mean_sin(case.sim_t_abs, case.dt, freq, phase)
+    cand.contrib = s[:, None] * amps[None, :]
+    cand.columns = {c: s[:, None] * (np.arange(6) == c)[None, :] for c in range(6)}
+    df = 1.0 / (case.n * case.dt)
+    cand.band = {"frequency_hz": [freq - max(2 * f_sd, df), freq + max(2 * f_sd, df)]}
+    return cand
+
+
+def quantization(ctx: Context) -> Candidate:
+    """Rayleigh lattice statistic of the raw values per channel; the output step where significant."""
+    case, model = ctx.case, ctx.model
+    out = [noise_tests.lattice(case.measured[:, c]) for c in range(6)]
+    z = np.array([o[2] for o in out])
+    thr = 2.0 * np.log(6 * ctx.m_tests / ALPHA) * ctx.factor("quantization")
+    cand = Candidate("quantization", float(2 * z.max()), thr,
+                     "Rayleigh lattice statistic 2z of raw values (chi-square 2 for continuous values)",
+                     kind="quantization")
+    if cand.stat <= thr:
+        return cand
+    mdl = effective_model(model)
+    lsb = {"gyro": (mdl.gyro.quantization * np.sqrt(12)).copy(), "accel": (mdl.accel.quantization * np.sqrt(12)).copy()}
+    for c, (q, se, zc, frac) in enumerate(out):
+        tri, i = ("gyro", "accel")[c // 3], c % 3
+        key = ("gyro_lsb_rad" if tri == "gyro" else "accel_lsb_mps") + f"[{'xyz'[i]}]"
+        if 2 * zc > thr:
+            lsb[tri][i] = q * case.dt
+            half = max(1.96 * se, 1e-9 * q) * case.dt
+            cand.params[key] = float(q * case.dt)
+            cand.intervals[key] = [float(q * case.dt - half), float(q * case.dt + half)]
+            cand.params[key.replace("lsb", "output_step").replace("_rad[", "_rad_per_s[").replace("_mps[", "_mps2[")] = float(q)
+            cand.channels.append(CHANNELS[c])
+    cand.physics = {"gyro_lsb_rad": lsb["gyro"].tolist(), "accel_lsb_mps": lsb["accel"].tolist()}
+    return cand
+
+
+def kinematic(ctx: Context, effect: str) -> Candidate:
+    """Earth rotation, normal gravity or Coriolis: one scale on the exact difference the effect makes."""
+    if effect in (ctx.model.physics or {}):
+        return not_testable(effect, "already in the model's physics")
+    return regression(ctx, regressors.design_kinematic(ctx.case, ctx.model, effect))
+
+
+def temperature(ctx: Context) -> Candidate:
+    """Bias linear in the logged (or scenario) temperature."""
+    design = regressors.design_temperature(ctx.case, ctx.model)
+    if design is None:
+        return not_testable("temperature_bias", "no temperature in the recording or the scenario")
+    return regression(ctx, design)
+
+
+TESTS = {
+    "earth_rotation": lambda ctx: kinematic(ctx, "earth_rotation"),
+    "gravity_model": lambda ctx: kinematic(ctx, "gravity_model"),
+    "coriolis": lambda ctx: kinematic(ctx, "coriolis"),
+    "gyro_g_sensitivity": lambda ctx: regression(ctx, regressors.design_g_sensitivity(ctx.case, ctx.model)),
+    "temperature_bias": temperature,
+    "warmup_drift": warmup,
+    "scale_factor": lambda ctx: regression(ctx, regressors.design_scale_factor(ctx.case, ctx.model)),
+    "axis_misalignment": lambda ctx: regression(ctx, regressors.design_misalignment(ctx.case, ctx.model)),
+    "vibration": vibration,
+    "quantization": quantization,
+    "gauss_markov_bias": lambda ctx: noise_candidates.noise(ctx, "gauss_markov_bias"),
+    "bias_random_walk": lambda ctx: noise_candidates.noise(ctx, "bias_random_walk"),
+    "coning_sculling": lambda ctx: not_testable("coning_sculling", CONING_NOTE),
+}
+"""Effect name -> its test (the IMU side of the vocabulary)."""

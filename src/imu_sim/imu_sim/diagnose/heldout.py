@@ -1,0 +1,101 @@
+"""Held-out fit of a finding (lower is better): the engine keeps a finding only when this improves.
+
+Regressions and lines: RMS of held-out block means over their scatter (odd tenths, fit on even tenths, see
+:func:`metrics.heldout_rms`); quantization: distinct-value counts of the second half; noise terms: one-step
+prediction deviance of the second half's block means (or the Whittle deviance where the filter cannot hold the
+model's noise); GNSS effects: :func:`gnss_candidates.fit_metric`.
+"""
+from __future__ import annotations
+
+from types import SimpleNamespace
+
+import numpy as np
+
+from nav_core.sensor_model import SensorModel
+
+from imu_sim.diagnose import gnss_candidates, local_level, metrics, noise_tests
+from imu_sim.diagnose.candidate import Candidate, Context, add_effect
+from imu_sim.diagnose.case import CHANNELS, Case, deterministic
+from imu_sim.diagnose.noise_candidates import noise
+
+
+def fit_metric(case: Case, cand: Candidate, model_before: SensorModel, model_after: SensorModel,
+               resid: np.ndarray, seed: int = 0):
+    """(metric name, before, after) on held-out data."""
+    if cand.kind == "gnss":
+        return gnss_candidates.fit_metric(case, cand, model_before, model_after)
+    if cand.kind in ("regression", "vibration"):
+        cols = {c: x for c, x in cand.columns.items() if CHANNELS[c] in cand.channels} or cand.columns
+        b, a = metrics.heldout_rms(resid, cols, case.dt, cand.block_s)
+        what = "1-s block means" if cand.kind == "regression" else "samples"
+        return f"RMS of held-out {what} over their scatter (odd tenths of the run, fit on even tenths)", b, a
+    if cand.kind == "quantization":
+        half = case.n // 2
+        real = case.measured[half:]
+        vals = []
+        for mdl in (model_before, model_after):
+            sim = deterministic(case, mdl, stochastic=True, seed=seed + 1)[half:]
+            ratio = [np.log10(len(np.unique(real[:, c])) / len(np.unique(sim[:, c])))
+                     for c in range(6) if CHANNELS[c] in cand.channels]
+            vals.append(float(np.sqrt(np.mean(np.square(ratio)))))
+        return "RMS log10 ratio of distinct-value counts, real vs simulated (second half held out)", vals[0], vals[1]
+    held = _filter_metric(case, cand, model_before, resid)
+    if held is not None:
+        return held
+    return _whittle_metric(case, cand, model_before, resid)
+
+
+def _filter_metric(case, cand, model_before, resid):
+    """One-step prediction deviance of the second half's block means, the noise term and level fitted on the first half.
+
+    None when the model's noise is one the filter cannot hold (then the Whittle deviance is used).
+    """
+    m = noise_tests.block_interval(case.n)
+    tb = m * case.dt
+    yb = noise_tests.block_means(resid, m)
+    half = len(yb) // 2
+    bgs = noise_tests.walk_backgrounds(model_before, tb, yb[:half])
+    if bgs is None or any(bg.gm_var > 0 for bg in bgs):
+        return None
+    taus = np.logspace(np.log10(5 * tb), np.log10(half * tb / 20), 8)
+    out = np.zeros(2)
+    chans = [CHANNELS.index(c) for c in cand.channels] or list(range(6))
+    for c in chans:
+        bg = bgs[c]
+        _, h0 = local_level.loglik(yb[:half, c], [bg.rw_ratio])
+        before = local_level.predictive_deviance(yb[:, c], bg.rw_ratio, h0[0], half, bg)
+        if cand.effect == "bias_random_walk":
+            fit = local_level.fit(yb[:half, c], tb, bg)
+            after = local_level.predictive_deviance(yb[:, c], fit.ratio, fit.h, half, bg)
+        else:
+            fit = local_level.fit_gauss_markov(yb[:half, c], tb, taus, bg)
+            after = local_level.predictive_deviance(yb[:, c], bg.rw_ratio, fit.h, half,
+                                                    local_level.Background(fit.gm_var, fit.phi, bg.rw_ratio))
+        out += [before, after]
+    out /= len(chans)
+    return ("one-step prediction deviance per block mean of the held-out second half (v^2/F + log 2 pi F over "
+            "the noise level), noise term and level fitted on the first half"), float(out[0]), float(out[1])
+
+
+def _whittle_metric(case, cand, model_before, resid):
+    """Whittle deviance per bin of the second half's block means; the noise term and levels fitted on the first half."""
+    half = case.n // 2
+    # the noise test needs only the length and the sample interval of what it tests
+    refit = noise(Context(SimpleNamespace(n=half, dt=case.dt), model_before, resid[:half]), cand.effect)
+    chans = [CHANNELS.index(c) for c in cand.channels] or list(range(6))
+    m = noise_tests.block_interval(half)
+    tb = m * case.dt
+    out = []
+    for mdl in (model_before, add_effect(model_before, refit)):
+        dev = []
+        for part in (resid[:half], resid[half:2 * half]):
+            freqs, pgram = noise_tests.periodogram(noise_tests.detrended(noise_tests.block_means(part, m)), tb)
+            dev.append((pgram, noise_tests.noise_model_psd(mdl, freqs, tb)))
+        (p1, s1), (p2, s2) = dev
+        tot = []
+        for c in chans:
+            ratio = p2[:, c] / (np.mean(p1[:, c] / s1[c]) * s1[c])
+            tot.append(2 * (ratio - np.log(ratio) - 1))
+        out.append(float(np.mean(np.concatenate(tot))))
+    return ("Whittle deviance per periodogram bin of the held-out second half's block means, noise term and "
+            "levels fitted on the first half (about 1.15 when the noise model is right)"), out[0], out[1]

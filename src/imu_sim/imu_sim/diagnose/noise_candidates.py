@@ -1,0 +1,134 @@
+"""Slow noise terms as diagnosis candidates: a Gauss-Markov bias and a bias random walk beyond the model's noise.
+
+Both by the exact likelihood of the block means (:mod:`local_level`, a Kalman filter); a model whose own noise the
+filter cannot hold (flicker, a Gauss-Markov bias of its own) falls back to the Whittle test of :mod:`noise_tests`.
+"""
+from __future__ import annotations
+
+import numpy as np
+from scipy import stats
+
+from imu_sim.diagnose import local_level, noise_tests
+from imu_sim.diagnose.candidate import Candidate, Context, threshold
+from imu_sim.diagnose.case import CHANNELS, effective_model
+
+
+def _random_walk(ctx: Context):
+    """Bias random walk by the exact block-mean likelihood (None when the model's noise has flicker)."""
+    case, model = ctx.case, ctx.model
+    m = noise_tests.block_interval(case.n)
+    tb = m * case.dt
+    yb = noise_tests.block_means(ctx.resid, m)
+    bgs = noise_tests.walk_backgrounds(model, tb, yb)
+    if bgs is None:
+        return None
+    fits = [local_level.fit(yb[:, c], tb, bgs[c]) for c in range(6)]
+    lr_ch = np.array([f.lr for f in fits])
+    cand = Candidate("bias_random_walk", float(lr_ch.sum()), threshold(6, ctx.m_tests, 1, ctx.factor("bias_random_walk")),
+                     f"likelihood ratio of the {tb:.3g}-s block means (Kalman filter: model noise + a walk, "
+                     "its level free)", kind="noise")
+    cand.channels = [CHANNELS[c] for c in range(6) if lr_ch[c] > stats.chi2.isf(0.01, 2)]
+    mdl = effective_model(model)
+    phys = {}
+    for c, f in enumerate(fits):
+        tri, i, ax = ("gyro", "accel")[c // 3], c % 3, "xyz"[c % 3]
+        unit = "rad_per_s_per_sqrt_s" if tri == "gyro" else "mps2_per_sqrt_s"
+        cand.params[f"{tri}_{unit}[{ax}]"] = f.k
+        cand.intervals[f"{tri}_{unit}[{ax}]"] = list(f.k_interval)
+        kept = f.k if CHANNELS[c] in cand.channels else float(mdl.triad(tri).rate_random_walk[i])
+        phys.setdefault(f"{tri}_{unit}", [0.0] * 3)[i] = kept
+    cand.physics = phys
+    return cand
+
+
+def _gauss_markov_kf(case, model, resid, m, taus):
+    """Per channel (lr, sigma^2, its interval, tau, tau interval) from the exact block-mean likelihood, or None.
+
+    None when the model's own noise has flicker or a Gauss-Markov bias (the filter holds one such state).
+    """
+    tb = m * case.dt
+    yb = noise_tests.block_means(resid, m)
+    bgs = noise_tests.walk_backgrounds(model, tb, yb)
+    if bgs is None or any(bg.gm_var > 0 for bg in bgs):
+        return None
+    out = []
+    for c in range(6):
+        f = local_level.fit_gauss_markov(yb[:, c], tb, taus, bgs[c])
+        out.append((f.lr, f.sigma**2, (f.sigma_interval[0] ** 2, f.sigma_interval[1] ** 2), f.tau, f.tau_interval))
+    return out
+
+
+def _whittle_fits(model, resid, m, tb, effect, taus):
+    """Per channel (lr, level, its interval, tau or None, tau interval) from the Whittle test on detrended block means."""
+    # detrended, so a random walk's end-to-end drift is not evidence for a Gauss-Markov bias
+    xb = noise_tests.detrended(noise_tests.block_means(resid, m))
+    freqs, pgram = noise_tests.periodogram(xb, tb)
+    s0 = noise_tests.noise_model_psd(model, freqs, tb)
+    if effect == "bias_random_walk":
+        grids = [(None, noise_tests.rw_extra(freqs))]
+    else:
+        grids = [(tc, noise_tests.gm_extra(freqs, tc)) for tc in taus]
+    best = []
+    for c in range(6):
+        fits = [(*noise_tests.whittle_extra(pgram[:, c], s0[c], extra)[:3], tc) for tc, extra in grids]
+        top = max(fits, key=lambda f: f[0])
+        # level interval joined over the correlation times of the profile's 95 % set (tc's uncertainty carried)
+        inside = [f for f in fits if f[0] >= top[0] - 3.84]
+        ci = (min(f[2][0] for f in inside), max(f[2][1] for f in inside))
+        tcs = [f[3] for f in inside if f[3] is not None]
+        best.append((top[0], top[1], ci, top[3], (min(tcs), max(tcs)) if tcs else None))
+    return best
+
+
+def noise(ctx: Context, effect: str) -> Candidate:
+    """Gauss-Markov bias or bias random walk beyond the model's noise (exact block-mean likelihood, else Whittle)."""
+    case, model, resid = ctx.case, ctx.model, ctx.resid
+    if effect == "bias_random_walk":
+        cand = _random_walk(ctx)
+        if cand is not None:
+            return cand
+    m = noise_tests.block_interval(case.n)
+    tb = m * case.dt
+    # the correlation time must lie well inside the record, else the wander is a random walk here
+    taus = np.logspace(np.log10(5 * tb), np.log10((case.n // m) * tb / 20), 8)
+    best = _gauss_markov_kf(case, model, resid, m, taus) if effect == "gauss_markov_bias" else None
+    n_grid = 1 if effect == "bias_random_walk" else len(taus)
+    if best is not None:
+        statistic = (f"likelihood ratio of the {tb:.3g}-s block means (Kalman filter: model noise + a Gauss-Markov "
+                     "bias, its level free), correlation time profiled")
+    else:
+        best = _whittle_fits(model, resid, m, tb, effect, taus)
+        statistic = "Whittle likelihood ratio of the block-averaged residual" + (
+            ", correlation time profiled" if n_grid > 1 else "")
+    lr_ch = np.array([b[0] for b in best])
+    dof = 6 if effect == "bias_random_walk" else 12
+    thr = threshold(dof, ctx.m_tests, n_grid, ctx.factor(effect))
+    cand = Candidate(effect, float(lr_ch.sum()), thr, statistic, kind="noise")
+    cand.channels = [CHANNELS[c] for c in range(6) if lr_ch[c] > stats.chi2.isf(0.01, dof // 6 + 1)]
+    mdl = effective_model(model)
+    phys = {}
+    for c in range(6):
+        tri, i, ax = ("gyro", "accel")[c // 3], c % 3, "xyz"[c % 3]
+        lr, lev, ci, tc, tc_ci = best[c]
+        if effect == "bias_random_walk":
+            unit = "rad_per_s_per_sqrt_s" if tri == "gyro" else "mps2_per_sqrt_s"
+            key = f"{tri}_{unit}[{ax}]"
+            k_old2 = mdl.triad(tri).rate_random_walk[i] ** 2
+            cand.params[key] = float(np.sqrt(k_old2 + lev))
+            cand.intervals[key] = [float(np.sqrt(k_old2 + ci[0])), float(np.sqrt(k_old2 + ci[1]))]
+            phys.setdefault(f"{tri}_{unit}", [0.0] * 3)[i] = cand.params[key]
+        else:
+            unit = "sigma_rad_per_s" if tri == "gyro" else "sigma_mps2"
+            key = f"{tri}_{unit}[{ax}]"
+            sig_ch = CHANNELS[c] in cand.channels
+            sigma = float(np.sqrt(lev)) if sig_ch else float(mdl.triad(tri).bias_instability[i])
+            tcv = float(tc) if sig_ch else float(mdl.triad(tri).bias_correlation_time[i])
+            cand.params[key] = sigma
+            cand.intervals[key] = [float(np.sqrt(ci[0])), float(np.sqrt(ci[1]))]
+            cand.params[f"{tri}_correlation_time_s[{ax}]"] = tcv
+            if sig_ch:
+                cand.intervals[f"{tri}_correlation_time_s[{ax}]"] = [float(tc_ci[0]), float(tc_ci[1])]
+            phys.setdefault(f"{tri}_{unit}", [0.0] * 3)[i] = sigma
+            phys.setdefault(f"{tri}_correlation_time_s", [0.0] * 3)[i] = tcv
+    cand.physics = phys
+    return cand

@@ -1,0 +1,75 @@
+"""Ranking of the slow-wander candidates, which all put power at the lowest frequencies, by their statistic given
+each significant rival."""
+from __future__ import annotations
+
+from dataclasses import replace
+
+import numpy as np
+
+from imu_sim.diagnose import regressors
+from imu_sim.diagnose.candidate import Context, add_effect
+from imu_sim.diagnose.noise_candidates import noise
+from imu_sim.diagnose.spectral import Whitener, gls
+
+
+LOW_FREQUENCY = ("temperature_bias", "warmup_drift", "gauss_markov_bias", "bias_random_walk")
+"""Effects that all show as slow residual wander, so each is ranked by its statistic given its rivals."""
+
+
+def _low_design(case, model, cand):
+    if cand.effect == "temperature_bias":
+        return regressors.design_temperature(case, model)
+    return regressors.design_warmup(case, model, cand.params["time_constant_s"])
+
+
+def _conditional_lr(ctx: Context, cand, rival) -> float:
+    """Statistic of ``cand`` with ``rival`` already in the model (its fit removed or its noise in the PSD)."""
+    case, model, resid, wh, resid_f = ctx.case, ctx.model, ctx.resid, ctx.wh, ctx.resid_f
+    if cand.kind == "noise":
+        if rival.kind == "noise":
+            return noise(replace(ctx, model=add_effect(model, rival)), cand.effect).stat
+        return noise(replace(ctx, resid=resid - rival.contrib), cand.effect).stat
+    design = _low_design(case, model, cand)
+    if rival.kind == "noise":
+        # a random walk's record carries one random end-to-end drift per channel (the common part of its
+        # periodogram, the DFT of a ramp), so under the rival's noise a free ramp per channel is a nuisance
+        wh2 = Whitener.from_model(add_effect(model, rival), resid, case.dt)
+        ramp = (case.t - case.t[0])[:, None] * np.eye(6)[None, 0]
+        with_ramp = {c: np.hstack([design.columns.get(c, np.zeros((case.n, design.k))), np.roll(ramp, c, axis=1)])
+                     for c in range(6)}
+        ramp_only = {c: np.roll(ramp, c, axis=1) for c in range(6)}
+        return gls(wh2, resid_f, with_ramp, design.k + 6).lr - gls(wh2, resid_f, ramp_only, 6).lr
+    other = _low_design(case, model, rival)
+    joint = {c: np.hstack([design.columns.get(c, np.zeros((case.n, design.k))),
+                           other.columns.get(c, np.zeros((case.n, other.k)))])
+             for c in set(design.columns) | set(other.columns)}
+    return gls(wh, resid_f, joint, design.k + other.k).lr - gls(wh, resid_f, other.columns, other.k).lr
+
+
+def rank_low_frequency(ctx: Context, cands: list) -> None:
+    """Rank significant slow-wander candidates by their weakest statistic given one rival, minus threshold.
+
+    A random walk, a Gauss-Markov wander, a temperature-linear bias and a warm-up exponential all
+    put power at the lowest frequencies, so their unconditional statistics all rise together;
+    the one that still stands once each rival is in the model is the one the data single out.
+    """
+    sig = [c for c in cands if c.effect in LOW_FREQUENCY and c.significant]
+    given = {}
+    for cand in sig:
+        for rival in sig:
+            if rival is not cand:
+                given[cand.effect, rival.effect] = _conditional_lr(ctx, cand, rival)
+    for cand in sig:
+        mine = {r: v for (c, r), v in given.items() if c == cand.effect}
+        if not mine:
+            continue
+        worst = min(mine, key=mine.get)
+        cand.rank = mine[worst] - cand.threshold
+        cand.reason = (cand.reason + "; " if cand.reason else "") + (
+            f"given {worst}: statistic {mine[worst]:.4g} (ranked by it)")
+        thr = {c.effect: c.threshold for c in sig}
+        twins = [r for r, v in mine.items() if v <= cand.threshold and given[r, cand.effect] <= thr[r]]
+        if twins:
+            cand.caveat = (f"This record cannot tell it from {' or '.join(twins)}: each is below its threshold once "
+                           "the other is in the model; it is named because it ranks higher, not because the data "
+                           "exclude the other.")
