@@ -3,7 +3,7 @@ VENV := .venv
 PY := $(VENV)/bin/python
 RATE ?= 1.0
 
-.PHONY: setup demo test test-fast bench clean
+.PHONY: setup demo test test-unit test-fast bench clean
 
 setup:
 	@bash scripts/setup_env.sh
@@ -13,6 +13,10 @@ demo: setup
 
 test: setup
 	@$(PY) -m pytest -q test
+
+# Every test that starts no ROS process and no long simulation: the contributor's loop (< 2 minutes).
+test-unit: setup
+	@$(PY) -m pytest -q -m "not ros and not slow" test
 
 test-fast: setup
 	@$(PY) -m pytest -q -m "not slow" test

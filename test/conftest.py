@@ -1,6 +1,10 @@
 """Shared test fixtures: repository paths, real-data location, an isolated ROS 2 domain per test."""
 import itertools
 import os
+
+# Before anything imports numpy: the tests do small dense algebra (15x15 filters, short FFTs), where BLAS threads
+# only cost time, and two test processes share the two cores.
+os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 from pathlib import Path
 
 import pytest
@@ -30,3 +34,13 @@ def ros_env(monkeypatch):
     monkeypatch.setenv("ROS_DOMAIN_ID", domain)
     monkeypatch.setenv("ROS_AUTOMATIC_DISCOVERY_RANGE", "LOCALHOST")
     return env
+
+
+@pytest.fixture
+def rclpy_context(ros_env):
+    """rclpy initialised in the test process on the test's own domain (for probe nodes); yields the node env."""
+    import rclpy  # here, not at the top: the unit tier imports conftest without needing ROS
+
+    rclpy.init()
+    yield ros_env
+    rclpy.try_shutdown()

@@ -18,13 +18,6 @@ MODEL = sensor_model.SensorModel(gyro=sensor_model.TriadModel(white_noise=np.ful
                                  accel=sensor_model.TriadModel(white_noise=np.full(3, 2e-3)), sample_rate_hz=50.0)
 
 
-@pytest.fixture
-def rclpy_context():
-    rclpy.init()
-    yield
-    rclpy.try_shutdown()
-
-
 def _result(probe):
     for _, arr in probe.received["/diagnostics"]:
         for st in arr.status:

@@ -15,13 +15,6 @@ from nav_core.ros_node import Probe
 pytestmark = pytest.mark.ros
 
 
-@pytest.fixture
-def rclpy_context(ros_env):
-    rclpy.init()
-    yield ros_env
-    rclpy.try_shutdown()
-
-
 def _start(tmp_path, env, emulator_args, driver_params=None):
     link = tmp_path / "bp3010"
     emu = NodeProcess("bp3010_emulator", ["--link", link, *emulator_args], env=env)

@@ -54,13 +54,6 @@ def _expected(model, segments):
 
 
 @pytest.fixture
-def rclpy_context():
-    rclpy.init()
-    yield
-    rclpy.try_shutdown()
-
-
-@pytest.fixture
 def running(tmp_path, ros_env, rclpy_context):
     """The node as a process with a model, a probe on its outputs and a feeder publisher: (model, node, probe, pub)."""
     model, path = _model(tmp_path)
