@@ -53,13 +53,13 @@ def test_csv_round_trip_keeps_every_value(tmp_path):
     np.testing.assert_allclose(gback.lat, gnss.lat, rtol=1e-9)
 
 
-def test_csv_with_a_bad_row_reads_up_to_it_and_names_the_line(tmp_path):
+def test_csv_with_a_bad_row_skips_it_and_names_the_line(tmp_path):
     path = rec_io.write_imu_csv(tmp_path / "imu.csv", _imu(n=50, temp=False))
     lines = path.read_text().splitlines()
     lines[21] = "1.0,2.0,oops,4,5,6,7"
     path.write_text("\n".join(lines) + "\n")
     back = rec_io.read_imu(path)
-    assert len(back) == 20 and "line 22" in back.damage and str(path) in back.damage
+    assert len(back) == 49 and "line 22" in back.damage and str(path) in back.damage and back.skipped_rows == (22,)
     with pytest.raises(rec_io.RecordingError, match="line 22"):
         rec_io.read_imu(path, strict=True)
 

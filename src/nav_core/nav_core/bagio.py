@@ -58,32 +58,49 @@ def topics(path) -> dict:
             return {norm_topic(c.topic): c.msgtype for c in reader.connections}
     except FileNotFoundError:
         raise
-    except Exception as err:  # damaged: list what can be read
+    except Exception:  # damaged: list the topics of the messages that can be read, else metadata.yaml's
         found = {}
         try:
-            for topic, msgtype, _, _ in _recover(Path(path), None, err):
+            for topic, msgtype, _, _ in iter_raw(Path(path), None):
                 found.setdefault(topic, msgtype)
         except BagDamage:
             pass
-        return found
+        return found or _metadata_topics(Path(path))
+
+
+def _metadata_topics(path: Path) -> dict:
+    """Topic -> type as listed in a bag folder's metadata.yaml (empty when there is none or it is unreadable)."""
+    import yaml
+
+    try:
+        info = yaml.safe_load((path / "metadata.yaml").read_text())["rosbag2_bagfile_information"]
+        return {norm_topic(t["topic_metadata"]["name"]): t["topic_metadata"]["type"]
+                for t in info["topics_with_message_count"]}
+    except Exception:  # any problem: no list rather than a second error
+        return {}
 
 
 def iter_raw(path, wanted_topics=None):
     """Yield ``(topic, msgtype, log_time_ns, cdr_bytes)`` for the wanted topics (all if None).
 
-    A healthy bag is read with rosbags in log-time order. A bag rosbags cannot
-    open (truncated: no MCAP summary, a cut sqlite file) is read record by
-    record in storage order up to the damage. Either way, damage raises
-    :class:`BagDamage` after everything good before it was yielded.
+    MCAP files are read by :mod:`nav_core.mcap_scan` in storage order, past any damage
+    (every intact message is yielded). A healthy sqlite3 bag is read with rosbags in
+    log-time order; one rosbags cannot open (a cut file) is read row by row up to the
+    damage. Either way, damage raises :class:`BagDamage` after everything good was
+    yielded; its message names the file, the byte offsets or row and what was lost.
     """
     path = Path(path)
     wanted = None if wanted_topics is None else {norm_topic(t) for t in wanted_topics}
+    if not path.exists():
+        raise BagDamage(f"{path}: not found", 0)
+    storages = _storage_files(path)
+    if all(s.suffix == ".mcap" for s in storages):
+        yield from _iter_mcap(storages, wanted)
+        return
     count = 0
     try:
         reader = Reader(path)
         reader.open()
-    except FileNotFoundError as err:
-        raise BagDamage(f"{path}: {err}", 0) from err
     except Exception as err:  # rosbags refuses damaged storage at open: recover what is there
         yield from _recover(path, wanted, err)
         return
@@ -98,6 +115,17 @@ def iter_raw(path, wanted_topics=None):
         raise BagDamage(f"{path}: damaged after message {count}: {type(err).__name__}: {err}", count) from err
     finally:
         reader.close()
+
+
+def _iter_mcap(storages, wanted):
+    """Messages of MCAP storage files, past damage; BagDamage at the end naming every damaged region."""
+    count, problems = 0, []
+    for storage in storages:
+        for item in _scan_mcap(storage, wanted, problems):
+            count += 1
+            yield item
+    if problems:
+        raise BagDamage("; ".join(problems), count)
 
 
 def iter_messages(path, wanted_topics):
@@ -118,9 +146,8 @@ def _storage_files(path: Path) -> list:
 def _recover(path: Path, wanted, open_error):
     count = 0
     for storage in _storage_files(path):
-        reader = _recover_sqlite if storage.suffix == ".db3" else _recover_mcap
         try:
-            for item in reader(storage, wanted):
+            for item in _recover_sqlite(storage, wanted):
                 count += 1
                 yield item
         except BagDamage as err:
@@ -177,28 +204,55 @@ def _recover_sqlite(storage: Path, wanted):
                         f"({count} messages)", count)
 
 
-def _recover_mcap(storage: Path, wanted):
-    """Messages of an MCAP file read as a stream (no summary needed), up to the damage."""
-    from mcap.exceptions import McapError
-    from mcap.stream_reader import StreamReader
-    from mcap.records import Channel, Message, Schema
+def _scan_mcap(storage: Path, wanted, problems: list):
+    """Intact messages of one MCAP file (:mod:`nav_core.mcap_scan`); adds a description of any damage to ``problems``."""
+    import mmap
 
-    schemas, channels, count = {}, {}, 0
-    with open(storage, "rb") as fh:
-        try:
-            for record in StreamReader(fh, skip_magic=False, emit_chunks=False).records:
-                if isinstance(record, Schema):
-                    schemas[record.id] = record.name
-                elif isinstance(record, Channel):
-                    channels[record.id] = (norm_topic(record.topic), schemas.get(record.schema_id, ""))
-                elif isinstance(record, Message) and record.channel_id in channels:
-                    topic, mtype = channels[record.channel_id]
-                    if wanted is None or topic in wanted:
-                        count += 1
-                        yield topic, mtype, record.log_time, bytes(record.data)
-        except (McapError, EOFError, ValueError, OSError) as err:
-            raise BagDamage(f"{storage}: MCAP damaged at byte {fh.tell()} ({count} messages read): "
-                            f"{type(err).__name__}: {err}", count) from err
+    from nav_core.mcap_scan import MAGIC, Scanner
+
+    size = storage.stat().st_size
+    if size < 2 * len(MAGIC):
+        problems.append(f"{storage}: {size} bytes, too short to be an MCAP file")
+        return
+    with open(storage, "rb") as fh, mmap.mmap(fh.fileno(), 0, access=mmap.ACCESS_READ) as data:
+        scanner = Scanner(data)
+        read = {}
+        for channel, log_ns, raw in scanner.messages():
+            topic, mtype = scanner.channels[channel]
+            topic = norm_topic(topic)
+            read[channel] = read.get(channel, 0) + 1
+            if wanted is None or topic in wanted:
+                yield topic, mtype, log_ns, raw
+        del scanner.buf  # the memoryview must go before the mmap closes
+    text = _describe_damage(storage, scanner, read, wanted)
+    if text:
+        problems.append(text)
+
+
+def _describe_damage(storage: Path, scanner, read: dict, wanted) -> str:
+    """One line naming the file, the damaged byte ranges, the log-time spans and message counts lost."""
+    res = scanner.result
+    parts = []
+    for r in res.regions:
+        when = ""
+        if r["before_ns"] is not None or r["after_ns"] is not None:
+            t0 = "start" if r["before_ns"] is None else f"{r['before_ns'] * 1e-9:.3f}"
+            t1 = "end" if r["after_ns"] is None else f"{r['after_ns'] * 1e-9:.3f}"
+            when = f" (messages logged between {t0} and {t1} s lost)"
+        parts.append(f"bytes {r['start']}-{r['end']} unreadable{when}")
+    if res.dropped:
+        parts.append(f"{res.dropped} message(s) ending where damage begins dropped")
+    if res.truncated:
+        parts.append(f"the file is cut short at byte {scanner.end}")
+    parts += res.problems
+    if res.expected is not None:
+        for cid, n in sorted(res.expected.items()):
+            topic = norm_topic(scanner.channels.get(cid, (f"channel {cid}", ""))[0])
+            if read.get(cid, 0) != n and (wanted is None or topic in wanted):
+                parts.append(f"read {read.get(cid, 0)} of {n} messages on {topic}")
+    if not parts:
+        return ""
+    return f"{storage}: MCAP damaged: " + "; ".join(parts)
 
 
 def imu_message(t_s: float, gyro, accel, frame_id: str = "imu_link",

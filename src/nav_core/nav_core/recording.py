@@ -6,17 +6,23 @@ CSV files and ``NavSatFix`` carry degrees; conversion happens here).
 
 A bag or CSV that is truncated or corrupt is read up to the damage: the good
 part is returned and ``damage`` names the file and position of the problem.
-Pass ``strict=True`` to raise :class:`RecordingError` instead.
+Pass ``strict=True`` to raise :class:`RecordingError` instead. MCAP files are read
+past the damage (every intact message; see :mod:`nav_core.mcap_scan`). A malformed
+CSV row is skipped and counted (``skipped_rows``, ``damage``); a file with more than
+:data:`MAX_BAD_ROW_FRACTION` of its rows bad is refused. :func:`check_timestamps`
+finds time going backwards, duplicate stamps and gaps for any tool to act on.
 """
 from __future__ import annotations
 
 import csv
 import logging
+import math
 from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
 
+from nav_core.timestamps import TimeCheck, check_timestamps  # noqa: F401  (part of this module's API)
 from nav_core.units import DEG
 
 LOG = logging.getLogger(__name__)
@@ -45,6 +51,9 @@ class ImuRecording:
     source: str = ""
     frame_id: str = "imu_link"
     damage: str | None = None
+    """What was lost reading the file (file, byte offset or lines), None when nothing was."""
+    skipped_rows: tuple = ()
+    """Line numbers of CSV rows that were skipped as malformed (counted in ``damage``)."""
 
     def __post_init__(self):
         self.t = np.asarray(self.t, dtype=float).reshape(-1)
@@ -73,7 +82,7 @@ class ImuRecording:
         """A new recording with the samples picked by a boolean mask or slice."""
         return ImuRecording(self.t[mask_or_slice], self.gyro[mask_or_slice], self.accel[mask_or_slice],
                             None if self.temp_c is None else self.temp_c[mask_or_slice],
-                            self.source, self.frame_id, self.damage)
+                            self.source, self.frame_id, self.damage, self.skipped_rows)
 
     def between(self, t0: float, t1: float) -> ImuRecording:
         """Samples with ``t0 <= t < t1`` (s)."""
@@ -95,6 +104,9 @@ class GnssRecording:
     status: np.ndarray = None
     source: str = ""
     damage: str | None = None
+    """What was lost reading the file (file, byte offset or lines), None when nothing was."""
+    skipped_rows: tuple = ()
+    """Line numbers of CSV rows that were skipped as malformed (counted in ``damage``)."""
 
     def __post_init__(self):
         self.t = np.asarray(self.t, dtype=float).reshape(-1)
@@ -125,6 +137,8 @@ class Trajectory:
     velocity_n: np.ndarray | None = None
     extra: dict = field(default_factory=dict)
     """Extra named columns (n,) written after the standard ones."""
+    damage: str | None = None
+    """Rows skipped reading the file, None when none were."""
 
     def __len__(self):
         return len(self.t)
@@ -133,34 +147,72 @@ class Trajectory:
 # ----------------------------------------------------------------------------- CSV
 
 
-def _read_csv_table(path: Path, required, strict: bool):
-    """Columns by header name as float arrays; rows after a malformed one are dropped (damage noted)."""
-    damage = None
-    with open(path, newline="") as fh:
+MAX_BAD_ROW_FRACTION = 0.01
+"""A CSV with more bad rows than this fraction is refused: its data cannot be trusted."""
+
+
+def _read_csv_table(path: Path, required, strict: bool, max_bad_fraction: float = MAX_BAD_ROW_FRACTION):
+    """Columns by header name as float arrays, the damage text and the skipped line numbers.
+
+    A malformed row (wrong field count, a field that is not a number, a non-finite time)
+    is skipped and counted; ``strict`` raises at the first, and more than
+    ``max_bad_fraction`` of the rows bad raises too.
+    """
+    bad = []  # (line number, reason)
+    with open(path, newline="", errors="replace") as fh:  # undecodable bytes fail as numbers: a bad row
         reader = csv.reader(fh)
         try:
             header = [h.strip() for h in next(reader)]
         except StopIteration:
             raise RecordingError(f"{path}: empty file, expected a header row") from None
+        except (csv.Error, UnicodeDecodeError) as err:
+            raise RecordingError(f"{path}: line 1: unreadable header ({err})") from None
         missing = [c for c in required if c not in header]
         if missing:
             raise RecordingError(f"{path}: missing column(s) {missing}; header is {header}")
         rows = []
-        for line_no, row in enumerate(reader, start=2):
+        line_no = 1
+        while True:
+            try:
+                row = next(reader)
+            except StopIteration:
+                break
+            except csv.Error as err:
+                line_no = reader.line_num
+                bad.append((line_no, str(err)))
+                if strict:
+                    raise RecordingError(f"{path}: line {line_no}: {err}") from None
+                continue
+            line_no = reader.line_num
             if not row or all(not c.strip() for c in row):
                 continue
             try:
                 if len(row) != len(header):
                     raise ValueError(f"{len(row)} fields, header has {len(header)}")
-                rows.append([float(c) for c in row])
+                values = [float(c) for c in row]
+                if not math.isfinite(values[header.index("t")] if "t" in header else 0.0):
+                    raise ValueError("time t is not finite")
+                rows.append(values)
             except ValueError as err:
-                damage = f"{path}: line {line_no}: {err}; read {len(rows)} good rows before it"
                 if strict:
-                    raise RecordingError(damage) from err
-                LOG.warning("%s", damage)
-                break
+                    raise RecordingError(f"{path}: line {line_no}: {err}") from err
+                bad.append((line_no, str(err)))
+    damage = _csv_damage(path, bad, len(rows), max_bad_fraction)
     data = np.array(rows, dtype=float).reshape(-1, len(header))
-    return {name: data[:, i] for i, name in enumerate(header)}, damage
+    return {name: data[:, i] for i, name in enumerate(header)}, damage, tuple(n for n, _ in bad)
+
+
+def _csv_damage(path: Path, bad: list, good: int, max_bad_fraction: float):
+    """The damage text for skipped rows (None without); RecordingError when too many rows are bad."""
+    if not bad:
+        return None
+    shown = ", ".join(f"line {n}: {why}" for n, why in bad[:3]) + (" ..." if len(bad) > 3 else "")
+    text = f"{path}: skipped {len(bad)} bad row(s) of {len(bad) + good} ({shown})"
+    if len(bad) > 1 and len(bad) > max_bad_fraction * (len(bad) + good):
+        raise RecordingError(f"{text}: more than {max_bad_fraction:.0%} of the rows are bad, "
+                             f"so the file is not used")
+    LOG.warning("%s", text)
+    return text
 
 
 def _write_csv(path: Path, columns: dict) -> Path:
@@ -175,10 +227,10 @@ def _write_csv(path: Path, columns: dict) -> Path:
 def read_imu_csv(path, strict: bool = False) -> ImuRecording:
     """Read the recording CSV (``t, gx, gy, gz, ax, ay, az[, temp_c]``, SI units)."""
     path = Path(path)
-    cols, damage = _read_csv_table(path, IMU_CSV_COLUMNS, strict)
+    cols, damage, skipped = _read_csv_table(path, IMU_CSV_COLUMNS, strict)
     return ImuRecording(cols["t"], np.column_stack([cols["gx"], cols["gy"], cols["gz"]]),
                         np.column_stack([cols["ax"], cols["ay"], cols["az"]]), cols.get("temp_c"),
-                        source=str(path), damage=damage)
+                        source=str(path), damage=damage, skipped_rows=skipped)
 
 
 def write_imu_csv(path, rec: ImuRecording) -> Path:
@@ -194,11 +246,11 @@ def write_imu_csv(path, rec: ImuRecording) -> Path:
 def read_gnss_csv(path, strict: bool = False) -> GnssRecording:
     """Read the GNSS CSV (``t, lat_deg, lon_deg, h_m, std_e, std_n, std_u[, status]``)."""
     path = Path(path)
-    cols, damage = _read_csv_table(path, GNSS_CSV_COLUMNS, strict)
+    cols, damage, skipped = _read_csv_table(path, GNSS_CSV_COLUMNS, strict)
     status = cols["status"].astype(int) if "status" in cols else None
     return GnssRecording(cols["t"], cols["lat_deg"] * DEG, cols["lon_deg"] * DEG, cols["h_m"],
                          np.column_stack([cols["std_e"], cols["std_n"], cols["std_u"]]), status,
-                         source=str(path), damage=damage)
+                         source=str(path), damage=damage, skipped_rows=skipped)
 
 
 def write_gnss_csv(path, gnss: GnssRecording) -> Path:
@@ -211,14 +263,14 @@ def write_gnss_csv(path, gnss: GnssRecording) -> Path:
 def read_trajectory_csv(path, strict: bool = False) -> Trajectory:
     """Read the truth trajectory CSV (degrees in the file, rad in the result)."""
     path = Path(path)
-    cols, _ = _read_csv_table(path, TRUTH_CSV_COLUMNS, strict)
+    cols, damage, _ = _read_csv_table(path, TRUTH_CSV_COLUMNS, strict)
     vel = None
     if all(c in cols for c in VELOCITY_COLUMNS):
         vel = np.column_stack([cols[c] for c in VELOCITY_COLUMNS])
     known = set(TRUTH_CSV_COLUMNS) | set(VELOCITY_COLUMNS)
     return Trajectory(cols["t"], cols["lat_deg"] * DEG, cols["lon_deg"] * DEG, cols["h_m"],
                       cols["roll_deg"] * DEG, cols["pitch_deg"] * DEG, cols["yaw_deg"] * DEG, vel,
-                      {k: v for k, v in cols.items() if k not in known})
+                      {k: v for k, v in cols.items() if k not in known}, damage)
 
 
 def write_trajectory_csv(path, traj: Trajectory) -> Path:
@@ -232,6 +284,15 @@ def write_trajectory_csv(path, traj: Trajectory) -> Path:
 
 
 # ----------------------------------------------------------------------------- rosbag2
+
+
+def _no_topic(path, topic: str, damage) -> RecordingError:
+    """The error for a bag without messages on ``topic``: names the topics it has, and its damage."""
+    from nav_core import bagio
+
+    present = sorted(bagio.topics(path))
+    where = f"; the bag is damaged: {damage}" if damage else ""
+    return RecordingError(f"{path}: no messages on topic {topic!r}; topics present: {present or 'none'}{where}")
 
 
 def _damage_or_raise(err, strict: bool):
@@ -261,9 +322,8 @@ def read_imu_bag(path, topic: str = IMU_TOPIC, temp_topic: str = TEMP_TOPIC, str
                 temp.append(msg.temperature)
     except bagio.BagDamage as err:
         damage = _damage_or_raise(err, strict)
-    if not t and damage is None:
-        available = bagio.topics(path)
-        raise RecordingError(f"{path}: no messages on topic {topic!r}; the bag has {available}")
+    if not t:
+        raise _no_topic(path, topic, damage)
     t = np.asarray(t)
     temp_c = np.interp(t, temp_t, temp) if temp_t else None
     return ImuRecording(t, np.asarray(gyro).reshape(-1, 3), np.asarray(accel).reshape(-1, 3), temp_c,
@@ -284,8 +344,8 @@ def read_gnss_bag(path, topic: str = GNSS_TOPIC, strict: bool = False) -> GnssRe
             status.append(msg.status.status)
     except bagio.BagDamage as err:
         damage = _damage_or_raise(err, strict)
-    if not rows and damage is None:
-        raise RecordingError(f"{path}: no messages on topic {topic!r}; the bag has {bagio.topics(path)}")
+    if not rows:
+        raise _no_topic(path, topic, damage)
     a = np.asarray(rows, dtype=float).reshape(-1, 7)
     return GnssRecording(a[:, 0], a[:, 1] * DEG, a[:, 2] * DEG, a[:, 3], a[:, 4:7], np.asarray(status, int),
                          source=str(path), damage=damage)
@@ -357,8 +417,8 @@ def read_odometry(path, topic: str = "odometry/filtered", strict: bool = False) 
             frames = (msg.header.frame_id, msg.child_frame_id)
     except bagio.BagDamage as err:
         damage = _damage_or_raise(err, strict)
-    if not rows and damage is None:
-        raise RecordingError(f"{path}: no messages on topic {topic!r}; the bag has {bagio.topics(path)}")
+    if not rows:
+        raise _no_topic(path, topic, damage)
     a = np.asarray(rows, dtype=float).reshape(-1, 23)
     return OdometryRecording(a[:, 0], a[:, 1:4], a[:, 4:8], a[:, 8:11], a[:, 11:17], a[:, 17:23],
                              frames[0], frames[1], str(path), damage)
