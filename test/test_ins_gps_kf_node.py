@@ -171,3 +171,37 @@ def test_node_with_a_bad_config_exits_2_with_a_message(ros_env):
         code = node.stop()
     assert code == 2
     assert "gate_probability" in node.output
+
+
+@pytest.mark.slow
+def test_a_nan_imu_sample_is_counted_never_published_and_sigint_exits_0(ros_env, feeder):
+    imu, gnss = _drive()
+    bad = int(np.searchsorted(imu.t, 38.0))  # while navigating
+    imu.gyro[bad] = np.nan
+    imu.accel[bad + 5] = np.inf
+    node = NodeProcess("ins_gps_kf_node", env=ros_env, ros_args=PARAMS)
+    try:
+        assert node.wait_for_line("ready", 30.0), node.output
+        assert feeder.wait_connected(), node.output
+        feeder.probe.spin_until(lambda p: False, 1.0)
+        feeder.play(imu, gnss, msgs_per_s=400.0)
+        feeder.odom.spin_until(lambda p: False, 2.0)
+        feeder.probe.spin_until(lambda p: False, 1.5)  # a diagnostics period after the last message
+    finally:
+        code = node.stop()
+    assert code == 0, node.output
+    assert "Traceback" not in node.output
+    odom = [m for _, m in feeder.odom.received["odometry/filtered"]]
+    stamps = [m.header.stamp.sec + 1e-9 * m.header.stamp.nanosec for m in odom]
+    assert stamps and max(stamps) > imu.t[bad] + 5.0  # it kept publishing after the bad samples
+    for m in odom:
+        p, q = m.pose.pose.position, m.pose.pose.orientation
+        assert np.all(np.isfinite([p.x, p.y, p.z, q.x, q.y, q.z, q.w, *m.pose.covariance, *m.twist.covariance]))
+    assert all(np.all(np.isfinite([m.orientation.x, m.orientation.w])) for _, m in feeder.probe.received["imu/data"])
+    diags = [s for _, a in feeder.probe.received["/diagnostics"] for s in a.status if "ins_gps_kf" in s.name]
+    values = {kv.key: kv.value for kv in diags[-1].values}
+    # the core rejects and counts the two samples (its counters reach the diagnostics), the node published nothing bad
+    assert values["imu_nonfinite"] == "2", values
+    assert values["nonfinite_estimates"] == "0" and values["processing_errors"] == "0", values
+    assert values["state"] == "navigating"
+    assert node.output.count("ERROR") <= 1

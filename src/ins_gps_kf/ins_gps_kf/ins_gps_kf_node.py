@@ -8,9 +8,13 @@ in batches every ``intake_period_s`` and run through the filter as chunks (bit-i
 to one by one); ``imu/data`` carries the newest sample of each chunk: every sample at
 64 Hz, about one per intake period at 1 kHz (a per-sample orientation would cost more
 than the filter).
-Messages wait ``reorder_window_s`` in a buffer ordered by stamp, so late and
-out-of-order messages are processed in order; older ones are dropped and counted;
-a stamp jump beyond ``time_jump_s`` resets the filter (reported).
+Ordering, late drops and time-jump resets are :class:`ins_gps_kf.intake.StampOrderIntake`'s
+(messages wait ``reorder_window_s`` past the newest IMU stamp, so a node that falls behind
+catches up in the same order); this module is wiring. The subscriptions queue
+``input_queue_depth`` messages, so a node held up for seconds loses nothing, and every
+numba kernel is compiled before the node says ready (a first-epoch compile once held a
+fresh install's node up for 30 s on a busy machine while DDS dropped its input).
+Only finite estimates are published: a non-finite one is counted and the filter reset.
 """
 from __future__ import annotations
 
@@ -19,16 +23,16 @@ import os
 os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")  # 15x15 matrices: BLAS threads only cost time
 
 import dataclasses  # noqa: E402
-import heapq  # noqa: E402
-import itertools  # noqa: E402
 import math  # noqa: E402
 import threading  # noqa: E402
+import time  # noqa: E402
 
 import numpy as np  # noqa: E402
 from nav_msgs.msg import Odometry  # noqa: E402
 from rclpy.exceptions import InvalidParameterTypeException, InvalidParameterValueException  # noqa: E402
 from rclpy.serialization import deserialize_message  # noqa: E402
 from rclpy.node import Node  # noqa: E402
+from rclpy.qos import QoSProfile, ReliabilityPolicy  # noqa: E402
 from sensor_msgs.msg import Imu, NavSatFix  # noqa: E402
 
 from nav_core import sensor_model as sm  # noqa: E402
@@ -42,13 +46,18 @@ from ins_gps_kf import config as kfconfig  # noqa: E402
 from ins_gps_kf import error_model as em  # noqa: E402
 from ins_gps_kf import strapdown  # noqa: E402
 from ins_gps_kf.filter import ALIGNING, NAVIGATING, Estimate, InsGpsFilter  # noqa: E402
-from ins_gps_kf.replay import load_model  # noqa: E402
+from ins_gps_kf.intake import StampOrderIntake, warm_up  # noqa: E402
+from ins_gps_kf.offline import load_model  # noqa: E402
 
-GPS, IMU = 0, 1  # a fix sorts before an IMU sample of the same stamp (as in the replay)
+GPS, IMU = 0, 1  # arrival-merge order of a fix and an IMU message received at the same instant
 
 INTAKE = Param("intake_period_s", 0.01, "IMU and GPS messages are taken in batches at this period, s (adds up "
                "to this much latency; an executor callback per message costs more than the filter at 1 kHz)",
                0.0005, 1.0)
+QUEUE = Param("input_queue_depth", 20000, "messages each input subscription holds until taken: a node held up "
+              "(a busy CPU) catches up instead of losing input; 20,000 = 39 s of 64-Hz IMU at 8x", 100, 1000000)
+NODE_PARAMS = (INTAKE, QUEUE)
+ERROR_LOG_PERIOD_S = 10.0  # a repeating processing error is logged at most this often
 
 
 def _param(spec: Param) -> Param:
@@ -63,35 +72,38 @@ class InsGpsKfNode(Node):
     def __init__(self, **kwargs):
         super().__init__(kfconfig.NODE_NAME, **kwargs)
         try:
-            self.params = declare_parameters(self, [_param(s) for s in kfconfig.PARAMETERS] + [INTAKE])
-            cfg = kfconfig.from_params({k: v for k, v in self.params.items() if k != INTAKE.name})
+            self.params = declare_parameters(self, [_param(s) for s in kfconfig.PARAMETERS] + list(NODE_PARAMS))
+            cfg = kfconfig.from_params({k: v for k, v in self.params.items()
+                                        if k not in {p.name for p in NODE_PARAMS}})
             model = load_model(self.params["sensor_model_path"] or "default")
         except (kfconfig.FilterConfigError, sm.SensorModelError, InvalidParameterValueException,
                 InvalidParameterTypeException) as err:
             raise ConfigError(str(err)) from err
         self.filter = InsGpsFilter(cfg, model)
-        self.window = float(self.params["reorder_window_s"])
-        self.time_jump = float(self.params["time_jump_s"])
-        self.heap, self.seq = [], itertools.count()
-        self.newest_t = -math.inf
-        self.last_t = None
-        self.late_dropped = 0
-        self.node_resets = 0
-        self.last_reset = ""
+        self.intake = StampOrderIntake(self.filter, self.params["reorder_window_s"], self.params["time_jump_s"],
+                                       cfg.imu_rate_hz, on_run=self._on_run)
         self.last_estimate: Estimate | None = None
+        self.nonfinite_estimates = 0  # estimates not published because not finite (the filter was reset)
+        self.processing_errors = 0
+        self.last_processing_error = ""
+        self._error_logged_at = -math.inf
         self.closing = False
-        self.odom_pub = self.create_publisher(Odometry, "odometry/filtered", 10)
+        # deep: catching up after a hold-up publishes many epochs at once, and none may be overwritten
+        self.odom_pub = self.create_publisher(Odometry, "odometry/filtered", 1000)
         self.imu_pub = self.create_publisher(Imu, "imu/data", SENSOR_QOS)
         self.imu_out = []
-        self.imu_received = 0
         # IMU and fixes are taken together and merged by receive time: the order per-message callbacks
         # would have seen, so a fix is never overtaken by a batch of IMU samples that arrived after it
-        self.imu_intake = ImuBatchSubscription(self, self.params["imu_topic"], None, None)
-        self.gps_intake = PolledSubscription(self, NavSatFix, self.params["gps_topic"], None, None)
+        qos = QoSProfile(depth=self.params["input_queue_depth"], reliability=ReliabilityPolicy.BEST_EFFORT)
+        self.imu_intake = ImuBatchSubscription(self, self.params["imu_topic"], None, None, qos=qos)
+        self.gps_intake = PolledSubscription(self, NavSatFix, self.params["gps_topic"], None, None, qos=qos)
         self.lock = threading.Lock()
         self.diag = Diagnostics(self, "ins_gps_kf")
         self.create_timer(1.0, self._locked(self.publish_diagnostics))
-        strapdown.warm_up()  # compile or load the numba kernels now, not on the first aligned sample
+        start = time.monotonic()
+        strapdown.warm_up()
+        warm_up(cfg, model)  # every numba kernel compiled (or loaded from cache) now, not at the first epoch
+        self.get_logger().info(f"kernels ready in {time.monotonic() - start:.1f} s")
         self.intake_loop = IntakeLoop(self, self.params["intake_period_s"], self.take_input, self.lock)
         self.get_logger().info(f"ready: imu '{self.params['imu_topic']}', gps '{self.params['gps_topic']}', "
                                f"model '{self.params['sensor_model_path'] or 'hand-tuned default'}'")
@@ -106,76 +118,61 @@ class InsGpsKfNode(Node):
     # ------------------------------------------------------------------ input
 
     def take_input(self):
-        """Queue what arrived since the last call, IMU samples and fixes in arrival order; publish imu/data."""
+        """Queue what arrived since the last call, IMU samples and fixes in arrival order; run what is due."""
         imu, fixes = self.imu_intake.take_all(), self.gps_intake.take_all()
         if not imu and not fixes:
             return
         batch = self.imu_intake.decode([blob for blob, _ in imu])
-        self.imu_received += len(batch)
         if len(batch) != len(imu):  # a bad message was skipped: arrival order is lost for this batch only
             imu = [(None, imu[-1][1])] * len(batch)
+        # merged by receive time: the order per-message callbacks would have seen, so a fix is never
+        # overtaken by a batch of IMU samples that arrived after it
         arrivals = sorted([(received, IMU, i) for i, (_, received) in enumerate(imu)]
                           + [(received, GPS, i) for i, (_, received) in enumerate(fixes)])
         t_s = batch.t_s.tolist()
-        for _, kind, i in arrivals:  # drained once at the end, so the filter gets whole chunks
+        restarts = self.intake.counters.restarts
+        for _, kind, i in arrivals:
             if kind == IMU:
-                self._push(t_s[i], IMU, (batch.gyro[i], batch.accel[i]), drain=False)
+                self.intake.add_imu(t_s[i], batch.gyro[i], batch.accel[i])
             else:
-                self.on_gps(deserialize_message(fixes[i][0], NavSatFix), drain=False)
-        self._drain(self.newest_t - self.window)
+                self.on_gps(deserialize_message(fixes[i][0], NavSatFix))
+        self._guarded(self.intake.release)
+        if self.intake.counters.restarts != restarts:
+            self.get_logger().warn(f"time jump: {self.intake.counters.last_restart}; filter reset")
         self._publish_imu_out()
 
-    def on_gps(self, msg: NavSatFix, drain=True):
-        """Queue one fix (NaN and NO_FIX fixes are counted and ignored by the filter)."""
+    def on_gps(self, msg: NavSatFix):
+        """Queue one fix (the filter judges NaN, NO_FIX and implausible fixes)."""
         cov = np.asarray(msg.position_covariance, dtype=float).reshape(3, 3)
         std = np.sqrt(np.clip(np.diag(cov), 0.0, None)) if msg.position_covariance_type > 0 else np.zeros(3)
-        self._push(stamp_to_s(msg.header.stamp), GPS,
-                   (msg.latitude * DEG, msg.longitude * DEG, msg.altitude, std, msg.status.status), drain)
+        self.intake.add_fix(stamp_to_s(msg.header.stamp), msg.latitude * DEG, msg.longitude * DEG, msg.altitude,
+                            std, msg.status.status)
 
-    def _push(self, t, kind, payload, drain=True):
-        # IMU stamps are the clock: only they can signal a restart; a very late fix is just late
-        if kind == IMU and self.last_t is not None and t < self.last_t - self.time_jump:
-            self._drain(self.newest_t - self.window)  # what the stamps before the jump released
-            self._reset(f"stamp jumped back {self.last_t - t:.3f} s (bag restart?)")
-        heapq.heappush(self.heap, (t, kind, next(self.seq), payload))
-        if kind == IMU:  # a fix waits for the IMU to pass it: the denoised IMU arrives later than the fixes
-            self.newest_t = max(self.newest_t, t)
-        if drain:
-            self._drain(self.newest_t - self.window)
+    def _guarded(self, fn):
+        """``fn()``; an error of the filter is counted, logged now and then, and resets it (input goes on)."""
+        try:
+            fn()
+        except Exception as err:  # noqa: BLE001 - the node outlives a bad state: reset, re-align, report
+            self.processing_errors += 1
+            self.last_processing_error = f"{type(err).__name__}: {err}"
+            if time.monotonic() - self._error_logged_at > ERROR_LOG_PERIOD_S:
+                self._error_logged_at = time.monotonic()
+                self.get_logger().error(f"filter error ({self.processing_errors} so far): "
+                                        f"{self.last_processing_error}; filter reset")
+            self.filter.reset(f"error: {self.last_processing_error}")
 
-    def _reset(self, reason):
-        self.get_logger().warn(f"time jump: {reason}; filter reset")
-        self.filter.reset(reason)
-        self.heap.clear()
-        self.newest_t, self.last_t = -math.inf, None
-        self.node_resets += 1
-        self.last_reset = reason
+    def _on_run(self, estimates, t, gyro, accel):
+        """After a chunk of IMU samples: publish its epochs' odometry; queue its newest sample for imu/data.
 
-    def _drain(self, until_t):
-        run = []  # consecutive IMU samples go to the filter as one chunk (the same bits as one by one)
-        while self.heap and self.heap[0][0] <= until_t:
-            t, kind, _, payload = heapq.heappop(self.heap)
-            if self.last_t is not None and (t < self.last_t or (kind == GPS and t == self.last_t)):
-                self.late_dropped += 1  # arrived after its place in the stamp order was processed
-                continue
-            if kind == GPS:
-                self._process_imu_run(run)
-                run = []
-                self.filter.process_gps(t, *payload)
-                continue
-            self.last_t = t
-            run.append((t, payload))
-        self._process_imu_run(run)
-
-    def _process_imu_run(self, run):
-        """Run IMU samples through the filter; queue the newest one, oriented, for imu/data."""
-        if not run:
-            return
-        t = np.array([t for t, _ in run])
-        gyro, accel = np.array([p[0] for _, p in run]), np.array([p[1] for _, p in run])
-        for est in self.filter.process_imu(t, gyro, accel):
+        A non-finite estimate is never published: it is counted and the filter reset (it re-aligns).
+        """
+        for est in estimates:
+            if not _finite(est):
+                self.nonfinite_estimates += 1
+                self.filter.reset(f"non-finite estimate at t={est.t:.3f} s")
+                return
             self.publish_odometry(est)
-        self.publish_imu(t[-1], gyro[-1], accel[-1])
+        self.publish_imu(t, gyro, accel)
 
     def close(self):
         """Run what is still buffered through the filter without publishing (called by run_node on shutdown)."""
@@ -183,9 +180,9 @@ class InsGpsKfNode(Node):
         self.closing = True
         try:
             self.take_input()
-        except Exception:  # the context may already be shut down on SIGINT; what was queued still runs
+        except Exception:  # noqa: BLE001 - the context may already be shut down on SIGINT; what was queued runs
             pass
-        self._drain(math.inf)
+        self._guarded(self.intake.flush)
 
     # ------------------------------------------------------------------ output
 
@@ -194,8 +191,9 @@ class InsGpsKfNode(Node):
         f = self.filter
         if not f.navigating or self.closing:
             return
-        self.imu_out.append((t, f.nav[strapdown.Q].copy(), f.cov[em.PHI, em.PHI].ravel(),
-                             gyro - f.gyro_bias, accel - f.accel_bias))
+        row = (t, f.nav[strapdown.Q].copy(), f.cov[em.PHI, em.PHI].ravel(), gyro - f.gyro_bias, accel - f.accel_bias)
+        if all(np.all(np.isfinite(v)) for v in row):  # a non-finite state is caught (and counted) at the epoch
+            self.imu_out.append(row)
 
     def _publish_imu_out(self):
         """Publish the queued oriented samples on imu/data in one raw-CDR batch."""
@@ -235,9 +233,9 @@ class InsGpsKfNode(Node):
 
     def publish_diagnostics(self):
         """State, NIS, rejected fixes, GPS age, alignment status, resets."""
-        f = self.filter
+        f, ic = self.filter, self.intake.counters
         c = f.counters
-        age = (self.last_t - f.last_fix_t) if self.last_t is not None else math.inf
+        age = (self.intake.last_t - f.last_fix_t) if self.intake.last_t is not None else math.inf
         stale_gps = age > 3.0 / f.cfg.gps_rate_hz
         if f.status == NAVIGATING and not stale_gps:
             level, message = "OK", "navigating"
@@ -245,6 +243,10 @@ class InsGpsKfNode(Node):
             level, message = "WARN", f"navigating on INS only (GPS age {age:.1f} s)"
         else:
             level, message = "WARN", f.status
+        if ic.dropped or self.nonfinite_estimates or self.processing_errors:
+            level = "ERROR" if level == "ERROR" else "WARN"
+            message += (f"; input dropped {ic.dropped}, non-finite estimates {self.nonfinite_estimates}, "
+                        f"errors {self.processing_errors}")
         values = {"state": f.status, "last_nis": f.last_nis, "fixes": c.fixes, "rejected_fixes": c.fixes_rejected,
                   "invalid_fixes": c.fixes_invalid, "reused_fixes": c.fixes_reused, "gps_resets": c.gps_resets,
                   "gps_age_s": age, "zupts": c.zupts, "epochs": c.epochs,
@@ -253,11 +255,21 @@ class InsGpsKfNode(Node):
                                 if f.status == ALIGNING else "waiting for a GPS fix (datum)"),
                   "filter_resets": c.resets, "imu_gaps_bridged": c.gaps_bridged,
                   "last_reset": (c.reset_reasons[-1] if c.reset_reasons else ""),
-                  "late_dropped": self.late_dropped, "imu_received": self.imu_received,
-                  "bad_imu_messages": self.imu_intake.bad_messages}
+                  # the intake: everything it dropped, and why; samples missing in the stamps it released
+                  "late_dropped": ic.dropped, "late_imu": ic.late_imu, "late_fixes": ic.late_fixes,
+                  "bad_stamps": ic.bad_stamps, "imu_missing": ic.imu_missing, "node_resets": ic.restarts,
+                  "imu_received": ic.imu_samples, "fixes_received": ic.fixes, "queued": self.intake.pending,
+                  "bad_imu_messages": self.imu_intake.bad_messages, "nonfinite_estimates": self.nonfinite_estimates,
+                  "processing_errors": self.processing_errors, "last_processing_error": self.last_processing_error}
+        values.update(getattr(f, "input_counters", {}))  # the core's rejected and doubtful input, by kind
         if f.alignment is not None:
             values.update({"align_roll_deg": f.alignment.roll / DEG, "align_pitch_deg": f.alignment.pitch / DEG})
         self.diag.publish(level, message, values)
+
+
+def _finite(est: Estimate) -> bool:
+    """Whether every published field of ``est`` is finite."""
+    return all(np.all(np.isfinite(v)) for v in (est.position_n, est.velocity_n, est.quat_xyzw, est.cov))
 
 
 def main(args=None) -> int:

@@ -1,0 +1,177 @@
+"""Stamp-ordered intake of the filter node: IMU samples and fixes in arrival order, the filter fed in stamp order.
+
+No ROS here: the node hands over what its subscriptions took, this class decides the order,
+what is too late, what is a restart, and what is counted. The rules (the offline replay's order):
+
+* everything waits in a heap ordered by stamp (a fix before an IMU sample of equal stamp) until
+  the newest IMU stamp is ``window_s`` past it. Only IMU stamps advance the release point: the
+  denoised IMU comes later than the fixes, so a fix waits however far behind the IMU runs. Nothing
+  is released by wall time, so a node that falls behind catches up with the same order;
+* a message whose place in the stamp order was already processed is dropped and counted
+  (``late_imu``, ``late_fixes``) - the only drop there is;
+* an IMU stamp more than ``time_jump_s`` before the last processed one is a restart (a bag
+  looping): everything queued with the old stamps is run, then the filter is reset; what was
+  queued with stamps before the processed ones (fixes of the new run) is kept for the new run;
+* a non-finite stamp is rejected and counted (it has no place in the order); what the samples
+  carry is the filter's to judge;
+* consecutive IMU samples go to the filter as one chunk (the same numbers as one by one).
+"""
+from __future__ import annotations
+
+import dataclasses
+import heapq
+import itertools
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+
+GPS, IMU = 0, 1  # a fix sorts before an IMU sample of the same stamp (as in the replay)
+
+
+@dataclass
+class IntakeCounters:
+    """What the intake saw and did (reported in the node's /diagnostics)."""
+
+    imu_samples: int = 0       # IMU samples handed in
+    fixes: int = 0             # fixes handed in
+    late_imu: int = 0          # IMU samples older than the last processed stamp: dropped
+    late_fixes: int = 0        # fixes at or before the last processed IMU stamp: dropped
+    bad_stamps: int = 0        # non-finite stamps: rejected
+    restarts: int = 0          # backward time jumps that reset the filter
+    imu_missing: int = 0       # IMU samples missing in forward gaps of the released stream (estimate)
+    last_restart: str = ""
+    reasons: list = field(default_factory=list)
+
+    @property
+    def dropped(self) -> int:
+        """Messages the intake dropped (late or unstamped)."""
+        return self.late_imu + self.late_fixes + self.bad_stamps
+
+
+class StampOrderIntake:
+    """Reorder heap in front of an :class:`~ins_gps_kf.filter.InsGpsFilter` (or anything with its three calls).
+
+    ``on_run(estimates, t_s, gyro, accel)`` is called after every chunk of IMU samples ran
+    through the filter, with the epoch estimates it produced and the chunk's newest sample.
+    """
+
+    def __init__(self, filt, window_s: float, time_jump_s: float, imu_rate_hz: float, on_run=None):
+        self.filter = filt
+        self.window_s = float(window_s)
+        self.time_jump_s = float(time_jump_s)
+        self.imu_period_s = 1.0 / float(imu_rate_hz)
+        self.on_run = on_run or (lambda *args: None)
+        self.counters = IntakeCounters()
+        self._heap: list = []
+        self._seq = itertools.count()
+        self.newest_t = -math.inf   # newest IMU stamp handed in since the last restart, s
+        self.last_t: float | None = None  # newest IMU stamp released to the filter, s
+        self._done = (-math.inf, GPS)  # (stamp, kind) of the last message released: the order's front
+
+    @property
+    def pending(self) -> int:
+        """Messages waiting in the heap."""
+        return len(self._heap)
+
+    def add_imu(self, t_s: float, gyro, accel) -> None:
+        """Queue one IMU sample: stamp s, rate (3,) rad/s, specific force (3,) m/s^2."""
+        self.counters.imu_samples += 1
+        if not math.isfinite(t_s):
+            self.counters.bad_stamps += 1
+            return
+        if self.last_t is not None and t_s < self.last_t - self.time_jump_s:
+            self._restart(f"stamp jumped back {self.last_t - t_s:.3f} s (bag restart?)")
+        heapq.heappush(self._heap, (t_s, IMU, next(self._seq), (gyro, accel)))
+        self.newest_t = max(self.newest_t, t_s)
+
+    def add_fix(self, t_s: float, lat_rad: float, lon_rad: float, h_m: float, std_enu, status: int = 0) -> None:
+        """Queue one fix (s, rad, rad, m, std ENU (3,) m, NavSatStatus); its contents are the filter's to judge."""
+        self.counters.fixes += 1
+        if not math.isfinite(t_s):
+            self.counters.bad_stamps += 1
+            return
+        heapq.heappush(self._heap, (t_s, GPS, next(self._seq), (lat_rad, lon_rad, h_m, std_enu, status)))
+
+    def release(self) -> None:
+        """Run everything ``window_s`` older than the newest IMU stamp through the filter, in stamp order."""
+        self._drain(self.newest_t - self.window_s)
+
+    def flush(self) -> None:
+        """Run everything still queued (shutdown)."""
+        self._drain(math.inf)
+
+    def _restart(self, reason: str) -> None:
+        """Run the old stamps' tail, reset the filter, keep what already belongs to the new stamps."""
+        # what is older than the processed stamps cannot be the old run's (it would be late): the new run's
+        new_run = [item for item in self._heap if item[:2] < self._done]
+        self._heap = [item for item in self._heap if item[:2] >= self._done]
+        heapq.heapify(self._heap)
+        self.flush()
+        self.filter.reset(reason)
+        self._heap = new_run
+        heapq.heapify(self._heap)
+        self.newest_t = max((item[0] for item in new_run if item[1] == IMU), default=-math.inf)
+        self.last_t, self._done = None, (-math.inf, GPS)
+        self.counters.restarts += 1
+        self.counters.last_restart = reason
+        self.counters.reasons.append(reason)
+
+    def _drain(self, until_t: float) -> None:
+        run = []
+        while self._heap and self._heap[0][0] <= until_t:
+            t, kind, _, payload = heapq.heappop(self._heap)
+            if (t, kind) < self._done:  # its place in the stamp order was processed already
+                if kind == GPS:
+                    self.counters.late_fixes += 1
+                else:
+                    self.counters.late_imu += 1
+                continue
+            self._done = (t, kind)
+            if kind == GPS:
+                self._run_imu(run)
+                run = []
+                self.filter.process_gps(t, *payload)
+                continue
+            if self.last_t is not None and t - self.last_t > 1.5 * self.imu_period_s:
+                self.counters.imu_missing += int(round((t - self.last_t) / self.imu_period_s)) - 1
+            self.last_t = t
+            run.append((t, payload))
+        self._run_imu(run)
+
+    def _run_imu(self, run) -> None:
+        if not run:
+            return
+        t = np.fromiter((s for s, _ in run), float, len(run))
+        gyro = np.array([p[0] for _, p in run], dtype=float)
+        accel = np.array([p[1] for _, p in run], dtype=float)
+        estimates = self.filter.process_imu(t, gyro, accel)
+        self.on_run(estimates, float(t[-1]), gyro[-1], accel[-1])
+
+
+def warm_up(cfg, model=None):
+    """Run a throwaway filter (``cfg``, ``model``) through alignment, heading and GPS updates on 20 s of a
+    synthetic drive, so every numba kernel is compiled (or loaded from its cache) before real input comes.
+
+    A fresh install compiles the covariance kernels at the first epoch after alignment: tens of
+    seconds on a busy 2-core machine, during which a node would take no input. Returns the filter.
+    """
+    from ins_gps_kf import synthetic
+    from ins_gps_kf.filter import InsGpsFilter
+
+    rate = cfg.imu_rate_hz
+    cfg = dataclasses.replace(cfg, alignment_time_s=3.0, min_alignment_time_s=1.0, datum=None,
+                              alignment_mode="stationary")
+    motion = synthetic.straight(still_s=4.0, accel_s=6.0, cruise_s=10.0, accel=1.0)
+    imu = synthetic.ideal_imu(motion, rate, oversample=2)
+    gnss = synthetic.gnss(motion, rate, 0.5, np.random.default_rng(0))
+    filt = InsGpsFilter(cfg, model)
+    intake = StampOrderIntake(filt, 0.0, cfg.time_jump, rate)
+    for k in np.argsort(np.concatenate([gnss.t, imu.t]), kind="stable"):
+        if k < len(gnss):
+            intake.add_fix(gnss.t[k], gnss.lat[k], gnss.lon[k], gnss.h[k], gnss.std_enu[k], 0)
+        else:
+            i = k - len(gnss)
+            intake.add_imu(imu.t[i], imu.gyro[i], imu.accel[i])
+    intake.flush()
+    return filt

@@ -1,0 +1,200 @@
+"""The filter node's stamp-ordered intake, without ROS: order, late drops, restarts, catching up."""
+import math
+
+import numpy as np
+import pytest
+from hypothesis import given, settings, strategies as st
+
+from ins_gps_kf import config as kfconfig
+from ins_gps_kf import synthetic as syn
+from ins_gps_kf.filter import InsGpsFilter
+from ins_gps_kf.intake import StampOrderIntake
+from ins_gps_kf.replay import run
+
+RATE = 32.0
+
+
+class Recorder:
+    """Stands in for the filter: keeps the calls in the order they came."""
+
+    def __init__(self):
+        self.calls = []
+
+    def process_imu(self, t, gyro, accel):
+        self.calls += [("imu", float(s)) for s in t]
+        return []
+
+    def process_gps(self, t, *payload):
+        self.calls.append(("gps", float(t)))
+
+    def reset(self, reason):
+        self.calls.append(("reset", reason))
+
+
+def _intake(window_s=0.1, time_jump_s=1.0):
+    rec = Recorder()
+    return rec, StampOrderIntake(rec, window_s, time_jump_s, RATE)
+
+
+def _imu(intake, t):
+    intake.add_imu(t, np.zeros(3), np.zeros(3))
+
+
+def _fix(intake, t):
+    intake.add_fix(t, 0.1, 0.2, 3.0, np.ones(3), 0)
+
+
+def test_out_of_order_messages_within_the_window_reach_the_filter_in_stamp_order():
+    rec, intake = _intake()
+    for t in (0.0, 2 / RATE, 1 / RATE, 3 / RATE):
+        _imu(intake, t)
+    _fix(intake, 1 / RATE)  # same stamp as an IMU sample: the fix goes first
+    for k in range(4, 12):
+        _imu(intake, k / RATE)
+    intake.release()
+    stamps = [t for _, t in rec.calls]
+    assert stamps == sorted(stamps)
+    assert rec.calls.index(("gps", 1 / RATE)) < rec.calls.index(("imu", 1 / RATE))
+    assert intake.counters.dropped == 0
+
+
+def test_a_fix_waits_for_the_imu_however_far_behind_it_runs():
+    rec, intake = _intake()
+    for k in range(10):
+        _fix(intake, float(k))  # ten seconds of fixes first: the denoised IMU is late
+    intake.release()
+    assert rec.calls == []
+    for k in range(int(12 * RATE)):
+        _imu(intake, k / RATE)
+    intake.release()
+    assert [c for c in rec.calls if c[0] == "gps"] == [("gps", float(k)) for k in range(10)]
+    assert intake.counters.late_fixes == 0
+
+
+def test_messages_behind_what_was_processed_are_dropped_and_counted():
+    rec, intake = _intake()
+    for k in range(20):
+        _imu(intake, k / RATE)
+    intake.release()
+    processed = len(rec.calls)
+    _imu(intake, 1 / RATE)  # long gone
+    _fix(intake, 2 / RATE)
+    intake.release()
+    assert len(rec.calls) == processed
+    assert (intake.counters.late_imu, intake.counters.late_fixes, intake.counters.dropped) == (1, 1, 2)
+
+
+def test_a_stamp_jumping_back_resets_the_filter_after_running_all_that_came_before():
+    rec, intake = _intake()
+    for k in range(64):
+        _imu(intake, 10.0 + k / RATE)
+    intake.release()
+    _fix(intake, 3.5)  # the restarted bag's first fix comes before its (denoised, later) IMU
+    _imu(intake, 3.0)  # the bag restarts
+    assert rec.calls[-1][0] == "reset"
+    before = [t for kind, t in rec.calls[:-1] if kind == "imu"]
+    assert before == [10.0 + k / RATE for k in range(64)]  # all of the old stamps, the window's worth too
+    assert intake.counters.restarts == 1 and "jumped back" in intake.counters.last_restart
+    for k in range(1, 20):
+        _imu(intake, 3.0 + k / RATE)
+    intake.flush()
+    reset_at = [kind for kind, _ in rec.calls].index("reset")
+    after = [t for kind, t in rec.calls[reset_at + 1:] if kind == "imu"]
+    assert after == sorted(after) and after[0] == 3.0 and len(after) == 20
+    assert ("gps", 3.5) in rec.calls[reset_at:]  # kept for the new run
+    assert intake.counters.late_imu == 0
+
+
+def test_a_non_finite_stamp_is_rejected_and_counted():
+    rec, intake = _intake()
+    _imu(intake, math.nan)
+    intake.add_fix(math.inf, 0.1, 0.2, 3.0, np.ones(3), 0)
+    for k in range(10):
+        _imu(intake, k / RATE)
+    intake.flush()
+    assert [kind for kind, _ in rec.calls] == ["imu"] * 10
+    assert intake.counters.bad_stamps == 2
+
+
+def test_missing_imu_samples_are_counted_from_the_stamp_gaps():
+    rec, intake = _intake()
+    for k in [*range(10), *range(15, 20)]:
+        _imu(intake, k / RATE)
+    intake.flush()
+    assert intake.counters.imu_missing == 5  # stamps 10..14
+
+
+@settings(max_examples=60, deadline=None)
+@given(st.lists(st.tuples(st.sampled_from(["imu", "gps"]), st.integers(0, 400)), min_size=1, max_size=120),
+       st.integers(0, 1000))
+def test_whatever_the_arrival_order_the_filter_sees_nondecreasing_stamps(messages, seed):
+    rec, intake = _intake(window_s=0.25)
+    rng = np.random.default_rng(seed)
+    for kind, k in messages:
+        t = k / RATE
+        _imu(intake, t) if kind == "imu" else _fix(intake, t)
+        if rng.random() < 0.3:
+            intake.release()
+    intake.flush()
+    runs, stamps = [[]], []
+    for kind, t in rec.calls:
+        if kind == "reset":
+            runs.append([])
+        else:
+            runs[-1].append(t)
+            stamps.append(t)
+    assert all(run == sorted(run) for run in runs)  # between restarts (stamp jumps back > 1 s)
+    assert len(runs) - 1 == intake.counters.restarts
+    c = intake.counters
+    # every message handed in was either processed or counted as dropped: nothing vanishes silently
+    assert len(stamps) + c.dropped == len(messages)
+
+
+def _drive():
+    motion = syn.circle(still_s=20.0, accel_s=5.0, straight_s=10.0, turn_s=20.0)
+    rng = np.random.default_rng(3)
+    imu = syn.add_imu_errors(syn.ideal_imu(motion, RATE), rng, 1e-4, 0.01, 1e-3, 1e-3)
+    return imu, syn.gnss(motion, RATE, 1.0, rng)
+
+
+def _filter():
+    p = kfconfig.defaults()
+    p.update(alignment_time_s=15.0, imu_rate_hz=RATE)
+    return InsGpsFilter(kfconfig.from_params(p))
+
+
+@pytest.mark.parametrize("batch_s, imu_lag_s", [(0.01, 0.0), (0.5, 1.5), (12.0, 0.8)],
+                         ids=["every_sample", "imu_behind_the_fixes", "catching_up_after_a_12s_stall"])
+def test_the_intake_gives_the_offline_replay_numbers_however_the_input_is_batched(batch_s, imu_lag_s):
+    imu, gnss = _drive()
+    offline = run(_filter(), imu, gnss)
+    live = []
+    intake = StampOrderIntake(_filter(), 0.1, 1.0, RATE, on_run=lambda est, *_: live.extend(est))
+    # arrival order: fixes at their stamp, the IMU imu_lag_s later; taken every batch_s
+    arrivals = sorted([(t, 0, i) for i, t in enumerate(gnss.t)] + [(t + imu_lag_s, 1, i) for i, t in enumerate(imu.t)])
+    edge = batch_s
+    for when, kind, i in arrivals:
+        if when > edge:
+            intake.release()
+            edge = (when // batch_s + 1) * batch_s
+        if kind:
+            intake.add_imu(imu.t[i], imu.gyro[i], imu.accel[i])
+        else:
+            intake.add_fix(gnss.t[i], gnss.lat[i], gnss.lon[i], gnss.h[i], gnss.std_enu[i], gnss.status[i])
+    intake.flush()
+    assert len(live) == len(offline) > 40
+    for a, b in zip(live, offline):
+        assert a.t == b.t
+        np.testing.assert_array_equal(a.position_n, b.position_n)
+    assert intake.counters.dropped == 0 and intake.counters.imu_missing == 0
+
+
+def test_warm_up_runs_the_filter_through_alignment_heading_and_gps_updates():
+    from ins_gps_kf.filter import NAVIGATING
+    from ins_gps_kf.intake import warm_up
+
+    p = kfconfig.defaults()
+    p["estimate_scale_factors"] = True  # the 21-state kernels too
+    filt = warm_up(kfconfig.from_params(p))
+    assert filt.status == NAVIGATING
+    assert filt.counters.epochs > 10 and filt.counters.fixes > 10 and filt.last_fix_t > 15.0
