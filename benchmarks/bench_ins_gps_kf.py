@@ -23,7 +23,7 @@ import numpy as np  # noqa: E402
 from ins_gps_kf import config, strapdown  # noqa: E402
 from ins_gps_kf import synthetic as syn  # noqa: E402
 from ins_gps_kf.filter import InsGpsFilter  # noqa: E402
-from ins_gps_kf.replay import run  # noqa: E402
+from ins_gps_kf.offline import run  # noqa: E402
 
 TARGET_EPOCHS_PER_S = 45_000
 

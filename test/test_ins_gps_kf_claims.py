@@ -7,7 +7,8 @@ import numpy as np
 
 from nav_core.recording import ImuRecording
 from nav_core.units import DEG
-from ins_gps_kf import error_model as em, evaluate
+from ins_gps_kf import error_model as em
+from nav_eval import claims as evaluate
 
 
 def _static(seed, rate=64.0, seconds=60.0, gyro_white=0.05 * DEG, accel_white=3e-3):

@@ -14,7 +14,7 @@ from nav_core.earth import LocalFrame
 from nav_core.units import DEG, DEG_PER_H
 from ins_gps_kf import alignment, config, error_model as em, synthetic as syn
 from ins_gps_kf.filter import HEADING_PENDING, NAVIGATING, InsGpsFilter
-from ins_gps_kf.replay import run
+from ins_gps_kf.offline import run
 
 RATE = 32.0  # Hz: keeps the tests quick; the filter takes the rate from the stamps
 

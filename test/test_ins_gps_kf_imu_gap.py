@@ -9,7 +9,7 @@ import numpy as np  # noqa: E402
 import pytest  # noqa: E402
 
 pytest.importorskip("imu_sim")
-from ins_gps_kf import evaluate  # noqa: E402
+from nav_eval import metrics as evaluate  # noqa: E402
 from ins_gps_kf.filter import NAVIGATING  # noqa: E402
 from nav_core.units import DEG  # noqa: E402
 

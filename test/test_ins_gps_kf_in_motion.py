@@ -12,7 +12,7 @@ from nav_core.recording import GnssRecording, ImuRecording
 from nav_core.units import DEG
 from ins_gps_kf import alignment, config, synthetic as syn
 from ins_gps_kf.filter import NAVIGATING, InsGpsFilter
-from ins_gps_kf.replay import run
+from ins_gps_kf.offline import run
 
 RATE = 32.0
 START_S = 5.0  # the recording begins here, already moving and still accelerating

@@ -8,7 +8,7 @@ from pathlib import Path  # noqa: E402
 import pytest  # noqa: E402
 
 pytest.importorskip("imu_sim")
-from ins_gps_kf import evaluate  # noqa: E402
+from nav_eval import paper_sim as evaluate  # noqa: E402
 
 SCENARIO = Path(__file__).resolve().parents[1] / "config" / "scenarios" / "paper_drive.yaml"
 

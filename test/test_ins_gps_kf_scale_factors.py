@@ -10,7 +10,7 @@ from nav_core import frames
 from nav_core.units import DEG
 from ins_gps_kf import config, error_model as em, synthetic as syn
 from ins_gps_kf.filter import NAVIGATING, InsGpsFilter
-from ins_gps_kf.replay import run
+from ins_gps_kf.offline import run
 
 RATE = 32.0
 GYRO_SCALE = np.array([0.0, 0.0, 0.02])  # 2 % on the turning axis

@@ -82,6 +82,14 @@ PARAMETERS = (
     Param("bridge_accel_std_mps2", 1.0, "vehicle acceleration std assumed while bridging an IMU gap, m/s^2",
          0.0, 100.0),
     Param("bridge_rate_std_dps", 5.0, "vehicle turn-rate std assumed while bridging an IMU gap, deg/s", 0.0, 1000.0),
+    Param("max_speed_mps", 100.0, "physical limit on the vehicle's speed: a GPS chord or course faster than this "
+         "(beyond its noise) is a jump, and an INS faster than twice this has diverged (reset), m/s", 0.1, 1e4),
+    Param("max_accel_mps2", 20.0, "physical limit on the vehicle's acceleration: a GPS track turning or speeding "
+         "up faster than this (beyond its noise) has jumped, and no GPS reset follows a jump, m/s^2", 0.1, 1e4),
+    Param("imu_max_gyro_dps", 2000.0, "IMU samples with a larger |rate| component are impossible (beyond the "
+         "sensor's range): rejected and counted, deg/s", 1.0, 1e5),
+    Param("imu_max_accel_mps2", 160.0, "IMU samples with a larger |specific force| component are impossible: "
+         "rejected and counted, m/s^2", 1.0, 1e5),
     Param("frame_id", "odom", "odometry pose frame (local ENU at the datum)"),
     Param("child_frame_id", "base_link", "odometry twist / body frame"),
 )
@@ -131,6 +139,10 @@ class FilterConfig:
     bridge_accel_std: float = 1.0
     bridge_rate_std: float = 5.0 * DEG
     apply_calibration: bool = False
+    max_speed: float = 100.0
+    max_accel: float = 20.0
+    imu_max_gyro: float = 2000.0 * DEG
+    imu_max_accel: float = 160.0
 
 
 def defaults() -> dict:
@@ -186,7 +198,9 @@ def from_params(params: dict) -> FilterConfig:
         heading_std=p["heading_std_deg"] * DEG, flicker_correlation_time=float(p["flicker_correlation_time_s"]),
         time_jump=float(p["time_jump_s"]), max_bridged_gap=float(p["max_bridged_gap_s"]),
         bridge_accel_std=float(p["bridge_accel_std_mps2"]), bridge_rate_std=float(p["bridge_rate_std_dps"]) * DEG,
-        apply_calibration=bool(p["apply_sensor_model_calibration"]))
+        apply_calibration=bool(p["apply_sensor_model_calibration"]), max_speed=float(p["max_speed_mps"]),
+        max_accel=float(p["max_accel_mps2"]), imu_max_gyro=float(p["imu_max_gyro_dps"]) * DEG,
+        imu_max_accel=float(p["imu_max_accel_mps2"]))
 
 
 def load_params_yaml(path) -> dict:

@@ -5,11 +5,15 @@ replay (large chunks): feed IMU samples and GPS fixes in stamp order (a fix
 before an IMU sample with the same stamp); every filter epoch (multiples of
 ``1 / filter_rate_hz`` s) yields an :class:`Estimate`. Chunking does not change
 the numbers: the kernel runs the same per-sample arithmetic either way.
+
+Bad input never raises and never reaches the state (:mod:`ins_gps_kf.input_checks`): impossible
+IMU samples and unusable fixes are dropped, doubtful ones (jumps, unknown stds) judged, and each
+counted in ``input_counters`` (a dict of ints and ``last_rejection``, for diagnostics); a
+non-finite or over-speed state resets and re-aligns instead of being output.
 """
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
 
 import numpy as np
 from scipy.spatial.transform import Rotation
@@ -20,59 +24,17 @@ from nav_core.earth import LocalFrame
 from nav_core.units import DEG
 from ins_gps_kf import error_model as em
 from ins_gps_kf.error_model import DP, DV, PHI
-from ins_gps_kf import kalman, measurements, strapdown
+from ins_gps_kf import input_checks, kalman, measurements, strapdown
 from ins_gps_kf.alignment import InMotionAligner, MotionAlignment, StationaryAligner, yaw_from_displacement
 from ins_gps_kf.config import FilterConfig
+from ins_gps_kf.records import Counters, Estimate, Fix
 
 WAITING, ALIGNING, HEADING_PENDING, NAVIGATING = "waiting_for_fix", "aligning", "heading_pending", "navigating"
 STATUS_CODES = {WAITING: 0, ALIGNING: 1, HEADING_PENDING: 2, NAVIGATING: 3}
 EPOCH_TOL_S = 1e-6  # stamps within this of an epoch belong to it (ns stamp rounding)
 HEADING_BASELINE_SIGMAS = 10.0  # course baseline at least this many GPS sigmas: heading error ~ 1/10 rad worst
 HEADING_HISTORY_S = 10.0  # longest course baseline, s
-
-
-@dataclass
-class Fix:
-    """A valid GPS fix in the local frame: stamp (s), ENU position (m), covariance (3, 3) m^2."""
-
-    t: float
-    enu: np.ndarray
-    cov: np.ndarray
-
-
-@dataclass
-class Estimate:
-    """Filter output at one epoch: SI, ENU position (m, local frame) and velocity, body-to-ENU quaternion."""
-
-    t: float
-    position_n: np.ndarray
-    velocity_n: np.ndarray
-    quat_xyzw: np.ndarray
-    cov: np.ndarray
-    gyro_bias: np.ndarray
-    accel_bias: np.ndarray
-    status: str
-    gps_used: bool
-    zupt_used: bool
-    nis: float
-    stationary: bool
-    scale_factors: np.ndarray | None = None  # gyro then accel (6,), unitless, with estimate_scale_factors
-
-
-@dataclass
-class Counters:
-    """Event counts reported in diagnostics."""
-
-    fixes: int = 0
-    fixes_invalid: int = 0
-    fixes_rejected: int = 0
-    fixes_reused: int = 0
-    zupts: int = 0
-    resets: int = 0
-    gps_resets: int = 0
-    gaps_bridged: int = 0
-    epochs: int = 0
-    reset_reasons: list = field(default_factory=list)
+UNKNOWN_STD_HEADING_HISTORY_S = 30.0  # with fixes of unknown std (10 m assumed) a longer baseline is needed
 
 
 class InsGpsFilter:
@@ -86,6 +48,7 @@ class InsGpsFilter:
         self.n_states = em.N_STATES_SF if cfg.estimate_scale_factors else em.N_STATES
         self.frame = LocalFrame(*cfg.datum) if cfg.datum is not None else None
         self.counters = Counters()
+        self.input = input_checks.InputCounters()
         self.last_fix_t = -math.inf
         self.last_nis = math.nan
         self._start_over()
@@ -95,6 +58,7 @@ class InsGpsFilter:
     def _start_over(self):
         cfg = self.cfg
         self.status = WAITING if self.frame is None else ALIGNING
+        self._last_fix_in = None  # (t, lat, lon, h) of the last fix let in, for duplicate and order checks
         if cfg.alignment_mode == "in_motion":
             self.aligner = InMotionAligner(cfg.motion_window_s, cfg.motion_max_accel, cfg.heading_min_speed,
                                            cfg.motion_gyro_bias)
@@ -113,6 +77,7 @@ class InsGpsFilter:
         self.prev_fix: Fix | None = None
         self.heading_history = []  # (fix, INS yaw at its epoch) while the heading is pending
         self.rejected_in_row = 0
+        self.fix_history = input_checks.FixHistory(cfg.max_rejected_fixes, cfg.max_speed, cfg.max_accel, self.input)
         self.gps_speed = 0.0  # horizontal speed between the last two fixes, m/s, less 3 sigma of its noise
         self.gyro_bias = np.zeros(3)
         self.accel_bias = np.zeros(3)
@@ -126,6 +91,11 @@ class InsGpsFilter:
         self._start_over()
 
     @property
+    def input_counters(self) -> dict:
+        """Rejected or doubtful input by kind (ints) and ``last_rejection`` (str); see :mod:`input_checks`."""
+        return self.input.as_dict()
+
+    @property
     def navigating(self) -> bool:
         """Whether a navigation solution exists (aligned)."""
         return self.nav is not None
@@ -133,16 +103,28 @@ class InsGpsFilter:
     # ------------------------------------------------------------------ GPS input
 
     def process_gps(self, t, lat_rad, lon_rad, h_m, std_enu, status=0) -> bool:
-        """Queue one fix (s, rad, rad, m, std ENU m, NavSatStatus); False if it is NO_FIX or not finite."""
-        if status < 0 or not np.all(np.isfinite([t, lat_rad, lon_rad, h_m])):
-            self.counters.fixes_invalid += 1
+        """Queue one fix (s, rad, rad, m, std ENU m, NavSatStatus); False if it is dropped (counted)."""
+        cfg = self.cfg
+        why = input_checks.check_fix(t, lat_rad, lon_rad, h_m, status, self._last_fix_in, self.t_last,
+                                     cfg.time_jump, cfg.max_bridged_gap + cfg.time_jump)
+        if why is not None:
+            setattr(self.input, why, getattr(self.input, why) + 1)
+            self.counters.fixes_invalid += why == "fixes_invalid"
+            self.input.last_rejection = f"fix at t={float(t):.3f} s dropped: {why}"
+            if why == "fixes_conflicting" and self.pending_fix is not None and self.pending_fix.t == t:
+                self.pending_fix = None  # two positions for one instant: trust neither
             return False
+        self._last_fix_in = (t, lat_rad, lon_rad, h_m)
         self.counters.fixes += 1
         if self.frame is None:
             self.frame = LocalFrame(lat_rad / DEG, lon_rad / DEG, float(h_m))
             self.status = ALIGNING
-        cov = measurements.fix_covariance(std_enu, self.cfg.gps_std, self.cfg.gps_std_up, self.cfg.min_gps_std)
-        self.pending_fix = Fix(float(t), self.frame.to_enu(lat_rad / DEG, lon_rad / DEG, h_m), cov)
+        known = not input_checks.std_unknown(std_enu)
+        if not known and not (cfg.gps_std > 0 and cfg.gps_std_up > 0):
+            self.input.fixes_std_unknown += 1
+        cov = measurements.fix_covariance(std_enu, cfg.gps_std, cfg.gps_std_up, cfg.min_gps_std)
+        self.pending_fix = Fix(float(t), self.frame.to_enu(lat_rad / DEG, lon_rad / DEG, h_m), cov,
+                               known or cfg.gps_std > 0)
         if self.nav is None and isinstance(self.aligner, InMotionAligner):
             self.aligner.add_fix(t, self.pending_fix.enu)
         return True
@@ -154,6 +136,10 @@ class InsGpsFilter:
         t = np.atleast_1d(np.asarray(t, dtype=float))
         gyro = np.atleast_2d(np.asarray(gyro, dtype=float))
         accel = np.atleast_2d(np.asarray(accel, dtype=float))
+        keep = input_checks.screen_imu(t, gyro, accel, self.t_last, self.cfg.imu_max_gyro, self.cfg.imu_max_accel,
+                                       self.input)
+        if not keep.all():
+            t, gyro, accel = t[keep], gyro[keep], accel[keep]
         if self.cfg.apply_calibration:
             gyro, accel = self.model.gyro.correct(gyro), self.model.accel.correct(accel)
         out = []
@@ -219,9 +205,22 @@ class InsGpsFilter:
                 self._integrate(t[i:], gyro[i:], accel[i:])
                 break
             self._integrate(t[i:j + 1], gyro[i:j + 1], accel[i:j + 1])
-            out.append(self._epoch())
+            est = self._epoch()
+            if self._state_ok(est):
+                out.append(est)
             i = j + 1
         return out
+
+    def _state_ok(self, est: Estimate) -> bool:
+        """False (and reset, counted) if the state is not finite or faster than twice the speed limit."""
+        speed = float(np.hypot(*est.velocity_n[:2]))
+        if (np.all(np.isfinite(self.nav)) and np.all(np.isfinite(self.cov))
+                and speed <= 2.0 * self.cfg.max_speed):
+            return True
+        self.input.state_resets += 1
+        self.input.last_rejection = f"state at t={est.t:.3f} s not finite or too fast ({speed:.3g} m/s): reset"
+        self.reset(f"diverged state at t={est.t:.3f} s")
+        return False
 
     def _integrate(self, t, gyro, accel):
         if self.n_states == em.N_STATES_SF:
@@ -346,6 +345,8 @@ class InsGpsFilter:
             w_b = self.mem[strapdown.M_WSUM] / max(self.mem[strapdown.M_N], 1.0)
             f_cont, g_cont = em.with_scale_factors(f_cont, g_cont, mat_nb, w_b, mat_nb.T @ f_n)
         self.cov = kalman.propagate_series(self.cov, f_cont, g_cont, dt)
+        predicted = self.nav[strapdown.P].copy(), self.nav[strapdown.Q].copy()  # the continuous INS chain
+        w_mean_b = self.mem[strapdown.M_WSUM] / max(self.mem[strapdown.M_N], 1.0)
         gps_used, nis = self._gps_update(t_e)
         # rms catches vibration, the mean catches a steady turn; GPS and INS speed veto smooth cruising and
         # braking, which a MEMS IMU cannot tell from rest
@@ -368,7 +369,7 @@ class InsGpsFilter:
                         self.nav[strapdown.Q].copy(), self.cov.copy(), self.gyro_bias.copy(),
                         self.accel_bias.copy(), self.status, gps_used, zupt_used, nis, stationary,
                         np.concatenate([self.gyro_scale, self.accel_scale])
-                        if self.n_states == em.N_STATES_SF else None)
+                        if self.n_states == em.N_STATES_SF else None, w_mean_b, *predicted)
 
     def _gps_update(self, t_e):
         """Use the newest pending fix (or, optionally, re-use the last one); returns (used, NIS)."""
@@ -383,11 +384,15 @@ class InsGpsFilter:
             if not (self.cfg.reuse_last_fix and self.prev_fix is not None and t_e - self.prev_fix.t <= max_age):
                 return False, math.nan
             fix, reused = self.prev_fix, True
+        if not reused:
+            self.fix_history.consumed(fix)
         if self.status == HEADING_PENDING and not reused and self._try_heading(fix, t_e):
             self.prev_fix = fix
+            self.fix_history.judged(fix, True)
             self.last_fix_t = fix.t
             return True, math.nan
-        if not reused and self.rejected_in_row >= self.cfg.max_rejected_fixes:
+        if (not reused and self.rejected_in_row >= self.cfg.max_rejected_fixes
+                and self.fix_history.reset_allowed(fix)):
             self._reset_to_fix(fix, t_e)
             return True, math.nan
         z = measurements.gps_position(self.nav[strapdown.P], self.nav[strapdown.V], self.mat_nb(),
@@ -397,6 +402,7 @@ class InsGpsFilter:
             self.prev_fix = fix
             self.counters.fixes_rejected += not corr.accepted
             self.rejected_in_row = 0 if corr.accepted else self.rejected_in_row + 1
+            self.fix_history.judged(fix, corr.accepted)
         else:
             self.counters.fixes_reused += 1
         self.last_nis = corr.nis
@@ -437,6 +443,7 @@ class InsGpsFilter:
         """
         self.counters.gps_resets += 1
         self.rejected_in_row = 0
+        self.fix_history.judged(fix, True)
         self.prev_fix = fix
         self.last_fix_t = fix.t
         self.nav[strapdown.P] = fix.enu - self.mat_nb() @ self.lever_arm_b
@@ -460,12 +467,15 @@ class InsGpsFilter:
         the INS yaw change since then (gyros are good over seconds) brings it to now.
         """
         yaw_ins = float(frames.euler_from_quat_xyzw(self.nav[strapdown.Q])[2])
-        self.heading_history = [(f, y) for f, y in self.heading_history if fix.t - f.t <= HEADING_HISTORY_S]
+        window = HEADING_HISTORY_S if fix.std_known else UNKNOWN_STD_HEADING_HISTORY_S
+        self.heading_history = [(f, y) for f, y in self.heading_history if fix.t - f.t <= window]
         for prev, prev_yaw in reversed(self.heading_history):
             d, dt = fix.enu - prev.enu, fix.t - prev.t
             dist = float(np.hypot(d[0], d[1]))
             sigma = float(np.sqrt(fix.cov[0, 0] + prev.cov[0, 0]))
-            if dt > 0 and dist / dt >= self.cfg.heading_min_speed and dist >= HEADING_BASELINE_SIGMAS * sigma:
+            possible = dist <= self.cfg.max_speed * dt + input_checks.NOISE_SIGMAS * sigma  # else a jump
+            if (dt > 0 and dist / dt >= self.cfg.heading_min_speed and dist >= HEADING_BASELINE_SIGMAS * sigma
+                    and possible):
                 yaw = yaw_from_displacement(d) + 0.5 * float(frames.wrap_angle(yaw_ins - prev_yaw))
                 self._set_heading(fix, t_e, yaw, dist / dt, d[2] / dt, sigma / dist)
                 return True

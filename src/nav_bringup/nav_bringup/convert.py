@@ -19,7 +19,7 @@ from pathlib import Path
 import numpy as np
 import yaml
 
-from ins_gps_kf import datasets as kf_datasets
+from nav_eval import datasets as kf_datasets
 from nav_core import datasets, recording, sensor_model
 from nav_core.recording import ImuRecording
 from nav_bringup.graph import PARAMS_FILE, REPO

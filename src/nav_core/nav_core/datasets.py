@@ -78,7 +78,7 @@ def load_adis_npz(path) -> ImuRecording:
 def read_balzer_csv(path, sample_rate_hz: float = 50.0) -> ImuRecording:
     """The balzer82/Kalman car CSV (deg/s, m/s^2, millis) as an ImuRecording in SI on a uniform time grid.
 
-    Axes as logged; ``ins_gps_kf.datasets.load_balzer`` turns them into FLU (found from the data).
+    Axes as logged; ``nav_eval.datasets.load_balzer`` turns them into FLU (found from the data).
 
     The logger's sample interval jitters (11-36 ms for 1-99 %), so the channels are
     linearly interpolated onto ``sample_rate_hz``; the WMRA assumes uniform samples.

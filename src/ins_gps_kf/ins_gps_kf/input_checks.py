@@ -1,0 +1,188 @@
+"""Plausibility of the filter's input: impossible IMU samples, bad fixes and stamps, GPS track jumps; the counts.
+
+No ROS here. :class:`InputCounters` is what the filter exposes as ``InsGpsFilter.input_counters``
+(a plain ``dict`` of ints, keys below, plus ``last_rejection``, a readable line): the node puts it
+in ``/diagnostics``, the replay in its summary. Every rejected input is counted under one key:
+
+* ``imu_nonfinite`` - an IMU sample with a NaN/Inf stamp, rate or specific force; dropped;
+* ``imu_out_of_range`` - a |rate| or |specific force| component beyond ``imu_max_gyro_dps`` /
+  ``imu_max_accel_mps2`` (the sensor cannot output it); dropped;
+* ``imu_duplicate_stamps`` - a sample with the stamp of the one before; dropped;
+* ``fixes_invalid`` - NO_FIX status or a NaN/Inf stamp, latitude, longitude or height; dropped;
+* ``fixes_out_of_range`` - latitude outside [-90, 90] deg or longitude outside [-180, 180] deg; dropped;
+* ``fixes_std_unknown`` - a std <= 0 or not finite: taken as unknown (the configured ``gps_std_m``,
+  else 10 m); the fix is used;
+* ``fixes_duplicate`` - the same stamp and position as the fix before; dropped;
+* ``fixes_conflicting`` - the same stamp as the fix before, another position: neither is used
+  (the pending one is withdrawn when it was not fused yet);
+* ``fixes_out_of_order`` - a stamp before the fix before (time going back), more than ``time_jump_s``
+  before the IMU time, or more than ``max_bridged_gap_s + time_jump_s`` after it; dropped;
+* ``gps_jumps`` - a fix whose track from the fix before needs a speed beyond ``max_speed_mps`` or an
+  acceleration beyond ``max_accel_mps2`` (beyond the fixes' noise); the innovation gate decides
+  whether it is used;
+* ``gps_resets_refused`` - after ``max_rejected_fixes`` rejected fixes in a row, no reset to them
+  because their track jumped away from the last accepted fix (a glitch: the INS is kept);
+* ``state_resets`` - a non-finite navigation state or covariance, or an INS speed beyond twice
+  ``max_speed_mps``: the filter resets and re-aligns (never publishes it).
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import asdict, dataclass
+
+import numpy as np
+
+JUMP_CONFIRM_FACTOR = 4  # a track that jumped is taken (GPS reset) after this many times max_rejected_fixes fixes
+NOISE_SIGMAS = 3.0  # speed/acceleration limits are exceeded only beyond this many sigmas of the fixes' noise
+
+
+@dataclass
+class InputCounters:
+    """Counts of rejected or doubtful input (see the module doc for each key)."""
+
+    imu_nonfinite: int = 0
+    imu_out_of_range: int = 0
+    imu_duplicate_stamps: int = 0
+    fixes_invalid: int = 0
+    fixes_out_of_range: int = 0
+    fixes_std_unknown: int = 0
+    fixes_duplicate: int = 0
+    fixes_conflicting: int = 0
+    fixes_out_of_order: int = 0
+    gps_jumps: int = 0
+    gps_resets_refused: int = 0
+    state_resets: int = 0
+    last_rejection: str = ""
+
+    def as_dict(self) -> dict:
+        """Name -> count, and ``last_rejection``: what the node's diagnostics and the replay's JSON show."""
+        return asdict(self)
+
+    def total(self) -> int:
+        """Number of counted events (all keys but ``last_rejection``)."""
+        return sum(v for k, v in asdict(self).items() if k != "last_rejection")
+
+
+def screen_imu(t, gyro, accel, t_prev, max_gyro, max_accel, counters: InputCounters) -> np.ndarray:
+    """Mask (n,) of the IMU samples to keep: finite, within the sensor range (rad/s, m/s^2), stamp not repeated.
+
+    ``t_prev`` is the stamp of the last sample already processed (None at the start); counts go to
+    ``counters`` and the last one is described in ``counters.last_rejection``.
+    """
+    finite = np.isfinite(t) & np.all(np.isfinite(gyro), axis=1) & np.all(np.isfinite(accel), axis=1)
+    with np.errstate(invalid="ignore"):
+        in_range = np.all(np.abs(gyro) <= max_gyro, axis=1) & np.all(np.abs(accel) <= max_accel, axis=1)
+    keep = finite & in_range
+    idx = np.flatnonzero(keep)
+    prev = np.concatenate(([np.nan if t_prev is None else t_prev], t[idx[:-1]]))
+    dup = idx[t[idx] == prev]
+    keep[dup] = False
+    n_bad, n_range = int(np.sum(~finite)), int(np.sum(finite & ~in_range))
+    counters.imu_nonfinite += n_bad
+    counters.imu_out_of_range += n_range
+    counters.imu_duplicate_stamps += len(dup)
+    if n_bad or n_range or len(dup):
+        k = int(np.flatnonzero(~keep)[-1])
+        why = "not finite" if not finite[k] else "beyond the sensor range" if not in_range[k] else "repeated stamp"
+        counters.last_rejection = f"IMU sample at t={t[k]:.3f} s dropped: {why}"
+    return keep
+
+
+def check_fix(t, lat_rad, lon_rad, h_m, status, last, t_imu, stale_s, future_s) -> str | None:
+    """Why a fix (s, rad, rad, m, NavSatStatus) cannot be used, as an :class:`InputCounters` key; None if it can.
+
+    ``last`` is the (t, lat, lon, h) of the previous usable fix or None; ``t_imu`` the IMU time (s) or
+    None; a fix more than ``stale_s`` before it or ``future_s`` after it is out of order.
+    """
+    if status < 0 or not all(math.isfinite(float(v)) for v in (t, lat_rad, lon_rad, h_m)):
+        return "fixes_invalid"
+    if abs(lat_rad) > 0.5 * math.pi or abs(lon_rad) > math.pi:
+        return "fixes_out_of_range"
+    if last is not None and t == last[0]:
+        return "fixes_duplicate" if (lat_rad, lon_rad, h_m) == tuple(last[1:]) else "fixes_conflicting"
+    if (last is not None and t < last[0]) or (t_imu is not None and not -stale_s <= t - t_imu <= future_s):
+        return "fixes_out_of_order"
+    return None
+
+
+def std_unknown(std_enu) -> bool:
+    """Whether a fix's std (m, ENU) says nothing: a component <= 0 or not finite."""
+    std = np.asarray(std_enu, dtype=float)
+    return bool(np.any(~np.isfinite(std)) or np.any(std <= 0.0))
+
+
+def _h_std(fix) -> float:
+    """Horizontal position std (m) of a fix: root of its east and north variances."""
+    return math.sqrt(fix.cov[0, 0] + fix.cov[1, 1])
+
+
+def jumps(track: list, max_speed: float, max_accel: float) -> bool:
+    """Whether a fix sequence (``.t`` s, ``.enu`` m, ``.cov`` m^2) needs more than the physical limits.
+
+    A chord faster than ``max_speed`` m/s, or two chords whose velocity change needs more than
+    ``max_accel`` m/s^2, beyond ``NOISE_SIGMAS`` of the fixes' noise, is a jump.
+    """
+    vel, sig = [], []
+    for a, b in zip(track[:-1], track[1:]):
+        dt = b.t - a.t
+        if dt <= 0.0:
+            return True
+        d = (b.enu - a.enu)[:2]
+        noise = math.hypot(_h_std(a), _h_std(b))
+        if float(np.hypot(*d)) > max_speed * dt + NOISE_SIGMAS * noise:
+            return True
+        vel.append((d / dt, dt, _h_std(a) / dt, _h_std(b) / dt))
+    for (v1, dt1, s0, s1), (v2, dt2, s1b, s2) in zip(vel[:-1], vel[1:]):
+        noise = math.sqrt(s0**2 + (s1 + s1b) ** 2 + s2**2)
+        if float(np.hypot(*(v2 - v1))) > max_accel * 0.5 * (dt1 + dt2) + NOISE_SIGMAS * noise:
+            return True
+    return False
+
+
+def reset_allowed(last_accepted, streak: list, max_speed, max_accel, min_fixes: int) -> bool:
+    """Whether the rejected ``streak`` of fixes may replace the INS solution (a GPS reset).
+
+    Yes when the fixes, from the last accepted one on, form a physically possible track (the INS
+    drifted away from a continuous GPS track); after a jump only when the track since the jump
+    has lasted ``JUMP_CONFIRM_FACTOR * min_fixes`` fixes (a glitch that persists is the new truth).
+    """
+    if len(streak) < min_fixes:
+        return False
+    head = [last_accepted] if last_accepted is not None else []
+    if not jumps(head + streak, max_speed, max_accel):
+        return True
+    tail = next(k for k in range(len(streak)) if not jumps(streak[k:], max_speed, max_accel))
+    return len(streak) - tail >= JUMP_CONFIRM_FACTOR * min_fixes
+
+
+class FixHistory:
+    """The fixes behind the GPS-reset decision: the last accepted one, the rejected ones since (bounded), the
+    last three consumed (for the jump count). Limits in m/s and m/s^2; counts go to ``counters``."""
+
+    def __init__(self, max_rejected: int, max_speed: float, max_accel: float, counters: InputCounters):
+        self.max_rejected, self.max_speed, self.max_accel = max_rejected, max_speed, max_accel
+        self.counters = counters
+        self.last_accepted = None
+        self.streak: list = []
+        self.recent: list = []
+
+    def consumed(self, fix) -> None:
+        """A fix reached an epoch: count it if its track from the two before is physically impossible."""
+        self.recent = (self.recent + [fix])[-3:]
+        if jumps(self.recent, self.max_speed, self.max_accel):
+            self.counters.gps_jumps += 1
+
+    def judged(self, fix, accepted: bool) -> None:
+        """The gate's verdict on ``fix``: an accepted fix ends the rejected streak."""
+        if accepted:
+            self.last_accepted, self.streak = fix, []
+        else:
+            self.streak = (self.streak + [fix])[-(JUMP_CONFIRM_FACTOR * self.max_rejected + 1):]
+
+    def reset_allowed(self, fix) -> bool:
+        """Whether the streak and ``fix`` may replace the INS solution (see :func:`reset_allowed`); counted if not."""
+        if reset_allowed(self.last_accepted, self.streak + [fix], self.max_speed, self.max_accel, self.max_rejected):
+            return True
+        self.counters.gps_resets_refused += 1  # the rejected fixes jumped away: a glitch, keep the INS
+        self.counters.last_rejection = f"fix at t={fix.t:.3f} s: no GPS reset, the rejected fixes jumped"
+        return False
