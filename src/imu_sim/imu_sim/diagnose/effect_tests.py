@@ -36,8 +36,17 @@ def regression(ctx: Context, design, statistic: str = "GLS likelihood ratio") ->
     """GLS test and fit of one regressor design (columns per channel sharing one parameter vector)."""
     case = ctx.case
     res = gls(ctx.wh, ctx.resid_f, design.columns, design.k)
+    dropped = []
+    if not res.identifiable and res.dropped and len(res.dropped) < design.k:
+        # e.g. the accelerometers' scale factor on a level rate table (constant specific force): test the rest
+        dropped = [design.names[j] for j in res.dropped]
+        design = design.without(res.dropped)
+        res = gls(ctx.wh, ctx.resid_f, design.columns, design.k)
     thr = threshold(design.k, ctx.m_tests, 1, ctx.factor(design.effect))
     cand = Candidate(design.effect, res.lr, thr, statistic, res.identifiable, res.why, columns=design.columns)
+    if dropped:
+        cand.reason = (f"not identifiable by this scenario (regressor constant over the run): {', '.join(dropped)}; "
+                       "tested on the others")
     if not res.identifiable:
         return cand
     ci = res.interval()

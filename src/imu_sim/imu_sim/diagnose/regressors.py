@@ -42,6 +42,18 @@ class Design:
         """Number of linear parameters."""
         return len(self.names)
 
+    def without(self, dropped) -> Design:
+        """The design less the parameters ``dropped`` (indices); their physics entry keeps the model's value."""
+        keep = [j for j in range(self.k) if j not in set(dropped)]
+        cols = {c: x[:, keep] for c, x in self.columns.items() if np.any(x[:, keep] != 0)}
+        k_full, to_physics = self.k, self.to_physics
+
+        def physics(theta):
+            full = np.zeros(k_full)
+            full[keep] = theta
+            return to_physics(full)
+        return Design(self.effect, cols, [self.names[j] for j in keep], physics, self.nominal, self.profiled)
+
 
 def _per_channel(names_fmt, channels, cols_fn):
     cols, names = {}, []

@@ -9,7 +9,7 @@ a model whose noise level is off does not inflate the statistics.
 """
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -88,6 +88,8 @@ class GlsResult:
     dof: int
     identifiable: bool
     why: str = ""
+    dropped: list = field(default_factory=list)
+    """Parameters whose regressor is constant (or absent) over the run: the others may still be testable."""
 
     def interval(self, z: float = 1.959964) -> np.ndarray:
         """95 % intervals (k, 2)."""
@@ -113,8 +115,10 @@ def gls(wh: Whitener, resid_f: np.ndarray, design: dict, k: int) -> GlsResult:
         ac[used] += np.sum((xu - xu.mean(axis=0)) ** 2, axis=0)
     frac = ac / np.maximum(raw, 1e-300)
     if np.any(frac < 1e-10):
-        return GlsResult(np.zeros(k), np.full((k, k), np.nan), 0.0, k, False,
-                         "its regressor is constant over the run here, so it is collinear with the turn-on bias")
+        result = GlsResult(np.zeros(k), np.full((k, k), np.nan), 0.0, k, False,
+                           "its regressor is constant over the run here, so it is collinear with the turn-on bias")
+        result.dropped = [int(j) for j in np.flatnonzero(frac < 1e-10)]
+        return result
     d = np.sqrt(np.diag(a))
     corr = a / np.outer(d, d)
     if np.linalg.eigvalsh(corr).min() < 1e-8:

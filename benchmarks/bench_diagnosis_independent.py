@@ -1,0 +1,305 @@
+"""The diagnosis on recordings it did not make: cases from ``independent_gen`` (no imu_sim code), files as users write.
+
+    .venv/bin/python benchmarks/bench_diagnosis_independent.py [--seeds 20] [--null-seeds 20] [--cases ...] [--out DIR]
+
+Each case writes imu.csv (10 significant digits), scenario.yaml (a truth CSV at 100 Hz, or static segments as a
+user types them), model.yaml (what the user believes) and, for drives, gnss.csv; then diagnoses them through
+``load_case`` + ``diagnose`` (what ``imu-sim diagnose`` runs, without the plots) with ``--max-effects 2``.
+Scores: right effect first, interval coverage of the true parameters, findings on the null cases.
+The ``null_single_naive`` case is chained like a user: ``imu-calib allan`` on the recording writes the model.
+Seeds 7000.. (effects) and 8000.. (nulls): neither the calibration (5000..) nor the own suite (1000.., 3000..).
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+import numpy as np
+import yaml
+from scipy import stats
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+import independent_gen as gen  # noqa: E402
+
+SITE = (51.0784, -114.13, 1100.0)
+GYRO_WHITE, ACCEL_WHITE = 2e-4, 1e-3
+"""White noise of every case, rad/s/sqrt(s) and m/s/sqrt(s) (the own suite's)."""
+TUMBLE_POSES = [(0, 0, 0), (180, 0, 40), (0, -89, 80), (0, 89, 130), (90, 0, 200), (-90, 0, 270), (0, 0, 90),
+                (45, 30, 300), (-30, 60, 10), (120, -45, 160), (0, 0, 225), (180, 0, 315)]
+TABLE_RATES = [10, -10, 20, -20, 30, -30, 40, -40, 60, -60]
+MIS_XZ = 7e-4
+"""Gyro x senses this fraction (rad) of the z rate (the rate-table misalignment case)."""
+TEMP_COEF = np.array([1.0e-6, -0.8e-6, 1.2e-6])
+CASES = {
+    # name: (motion, effect, concealed parameters)
+    "earth_rotation": ("tumble", "earth_rotation", {}),
+    "gravity_model": ("tumble", "gravity_model", {}),
+    "gyro_g_sensitivity": ("tumble", "gyro_g_sensitivity", {"g": [3e-5, -2e-5, 2.5e-5]}),
+    "warmup_drift": ("tumble", "warmup_drift", {"gyro": [4e-4, -3e-4, 5e-4], "accel": [2e-3, -2e-3, 3e-3],
+                                                 "tau": 60.0}),
+    "vibration": ("tumble", "vibration", {"f": 17.3, "gyro_x": 5e-4, "accel_z": 3e-3}),
+    "quantization": ("tumble", "quantization", {"gyro_lsb": 1e-5, "accel_lsb": 5e-5}),
+    "scale_factor_table": ("table", "scale_factor", {"gyro_z": 7e-4}),
+    "misalignment_table": ("table", "axis_misalignment", {"xz": MIS_XZ}),
+    "temperature_bias": ("static", "temperature_bias", {}),
+    "gauss_markov_bias": ("static", "gauss_markov_bias", {"gyro": 3.7e-5, "accel": 1.9e-4, "tau": 10.0}),
+    "bias_random_walk": ("static", "bias_random_walk", {"gyro": 6e-7, "accel": 3e-6}),
+    "earth_rotation_updown": ("updown", "earth_rotation", {}),
+    "gps_latency": ("drive", "gps_latency", {"latency": 0.03}),
+    "gps_lever_arm": ("drive", "gps_lever_arm", {"arm": [0.35, -0.25, 0.4]}),
+    "colored_gps_noise": ("drive", "colored_gps_noise", {"sigma": [0.3, 0.3, 0.5], "tau": 30.0}),
+}
+NULLS = {"null_drive": "drive", "null_table": "table", "null_single_naive": "static_rw", "null_tumble": "tumble"}
+TRUE = {
+    "earth_rotation": {"earth_rate_rad_per_s": gen.OMEGA_E},
+    "earth_rotation_updown": {"earth_rate_rad_per_s": gen.OMEGA_E},
+    "gyro_g_sensitivity": {f"gyro_coeff_rad_per_s_per_mps2[{a}]": v for a, v in zip("xyz", [3e-5, -2e-5, 2.5e-5])},
+    "warmup_drift": {"time_constant_s": 60.0, **{f"gyro_amplitude_rad_per_s[{a}]": v
+                                                 for a, v in zip("xyz", [4e-4, -3e-4, 5e-4])}},
+    "vibration": {"frequency_hz": 17.3},
+    "quantization": {f"gyro_lsb_rad[{a}]": 1e-5 for a in "xyz"},
+    "scale_factor_table": {"gyro[z]": 7e-4},
+    "misalignment_table": {"gyro[xz]": MIS_XZ},
+    "temperature_bias": {f"gyro_coeff_rad_per_s_per_degc[{a}]": v for a, v in zip("xyz", TEMP_COEF)},
+    "gauss_markov_bias": {f"gyro_sigma_rad_per_s[{a}]": 3.7e-5 for a in "xyz"},
+    "bias_random_walk": {f"gyro_rad_per_s_per_sqrt_s[{a}]": 6e-7 for a in "xyz"},
+    "gps_latency": {"latency_s": 0.03},
+    "gps_lever_arm": {"lever_arm_m[x]": 0.35, "lever_arm_m[y]": -0.25},
+    "colored_gps_noise": {"sigma_m[e]": 0.3, "sigma_m[n]": 0.3, "sigma_m[u]": 0.5},
+}
+
+
+def motion_of(kind: str):
+    """(motion, IMU rate Hz, truth rate Hz or None for static segments)."""
+    if kind == "tumble":
+        return gen.Poses(TUMBLE_POSES, 30.0, 6.0), 50.0, 100.0
+    if kind == "table":
+        return gen.RateTable(TABLE_RATES, 30.0, 2.0), 50.0, 100.0
+    if kind == "drive":
+        return gen.FigureEight(1200.0), 50.0, 100.0
+    if kind == "updown":
+        return None, 64.0, None
+    return gen.Poses([(0, 0, 0)], 3600.0, 1.0), 10.0, None
+
+
+def generate(name: str, seed: int, folder: Path) -> dict:
+    """Write one case's files; returns their paths."""
+    null = name in NULLS
+    kind = NULLS[name] if null else CASES[name][0]
+    effect, par = (None, {}) if null else CASES[name][1:]
+    rng = np.random.default_rng(seed)
+    site = gen.Site(*SITE)
+    motion, rate, truth_rate = motion_of(kind)
+    if kind == "updown":
+        return _updown(site, rng, folder, effect)
+    dt = 1.0 / rate
+    t, gyro, accel = site.true_imu(motion, rate)
+    n = len(t)
+    gyro_out, accel_out = gyro.copy(), accel.copy()
+    temp = None
+    if kind in ("static", "static_rw"):
+        temp = 25.0 - 10.0 * np.cos(2 * np.pi * t / 1800.0)
+    if effect == "gyro_g_sensitivity":
+        gyro_out += np.asarray(par["g"]) * accel
+    elif effect == "warmup_drift":
+        decay = np.exp(-(t - dt / 2) / par["tau"])[:, None]
+        gyro_out += decay * par["gyro"]
+        accel_out += decay * par["accel"]
+    elif effect == "vibration":
+        s = gen.interval_mean_sin(t, dt, par["f"], 0.7)
+        gyro_out[:, 0] += par["gyro_x"] * s
+        accel_out[:, 2] += par["accel_z"] * s
+    elif effect == "scale_factor":
+        gyro_out[:, 2] += par["gyro_z"] * gyro[:, 2]
+    elif effect == "axis_misalignment":
+        gyro_out[:, 0] += par["xz"] * gyro[:, 2]
+    elif effect == "temperature_bias":
+        gyro_out += (temp - 25.0)[:, None] * TEMP_COEF
+        accel_out += (temp - 25.0)[:, None] * 5e-6
+    elif effect == "gauss_markov_bias":
+        gyro_out += gen.gauss_markov(rng, n, dt, [par["gyro"]] * 3, par["tau"])
+        accel_out += gen.gauss_markov(rng, n, dt, [par["accel"]] * 3, par["tau"])
+    elif effect == "bias_random_walk":
+        gyro_out += np.cumsum(rng.normal(0, par["gyro"] * np.sqrt(dt), (n, 3)), axis=0)
+        accel_out += np.cumsum(rng.normal(0, par["accel"] * np.sqrt(dt), (n, 3)), axis=0)
+    if kind == "static_rw":  # the naive-model null: the sensor has a rate random walk the user's model must learn
+        gyro_out += np.cumsum(rng.normal(0, 6e-7 * np.sqrt(dt), (n, 3)), axis=0)
+        accel_out += np.cumsum(rng.normal(0, 3e-6 * np.sqrt(dt), (n, 3)), axis=0)
+    gyro_out += rng.normal(0, GYRO_WHITE / np.sqrt(dt), (n, 3))
+    accel_out += rng.normal(0, ACCEL_WHITE / np.sqrt(dt), (n, 3))
+    # turn-on biases: present in every real sensor, unknown to the user (a nuisance for the diagnosis)
+    gyro_out += rng.normal(0, 1e-3, 3)
+    accel_out += rng.normal(0, 2e-2, 3)
+    if effect == "quantization":
+        gyro_out = gen.quantize_increments(gyro_out, dt, par["gyro_lsb"])
+        accel_out = gen.quantize_increments(accel_out, dt, par["accel_lsb"])
+    cols = {"t": t, "gx": gyro_out[:, 0], "gy": gyro_out[:, 1], "gz": gyro_out[:, 2],
+            "ax": accel_out[:, 0], "ay": accel_out[:, 1], "az": accel_out[:, 2]}
+    if temp is not None:
+        cols["temp_c"] = temp
+    paths = {"recording": gen.write_csv(folder / "imu.csv", cols)}
+    scenario = {"rate_hz": rate}
+    if truth_rate is None:
+        scenario.update(latitude_deg=SITE[0], longitude_deg=SITE[1], height_m=SITE[2], gps=False,
+                        static_segments=[{"t0": 0.0, "t1": float(motion.duration_s), "roll_deg": 0.0,
+                                          "pitch_deg": 0.0, "yaw_deg": 0.0}])
+    else:
+        gen.write_csv(folder / "truth.csv", site.truth_rows(motion, truth_rate))
+        scenario.update(trajectory="truth.csv", gps=False)
+    if kind == "drive":
+        scenario["gps"] = {"rate_hz": 1.0, "sigma_m": [0.5, 0.5, 1.0]}
+        paths["gnss"] = _gnss(site, motion, rng, folder, effect, par)
+    paths["scenario"] = folder / "scenario.yaml"
+    paths["scenario"].write_text(yaml.safe_dump(scenario, sort_keys=False))
+    paths["model"] = _model(folder, rate, effect, kind)
+    return paths
+
+
+def _gnss(site, motion, rng, folder, effect, par):
+    """1 Hz fixes: the antenna (lever arm) position at stamp - latency, white (+ coloured) ENU noise."""
+    t = np.arange(1.0, motion.duration_s + 1e-9, 1.0)
+    arm = par["arm"] if effect == "gps_lever_arm" else None
+    lag = par["latency"] if effect == "gps_latency" else 0.0
+    rows = site.truth_rows(motion, 1.0, lever_arm_m=arm, t=t - lag)
+    enu = site.enu_offset(np.radians(rows["lat_deg"]), np.radians(rows["lon_deg"]), rows["h_m"])
+    enu += rng.normal(0, 1, (len(t), 3)) * [0.5, 0.5, 1.0]
+    if effect == "colored_gps_noise":
+        enu += gen.gauss_markov(rng, len(t), 1.0, par["sigma"], par["tau"])
+    r = site.r0 + enu @ site.c_e_enu0.T
+    lat, lon, h = gen.geodetic_from_ecef(r)
+    cols = {"t": t, "lat_deg": np.degrees(lat), "lon_deg": np.degrees(lon), "h_m": h,
+            "std_e": np.full(len(t), 0.5), "std_n": np.full(len(t), 0.5), "std_u": np.full(len(t), 1.0)}
+    return gen.write_csv(folder / "gnss.csv", cols)
+
+
+def _updown(site, rng, folder, effect):
+    """Navigation-grade static run at 64 Hz: x axis up 300 s, then down 300 s (a recording of two files joined)."""
+    rate, hold = 64.0, 300.0
+    parts = [site.true_imu(gen.Poses([pose], hold, 1.0), rate) for pose in ((0, -90, 0), (0, 90, 0))]
+    t = np.r_[parts[0][0], parts[1][0] + hold]
+    gyro, accel = np.vstack([parts[0][1], parts[1][1]]), np.vstack([parts[0][2], parts[1][2]])
+    n = len(t)
+    gw, aw = 2e-6, 2e-5  # ring-laser-grade white noise, rad/s/sqrt(s), m/s/sqrt(s)
+    gyro = gyro + rng.normal(0, gw * np.sqrt(rate), (n, 3)) + rng.normal(0, 1e-7, 3)
+    accel = accel + rng.normal(0, aw * np.sqrt(rate), (n, 3)) + rng.normal(0, 1e-4, 3)
+    cols = {"t": t, "gx": gyro[:, 0], "gy": gyro[:, 1], "gz": gyro[:, 2], "ax": accel[:, 0], "ay": accel[:, 1],
+            "az": accel[:, 2]}
+    paths = {"recording": gen.write_csv(folder / "imu.csv", cols)}
+    segs = [{"t0": 0.0, "t1": hold, "roll_deg": 0.0, "pitch_deg": -90.0, "yaw_deg": 0.0},
+            {"t0": hold + 1e-3, "t1": 2 * hold + 1e-3, "roll_deg": 0.0, "pitch_deg": 90.0, "yaw_deg": 0.0}]
+    sc = {"latitude_deg": SITE[0], "longitude_deg": SITE[1], "height_m": SITE[2], "rate_hz": rate, "gps": False,
+          "static_segments": segs}
+    paths["scenario"] = folder / "scenario.yaml"
+    paths["scenario"].write_text(yaml.safe_dump(sc, sort_keys=False))
+    from nav_core.sensor_model import SensorModel, TriadModel, save
+    model = SensorModel(gyro=TriadModel(white_noise=np.full(3, gw)), accel=TriadModel(white_noise=np.full(3, aw)),
+                        sample_rate_hz=rate, physics={"gravity_model": {}, "coriolis": {}})
+    paths["model"] = save(model, folder / "model.yaml")
+    return paths
+
+
+def _model(folder, rate, effect, kind):
+    """The user's model: white noise and the full Earth model, less the concealed Earth-model term."""
+    from nav_core.sensor_model import SensorModel, TriadModel, save
+    if kind == "static_rw":
+        from imu_calib.cli import main as calib_main
+        calib_main(["allan", str(folder / "imu.csv"), "--out", str(folder / "calib"), "--no-progress"])
+        return folder / "calib" / "sensor_model.yaml"
+    physics = {"earth_rotation": {}, "gravity_model": {}, "coriolis": {}}
+    physics.pop(effect, None)
+    model = SensorModel(gyro=TriadModel(white_noise=np.full(3, GYRO_WHITE)),
+                        accel=TriadModel(white_noise=np.full(3, ACCEL_WHITE)), sample_rate_hz=rate, physics=physics)
+    return save(model, folder / "model.yaml")
+
+
+def run_case(name: str, seed: int, max_effects: int = 2) -> dict:
+    """Generate, diagnose, score one case."""
+    from imu_sim.diagnose.case import load_case
+    from imu_sim.diagnose.engine import diagnose
+    with tempfile.TemporaryDirectory(prefix="indep_") as tmp:
+        p = generate(name, seed, Path(tmp))
+        case = load_case(p["recording"], p["scenario"], p["model"], p.get("gnss"))
+        res = diagnose(case, max_effects=max_effects, seed=seed).result
+    effect = None if name in NULLS else CASES[name][1]
+    first = res["findings"][0] if res["findings"] else None
+    row = {"case": name, "effect": effect, "seed": seed, "first": first["effect"] if first else None,
+           "findings": [(f["effect"], f.get("share_of_mismatch")) for f in res["findings"]],
+           "n_significant": res["n_significant_first_pass"],
+           "significant": [t["effect"] for t in res["tested"] if t["significant"]]}
+    if first and first["effect"] == effect:
+        cover = []
+        for par, true in TRUE.get(name, {}).items():
+            if par in first["intervals"]:
+                lo, hi = first["intervals"][par]
+                cover.append(bool(lo <= true <= hi))
+        row["covered"], row["n_params"] = int(sum(cover)), len(cover)
+        row["fit"] = [first["fit_before"], first["fit_after"]]
+    return row
+
+
+def table(rows: list) -> str:
+    """Markdown: per case right-first / coverage, per null the runs with a kept finding."""
+    lines = ["| case | runs | right effect first | interval coverage |", "|---|---|---|---|"]
+    for name in [c for c in CASES if any(r["case"] == c for r in rows)]:
+        rs = [r for r in rows if r["case"] == name]
+        hit = [r for r in rs if r["first"] == r["effect"]]
+        n_par = sum(r.get("n_params", 0) for r in hit)
+        wrong = sorted({str(r["first"]) for r in rs if r["first"] != r["effect"]})
+        cov = f"{sum(r['covered'] for r in hit) / n_par:.0%}" if n_par else "-"
+        lines.append(f"| {name} | {len(rs)} | {len(hit) / len(rs):.0%}" + (f" (else: {', '.join(wrong)})" if wrong
+                                                                            else "") + f" | {cov} |")
+    for name in [c for c in NULLS if any(r["case"] == c for r in rows)]:
+        rs = [r for r in rows if r["case"] == name]
+        kept = [r for r in rs if r["findings"]]
+        what = sorted({f[0] for r in kept for f in r["findings"]})
+        lines.append(f"| {name} | {len(rs)} | runs with a finding: {len(kept)}" + (f" ({', '.join(what)})" if what
+                                                                                      else "") + " | |")
+    eff = [r for r in rows if r["case"] in CASES]
+    nul = [r for r in rows if r["case"] in NULLS]
+    if eff:
+        k = sum(r["first"] == r["effect"] for r in eff)
+        lo = stats.beta.ppf(0.025, k, len(eff) - k + 1) if k else 0.0
+        n_par = sum(r.get("n_params", 0) for r in eff)
+        cov = sum(r.get("covered", 0) for r in eff) / n_par if n_par else float("nan")
+        lines.append(f"| all effect cases | {len(eff)} | {k / len(eff):.1%} (95 % lower bound {lo:.1%}) | {cov:.0%} |")
+    if nul:
+        k = sum(not r["findings"] for r in nul)
+        lo = stats.beta.ppf(0.025, k, len(nul) - k + 1) if k else 0.0
+        lines.append(f"| all null cases | {len(nul)} | no finding {k / len(nul):.1%} (95 % lower bound {lo:.1%}) | |")
+    return "\n".join(lines)
+
+
+def main(argv=None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--seeds", type=int, default=20)
+    parser.add_argument("--null-seeds", type=int, default=20)
+    parser.add_argument("--cases", nargs="*", default=None, help=f"default all: {list(CASES) + list(NULLS)}")
+    parser.add_argument("--out", default="/tmp/diag_independent")
+    parser.add_argument("--resume", default=None, help="rows.json of an earlier run of the same code to reuse")
+    args = parser.parse_args(argv)
+    names = args.cases or list(NULLS) + list(CASES)
+    jobs = [(c, (8000 if c in NULLS else 7000) + s) for s in range(max(args.seeds, args.null_seeds)) for c in names
+            if s < (args.null_seeds if c in NULLS else args.seeds)]
+    done = {(r["case"], r["seed"]): r for r in json.loads(Path(args.resume).read_text())} if args.resume else {}
+    out = Path(args.out)
+    out.mkdir(parents=True, exist_ok=True)
+    rows, start = [], time.perf_counter()
+    for name, seed in jobs:
+        t0 = time.perf_counter()
+        rows.append(done.get((name, seed)) or run_case(name, seed))
+        print(f"{name} {seed}: first {rows[-1]['first']} findings {rows[-1]['findings']} "
+              f"({time.perf_counter() - t0:.0f} s)", file=sys.stderr, flush=True)
+        (out / "rows.json").write_text(json.dumps(rows, indent=1, default=float))
+    text = table(rows)
+    (out / "table.md").write_text(text + "\n")
+    print(text)
+    print(f"{len(rows)} cases in {time.perf_counter() - start:.0f} s; outputs in {out}")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

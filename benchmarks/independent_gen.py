@@ -1,0 +1,309 @@
+"""An independent IMU/GNSS recording generator for validating ``imu-sim diagnose`` on data it did not make.
+
+It shares no code with ``imu_sim`` or ``nav_core`` (NumPy only): its own WGS-84 Earth model (geodetic <-> ECEF,
+Somigliana normal gravity with the free-air height term), its own rotation convention (body x forward, y left, z up;
+body-to-ENU = Rz(yaw) Ry(pitch) Rx(roll), the REP-103 order the truth CSV states), its own trajectories with
+analytic derivatives (static poses, tumble, level rate table, figure-eight drive), and its own sensor effects.
+Files are written the way a user writes them: CSV with 10 significant digits, truth at 100 Hz (or the IMU rate).
+
+Kinematics from first principles, in ECEF: the position is an analytic curve p(t) in the tangent plane at the
+origin, r_e = r0_e + C_e,enu0 p; the attitude is given relative to the *local* ENU at the current position. Then
+
+    f^b   = C_b,e (a_e + 2 W x v_e - g_e(r_e))              g_e: normal gravity along minus the ellipsoid normal
+    w_ib^b = C_b,n (W_n + w_en^n) + w_nb^b(Euler rates)      w_en^n = (-v_N/(M+h), v_E/(N+h), v_E tan(lat)/(N+h))
+
+averaged over each sample interval (k-1) dt .. k dt by 3-point Gauss-Legendre quadrature (what an IMU that
+integrates its increments reports), sample k stamped k dt.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+A_WGS84 = 6378137.0
+F_WGS84 = 1.0 / 298.257223563
+E2 = F_WGS84 * (2.0 - F_WGS84)
+B_WGS84 = A_WGS84 * (1.0 - F_WGS84)
+GM = 3.986004418e14
+OMEGA_E = 7.292115e-5
+GAMMA_E, GAMMA_P = 9.7803253359, 9.8321849378
+"""Normal gravity at the equator and the pole, m/s^2 (Somigliana)."""
+G_STANDARD = 9.80665
+GL_NODES = np.array([-np.sqrt(0.6), 0.0, np.sqrt(0.6)])
+GL_WEIGHTS = np.array([5.0, 8.0, 5.0]) / 18.0
+
+
+# ----------------------------------------------------------------------------- Earth
+
+
+def ecef_from_geodetic(lat, lon, h):
+    """ECEF (n, 3) m from geodetic latitude, longitude (rad) and ellipsoidal height (m)."""
+    n = A_WGS84 / np.sqrt(1.0 - E2 * np.sin(lat) ** 2)
+    return np.stack([(n + h) * np.cos(lat) * np.cos(lon), (n + h) * np.cos(lat) * np.sin(lon),
+                     (n * (1.0 - E2) + h) * np.sin(lat)], axis=-1)
+
+
+def geodetic_from_ecef(r):
+    """(lat, lon, h) rad, rad, m from ECEF (n, 3), by fixed-point iteration on the latitude."""
+    x, y, z = r[..., 0], r[..., 1], r[..., 2]
+    p = np.hypot(x, y)
+    lon = np.arctan2(y, x)
+    lat = np.arctan2(z, p * (1.0 - E2))
+    for _ in range(6):
+        n = A_WGS84 / np.sqrt(1.0 - E2 * np.sin(lat) ** 2)
+        h = p / np.cos(lat) - n
+        lat = np.arctan2(z, p * (1.0 - E2 * n / (n + h)))
+    n = A_WGS84 / np.sqrt(1.0 - E2 * np.sin(lat) ** 2)
+    return lat, lon, p / np.cos(lat) - n
+
+
+def normal_gravity(lat, h):
+    """Magnitude of normal gravity (m/s^2): Somigliana on the ellipsoid, second-order free-air term in h."""
+    s2 = np.sin(lat) ** 2
+    k = B_WGS84 * GAMMA_P / (A_WGS84 * GAMMA_E) - 1.0
+    g0 = GAMMA_E * (1.0 + k * s2) / np.sqrt(1.0 - E2 * s2)
+    m = OMEGA_E**2 * A_WGS84**2 * B_WGS84 / GM
+    return g0 * (1.0 - 2.0 / A_WGS84 * (1.0 + F_WGS84 + m - 2.0 * F_WGS84 * s2) * h + 3.0 * h**2 / A_WGS84**2)
+
+
+def enu_axes(lat, lon):
+    """(n, 3, 3) matrices whose columns are the East, North, Up unit vectors in ECEF (C_e,enu)."""
+    sl, cl, so, co = np.sin(lat), np.cos(lat), np.sin(lon), np.cos(lon)
+    east = np.stack([-so, co, np.zeros_like(so)], axis=-1)
+    north = np.stack([-sl * co, -sl * so, cl], axis=-1)
+    up = np.stack([cl * co, cl * so, sl], axis=-1)
+    return np.stack([east, north, up], axis=-1)
+
+
+def radii(lat):
+    """Meridian (M) and prime-vertical (N) radii of curvature, m."""
+    w = 1.0 - E2 * np.sin(lat) ** 2
+    return A_WGS84 * (1.0 - E2) / w**1.5, A_WGS84 / np.sqrt(w)
+
+
+# ----------------------------------------------------------------------------- rotations
+
+
+def body_to_enu(roll, pitch, yaw):
+    """(n, 3, 3) body-to-ENU matrices, Rz(yaw) Ry(pitch) Rx(roll), angles in rad."""
+    cr, sr, cp, sp, cy, sy = np.cos(roll), np.sin(roll), np.cos(pitch), np.sin(pitch), np.cos(yaw), np.sin(yaw)
+    row0 = np.stack([cy * cp, cy * sp * sr - sy * cr, cy * sp * cr + sy * sr], axis=-1)
+    row1 = np.stack([sy * cp, sy * sp * sr + cy * cr, sy * sp * cr - cy * sr], axis=-1)
+    row2 = np.stack([-sp, cp * sr, cp * cr], axis=-1)
+    return np.stack([row0, row1, row2], axis=-2)
+
+
+def body_rate_from_euler_rates(roll, pitch, droll, dpitch, dyaw):
+    """Body angular rate (n, 3) rad/s of the body relative to the ENU frame from Euler angles and their rates."""
+    sr, cr, sp, cp = np.sin(roll), np.cos(roll), np.sin(pitch), np.cos(pitch)
+    return np.stack([droll - dyaw * sp, dpitch * cr + dyaw * sr * cp, -dpitch * sr + dyaw * cr * cp], axis=-1)
+
+
+# ----------------------------------------------------------------------------- motion
+
+
+def smoothstep(u):
+    """C1 step 0 -> 1 on u in [0, 1] (3u^2 - 2u^3) with its derivative and integral."""
+    u = np.clip(u, 0.0, 1.0)
+    return 3 * u**2 - 2 * u**3, 6 * u - 6 * u**2, u**3 - u**4 / 2
+
+
+class Motion:
+    """Analytic motion: plane position p, v, a (m, ENU at the origin) and Euler angles with their rates (rad)."""
+
+    def __init__(self, duration_s: float):
+        self.duration_s = duration_s
+
+    def position(self, t):
+        """p, v, a (n, 3) in the origin's tangent plane (static: zero)."""
+        z = np.zeros((len(t), 3))
+        return z, z.copy(), z.copy()
+
+    def attitude(self, t):
+        """(roll, pitch, yaw) and (droll, dpitch, dyaw), each a tuple of (n,) arrays."""
+        raise NotImplementedError
+
+
+class Poses(Motion):
+    """Static poses held for ``hold_s`` with smooth ``move_s`` transitions (Euler angles interpolated)."""
+
+    def __init__(self, poses_deg, hold_s: float, move_s: float):
+        self.poses = np.radians(np.asarray(poses_deg, float)).reshape(-1, 3)
+        self.hold_s, self.move_s = hold_s, move_s
+        super().__init__(len(self.poses) * hold_s + (len(self.poses) - 1) * move_s)
+
+    def attitude(self, t):
+        """Euler angles held, then smoothstep to the next pose."""
+        period = self.hold_s + self.move_s
+        i = np.minimum((t // period).astype(int), len(self.poses) - 1)
+        u = (t - i * period - self.hold_s) / self.move_s
+        s, ds, _ = smoothstep(u)
+        j = np.minimum(i + 1, len(self.poses) - 1)
+        ang = self.poses[i] + s[:, None] * (self.poses[j] - self.poses[i])
+        rate = (ds / self.move_s)[:, None] * (self.poses[j] - self.poses[i])
+        moving = (u > 0) & (u < 1)
+        rate[~moving] = 0.0
+        return tuple(ang.T), tuple(rate.T)
+
+
+class RateTable(Motion):
+    """Level table turning about the vertical: holds at ``rates_dps`` for ``hold_s``, ``ramp_s`` smooth ramps."""
+
+    def __init__(self, rates_dps, hold_s: float, ramp_s: float, rest_s: float = 20.0):
+        self.rates = np.radians(np.r_[0.0, np.asarray(rates_dps, float), 0.0])
+        self.hold_s, self.ramp_s, self.rest_s = hold_s, ramp_s, rest_s
+        # segment k: ramp from rates[k] to rates[k+1], then hold rates[k+1]
+        self.seg = ramp_s + hold_s
+        super().__init__(rest_s + (len(self.rates) - 1) * self.seg)
+
+    def attitude(self, t):
+        """Yaw is the integral of the rate profile (closed form per segment)."""
+        tt = np.clip(t - self.rest_s, 0.0, None)
+        k = np.minimum((tt // self.seg).astype(int), len(self.rates) - 2)
+        tau = tt - k * self.seg
+        r0, r1 = self.rates[k], self.rates[k + 1]
+        s, _, s_int = smoothstep(tau / self.ramp_s)
+        in_ramp = tau < self.ramp_s
+        rate = np.where(in_ramp, r0 + (r1 - r0) * s, r1)
+        # angle of each segment: ramp (r0 ramp_s + (r1 - r0) ramp_s * integral(smoothstep)) + r1 * hold
+        seg_angle = self.rates[:-1] * self.ramp_s + (self.rates[1:] - self.rates[:-1]) * self.ramp_s * 0.5 \
+            + self.rates[1:] * self.hold_s
+        before = np.r_[0.0, np.cumsum(seg_angle)][k]
+        within = np.where(in_ramp, r0 * tau + (r1 - r0) * self.ramp_s * s_int,
+                          r0 * self.ramp_s + (r1 - r0) * self.ramp_s * 0.5 + r1 * (tau - self.ramp_s))
+        yaw = np.where(t < self.rest_s, 0.0, before + within)
+        rate = np.where(t < self.rest_s, 0.0, rate)
+        z = np.zeros_like(t)
+        return (z, z.copy(), yaw), (z.copy(), z.copy(), rate)
+
+
+class FigureEight(Motion):
+    """Level figure-eight (Lissajous 1:2), body x along the velocity: x = A sin(w t), y = B sin(2 w t)."""
+
+    def __init__(self, duration_s: float, period_s: float = 240.0, a_m: float = 600.0, b_m: float = 300.0):
+        self.w, self.a, self.b = 2 * np.pi / period_s, a_m, b_m
+        super().__init__(duration_s)
+
+    def position(self, t):
+        """Plane position, velocity and acceleration (n, 3)."""
+        w, a, b = self.w, self.a, self.b
+        z = np.zeros_like(t)
+        p = np.stack([a * np.sin(w * t), b * np.sin(2 * w * t), z], axis=-1)
+        v = np.stack([a * w * np.cos(w * t), 2 * b * w * np.cos(2 * w * t), z], axis=-1)
+        acc = np.stack([-a * w**2 * np.sin(w * t), -4 * b * w**2 * np.sin(2 * w * t), z], axis=-1)
+        return p, v, acc
+
+    def attitude(self, t):
+        """Heading along the plane velocity, its rate (x'y'' - y'x'') / |v|^2; level."""
+        _, v, acc = self.position(t)
+        yaw = np.arctan2(v[:, 1], v[:, 0])
+        dyaw = (v[:, 0] * acc[:, 1] - v[:, 1] * acc[:, 0]) / (v[:, 0] ** 2 + v[:, 1] ** 2)
+        z = np.zeros_like(t)
+        return (z, z.copy(), yaw), (z.copy(), z.copy(), dyaw)
+
+
+# ----------------------------------------------------------------------------- truth and ideal IMU
+
+
+class Site:
+    """The origin: geodetic latitude, longitude (deg), height (m)."""
+
+    def __init__(self, lat_deg: float, lon_deg: float, h_m: float):
+        self.lat, self.lon, self.h = np.radians(lat_deg), np.radians(lon_deg), h_m
+        self.r0 = ecef_from_geodetic(self.lat, self.lon, self.h)
+        self.c_e_enu0 = enu_axes(np.array(self.lat), np.array(self.lon))
+
+    def state(self, motion: Motion, t):
+        """Geodetic position, ECEF velocity/acceleration, local-ENU velocity, body-to-ECEF rotation, Euler."""
+        p, v, acc = motion.position(t)
+        r = self.r0 + p @ self.c_e_enu0.T
+        v_e, a_e = v @ self.c_e_enu0.T, acc @ self.c_e_enu0.T
+        lat, lon, h = geodetic_from_ecef(r)
+        c_e_n = enu_axes(lat, lon)
+        v_n = np.einsum("nji,nj->ni", c_e_n, v_e)
+        ang, rates = motion.attitude(t)
+        c_n_b = body_to_enu(*ang)
+        return dict(r=r, lat=lat, lon=lon, h=h, v_e=v_e, a_e=a_e, v_n=v_n, c_e_n=c_e_n, c_n_b=c_n_b,
+                    ang=ang, rates=rates)
+
+    def true_imu_at(self, motion: Motion, t):
+        """True body rate w_ib^b (rad/s) and specific force f^b (m/s^2), each (n, 3), at instants t."""
+        s = self.state(motion, t)
+        c_e_b = np.einsum("nij,njk->nik", s["c_e_n"], s["c_n_b"])
+        w_e = np.array([0.0, 0.0, OMEGA_E])
+        g_e = -normal_gravity(s["lat"], s["h"])[:, None] * s["c_e_n"][:, :, 2]
+        f_e = s["a_e"] + 2.0 * np.cross(w_e, s["v_e"]) - g_e
+        f_b = np.einsum("nji,nj->ni", c_e_b, f_e)
+        m, n = radii(s["lat"])
+        ve, vn = s["v_n"][:, 0], s["v_n"][:, 1]
+        w_en = np.stack([-vn / (m + s["h"]), ve / (n + s["h"]), ve * np.tan(s["lat"]) / (n + s["h"])], axis=-1)
+        w_ie_n = np.einsum("nji,j->ni", s["c_e_n"], w_e)
+        roll, pitch, _ = s["ang"]
+        w_nb = body_rate_from_euler_rates(roll, pitch, *s["rates"])
+        w_b = np.einsum("nji,nj->ni", s["c_n_b"], w_ie_n + w_en) + w_nb
+        return w_b, f_b
+
+    def true_imu(self, motion: Motion, rate_hz: float):
+        """Interval means of (w_ib^b, f^b) for samples k = 1..N stamped k dt; returns t, gyro, accel."""
+        dt = 1.0 / rate_hz
+        n = int(np.floor(motion.duration_s * rate_hz + 1e-9))
+        t = dt * np.arange(1, n + 1)
+        gyro, accel = np.zeros((n, 3)), np.zeros((n, 3))
+        for node, weight in zip(GL_NODES, GL_WEIGHTS):
+            w, f = self.true_imu_at(motion, t - dt / 2 + node * dt / 2)
+            gyro += weight * w
+            accel += weight * f
+        return t, gyro, accel
+
+    def truth_rows(self, motion: Motion, rate_hz: float, lever_arm_m=None, t=None):
+        """Truth table at t = 0, 1/rate, ...: t, lat_deg, lon_deg, h_m, roll/pitch/yaw_deg, ve, vn, vu."""
+        if t is None:
+            t = np.arange(0, int(np.floor(motion.duration_s * rate_hz + 1e-9)) + 1) / rate_hz
+        s = self.state(motion, t)
+        r = s["r"]
+        if lever_arm_m is not None:
+            r = r + np.einsum("nij,njk,k->ni", s["c_e_n"], s["c_n_b"], np.asarray(lever_arm_m, float))
+        lat, lon, h = geodetic_from_ecef(r)
+        yaw = (np.degrees(s["ang"][2]) + 180.0) % 360.0 - 180.0
+        return {"t": t, "lat_deg": np.degrees(lat), "lon_deg": np.degrees(lon), "h_m": h,
+                "roll_deg": np.degrees(s["ang"][0]), "pitch_deg": np.degrees(s["ang"][1]), "yaw_deg": yaw,
+                "ve": s["v_n"][:, 0], "vn": s["v_n"][:, 1], "vu": s["v_n"][:, 2]}
+
+    def enu_offset(self, lat, lon, h):
+        """ENU (n, 3) m of geodetic points relative to the origin (for GNSS noise in metres)."""
+        return (ecef_from_geodetic(lat, lon, h) - self.r0) @ self.c_e_enu0
+
+
+# ----------------------------------------------------------------------------- sensor errors
+
+
+def gauss_markov(rng, n: int, dt: float, sigma, tau_s):
+    """First-order Gauss-Markov (n, k): stationary std sigma, correlation time tau (exact AR(1) steps)."""
+    sigma, tau_s = np.atleast_1d(np.asarray(sigma, float)), np.atleast_1d(np.asarray(tau_s, float))
+    phi = np.exp(-dt / tau_s)
+    x = np.zeros((n, len(sigma)))
+    x[0] = rng.normal(0, sigma)
+    step = sigma * np.sqrt(1 - phi**2)
+    e = rng.normal(size=(n, len(sigma))) * step
+    for k in range(1, n):
+        x[k] = phi * x[k - 1] + e[k]
+    return x
+
+
+def interval_mean_sin(t_end, dt, freq_hz, phase):
+    """Mean of sin(2 pi f t + phase) over each (t - dt, t]."""
+    w = 2 * np.pi * freq_hz
+    return (np.cos(w * (t_end - dt) + phase) - np.cos(w * t_end + phase)) / (w * dt)
+
+
+def quantize_increments(x, dt, lsb):
+    """Output of a sensor that counts increments in steps of ``lsb`` (rad or m/s) and carries the remainder."""
+    counts = np.round(np.cumsum(x * dt, axis=0) / lsb)
+    return np.diff(np.vstack([np.zeros((1, x.shape[1])), counts]), axis=0) * lsb / dt
+
+
+def write_csv(path, columns: dict, digits: int = 10):
+    """Write a CSV with a header row, every value with ``digits`` significant digits (as a user would)."""
+    names = list(columns)
+    data = np.column_stack([np.asarray(columns[k], float) for k in names])
+    np.savetxt(path, data, delimiter=",", header=",".join(names), comments="", fmt=f"%.{digits}g")
+    return path
