@@ -1,11 +1,10 @@
 """wmra_node: calibrate and WMRA-denoise ``imu/data_raw`` into ``imu/data_corrected`` (sensor-data QoS).
 
 Each output carries the stamp and frame of the input sample it denoises and leaves
-``delay_samples`` (= right support + hop - 1) samples after it. A sample interval
-that is not positive or exceeds ``gap_factor / sample_rate_hz`` restarts the
-window: the pending samples are flushed (published, edge-extended) first, and the
-restart is counted in the diagnostics and logged; a gap of up to ``fill_gap_samples``
-whole samples (a dropped message) is filled by interpolation instead.
+``delay_samples`` (= right support + hop - 1) samples after it. Gaps and time jumps are
+:class:`wmra_filter.stream_policy.StreamPolicy`'s: a gap of up to ``fill_gap_samples``
+whole samples is filled by interpolation, any other break restarts the window (pending
+samples flushed first), counted in the diagnostics and logged. This module is wiring.
 
 Input is taken in batches every ``intake_period_s`` and output published as raw CDR
 (:mod:`nav_core.imu_cdr`): the per-message executor callback and Imu object building
@@ -17,6 +16,7 @@ import threading
 import time
 
 import numpy as np
+from rclpy.qos import QoSProfile, ReliabilityPolicy
 from sensor_msgs.msg import Imu
 
 from nav_core import sensor_model
@@ -25,6 +25,7 @@ from nav_core.ros_node import (SENSOR_QOS, Diagnostics, ImuBatchSubscription, In
                                publish_imu_batch, run_node)
 from rclpy.node import Node
 from wmra_filter import levels, thresholds as thr
+from wmra_filter.stream_policy import StreamPolicy
 from wmra_filter.streaming import StreamingWmra
 from wmra_filter.wmra import Calibrator, WmraConfig, WmraConfigError, model_sample_sigma
 
@@ -51,6 +52,8 @@ PARAMS = (
           "latency; one executor callback per message would cost more CPU than the denoising at 1 kHz)",
           0.0005, 1.0),
     Param("diagnostics_period_s", 1.0, "period of the /diagnostics status, s", 0.05, 60.0),
+    Param("input_queue_depth", 20000, "imu/data_raw messages held until taken: a node held up (a busy CPU) "
+          "catches up instead of losing samples; 20,000 = 39 s of 64-Hz IMU at 8x", 100, 1000000),
 )
 
 
@@ -91,15 +94,13 @@ class WmraNode(Node):
             raise ConfigError(f"{values['sensor_model_path']}: white_noise must be > 0 on every axis for "
                               "noise_source 'model' (or set noise_source: mad)")
         self.stream = StreamingWmra(self.cfg, 6, sample_sigma=sigma)
+        self.policy = StreamPolicy(self.stream, self.cfg.sample_rate_hz, values["gap_factor"],
+                                   values["fill_gap_samples"])
         self.calibrate = Calibrator(self.model)
-        self.max_interval_s = values["gap_factor"] / self.cfg.sample_rate_hz
-        self.fill_gap_samples = values["fill_gap_samples"]
-        self.stats = {"received": 0, "published": 0, "restarts": 0, "last_restart": "none", "filled_samples": 0,
-                      "busy_s": 0.0, "busy_max_s": 0.0}
-        self._last_t = None
-        self._last_sample = None
+        self.stats = {"published": 0, "busy_s": 0.0, "busy_max_s": 0.0}
         self.pub = self.create_publisher(Imu, "imu/data_corrected", SENSOR_QOS)
-        self.intake = ImuBatchSubscription(self, "imu/data_raw", self.on_batch, None)
+        qos = QoSProfile(depth=values["input_queue_depth"], reliability=ReliabilityPolicy.BEST_EFFORT)
+        self.intake = ImuBatchSubscription(self, "imu/data_raw", self.on_batch, None, qos=qos)
         self.diagnostics = Diagnostics(self, "wmra", hardware_id=values["sensor_model_path"])
         self.lock = threading.Lock()
         self.create_timer(values["diagnostics_period_s"], self._publish_diagnostics_locked)
@@ -110,50 +111,17 @@ class WmraNode(Node):
                                f"({self.cfg.delay_s:.3f} s at {self.cfg.sample_rate_hz:g} Hz)")
 
     def on_batch(self, batch) -> None:
-        """Calibrate a batch of samples, push the runs between gaps, publish what the window releases."""
+        """Calibrate a batch of samples, hand it to the gap policy, publish what the window releases."""
         start = time.perf_counter()
-        self.stats["received"] += len(batch)
-        t = batch.t_s
         samples = self.calibrate(batch.gyro, batch.accel)
         tags = list(zip(batch.sec.tolist(), batch.nanosec.tolist(), batch.frame_ids))
-        previous = np.concatenate([[np.nan if self._last_t is None else self._last_t], t[:-1]])
-        interval = t - previous
-        is_break = np.isfinite(previous) & ~((interval > 0.0) & (interval <= self.max_interval_s))
-        edges = [0, *np.flatnonzero(is_break).tolist(), len(t)]
-        released = []
-        for a, b in zip(edges[:-1], edges[1:]):
-            if a == b:
-                continue
-            if is_break[a]:
-                before = samples[a - 1] if a else self._last_sample
-                if not self._fill(previous[a], before, t[a], samples[a], released):
-                    self._restart(previous[a], t[a], released)
-            released += self.stream.push_many(samples[a:b], tags[a:b])
-        self._last_t, self._last_sample = t[-1], samples[-1]
+        released, restarts = self.policy.push(batch.t_s, samples, tags)
+        for text in restarts:
+            self.get_logger().warning(f"imu/data_raw: {text}")
         self._publish(released)
         busy = time.perf_counter() - start
         self.stats["busy_s"] += busy
         self.stats["busy_max_s"] = max(self.stats["busy_max_s"], busy)
-
-    def _fill(self, t0: float, sample0, t1: float, sample1, released: list) -> bool:
-        """Fill a gap of a few whole missing samples by linear interpolation; False if it is not such a gap."""
-        period = 1.0 / self.cfg.sample_rate_hz
-        steps = int(round((t1 - t0) / period))
-        missing = steps - 1
-        if not 1 <= missing <= self.fill_gap_samples or abs(t1 - t0 - steps * period) > 0.25 * period:
-            return False
-        fillers = sample0 + (sample1 - sample0) * (np.arange(1, steps)[:, None] / steps)
-        released += self.stream.push_many(fillers, [None] * missing)
-        self.stats["filled_samples"] += missing
-        return True
-
-    def _restart(self, t0: float, t1: float, released: list) -> None:
-        kind = "time jump" if t1 <= t0 else "gap"
-        self.stats["restarts"] += 1
-        self.stats["last_restart"] = f"{kind} of {t1 - t0:.6g} s at t={t1:.6f}"
-        self.get_logger().warning(f"{kind} in imu/data_raw ({t1 - t0:.6g} s at t={t1:.6f} s): "
-                                  "flushing and restarting the window")
-        released += self.stream.restart()
 
     def _publish(self, outputs) -> None:
         """Publish released ``((sec, nanosec, frame_id), value)`` pairs; fill samples (tag None) are not."""
@@ -174,29 +142,29 @@ class WmraNode(Node):
 
     def publish_diagnostics(self) -> None:
         """Delay, window, thresholds in use and processing time per message on /diagnostics."""
-        s, cfg = self.stats, self.cfg
+        s, p, cfg = self.stats, self.policy.stats, self.cfg
         lam = self.stream.thresholds
         values = {"delay_samples": cfg.delay_samples, "delay_s": cfg.delay_s, "window": cfg.window_samples,
                   "hop": cfg.hop, "level": cfg.level, "wavelet": cfg.wavelet, "threshold_mode": cfg.mode,
                   "threshold_rule": cfg.rule, "noise_source": cfg.noise,
                   "thresholds_gyro_rad_s": "pending" if lam is None else _levels_text(lam[:, :3]),
                   "thresholds_accel_m_s2": "pending" if lam is None else _levels_text(lam[:, 3:]),
-                  "received": s["received"], "published": s["published"], "restarts": s["restarts"],
-                  "filled_samples": s["filled_samples"],
-                  "last_restart": s["last_restart"],
-                  "processing_mean_us": 1e6 * s["busy_s"] / max(s["received"], 1),
+                  "received": p.received, "published": s["published"], "restarts": p.restarts,
+                  "filled_samples": p.filled_samples,
+                  "last_restart": p.last_restart,
+                  "processing_mean_us": 1e6 * s["busy_s"] / max(p.received, 1),
                   "intake_period_s": self.intake_period_s,
                   "bad_messages": self.intake.bad_messages,
                   "processing_max_us": 1e6 * s["busy_max_s"]}
-        level = "WARN" if s["restarts"] else "OK"
-        self.diagnostics.publish(level, "denoising" if s["received"] else "waiting for imu/data_raw", values)
+        level = "WARN" if p.restarts else "OK"
+        self.diagnostics.publish(level, "denoising" if p.received else "waiting for imu/data_raw", values)
 
     def close(self) -> None:
         """Publish the samples still in the window before shutting down."""
         self.intake_loop.stop()
         try:
             self.intake.drain()
-            self._publish(self.stream.flush())
+            self._publish(self.policy.flush())
         except Exception:  # the context may already be shut down on SIGINT; losing the tail is acceptable
             pass
 
