@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import os
 import select
+import threading
 import time
 import tty
 from dataclasses import dataclass
@@ -166,6 +167,11 @@ class Emulator:
         self.stats = EmulatorStats()
         self._rng = np.random.default_rng(self.faults.seed)
         self._pending = b""
+        self._stop = threading.Event()
+
+    def stop(self) -> None:
+        """End :meth:`run` after the frame in progress (from another thread)."""
+        self._stop.set()
 
     def _handle_commands(self) -> None:
         self._pending += self.port.read_commands()
@@ -186,7 +192,7 @@ class Emulator:
         next_garbage = self.faults.garbage_every_s or float("inf")
         unplug_windows = sorted(self.faults.disconnect_at_s)
         counter, index, t_model = 0, 0, 0.0
-        while max_frames is None or self.stats.frames_sent < max_frames:
+        while (max_frames is None or self.stats.frames_sent < max_frames) and not self._stop.is_set():
             self._handle_commands()
             factor = BASE_RATE_HZ // self.stats.rate_hz
             if index + factor > len(self.counts):

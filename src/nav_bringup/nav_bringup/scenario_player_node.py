@@ -10,6 +10,7 @@ can be injected for the fault tests.
 """
 from __future__ import annotations
 
+import contextlib
 import math
 import threading
 import time
@@ -76,6 +77,7 @@ class ScenarioPlayer(Node):
         self.emulator = Emulator(self.port, counts, faults=faults, speed=rate,
                                  log=lambda s: self.get_logger().info(f"emulator: {s}"))
         self.start_wall = None
+        self._ticker = None
         self.next_fix = 0
         self.fixes_sent = 0
         self.done = False
@@ -98,27 +100,40 @@ class ScenarioPlayer(Node):
 
     def _run(self) -> None:
         deadline = time.monotonic() + self.p["wait_timeout_s"]
-        while not self._graph_ready() and time.monotonic() < deadline and not self._stop.is_set():
-            self._publish_clock(0.0)
-            time.sleep(0.05)
-        time.sleep(1.0)  # let the subscribers' side of discovery finish
-        self.get_logger().info("playing")
-        self.start_wall = time.monotonic()
-        ticker = threading.Thread(target=self._tick, daemon=True, name="clock_gps")
-        ticker.start()
-        self.emulator.run()
-        self.done = True
-        self.get_logger().info(f"done: {self.emulator.stats.frames_sent} frames, {self.fixes_sent} fixes")
+        with self._until_shutdown():
+            while not self._graph_ready() and time.monotonic() < deadline and not self._stop.is_set():
+                self._publish_clock(0.0)
+                time.sleep(0.05)
+            if self._stop.wait(1.0):  # let the subscribers' side of discovery finish
+                return
+            self.get_logger().info("playing")
+            self.start_wall = time.monotonic()
+            self._ticker = threading.Thread(target=self._tick, daemon=True, name="clock_gps")
+            self._ticker.start()
+            self.emulator.run()
+            self.done = True
+            if not self._stop.is_set():
+                self.get_logger().info(f"done: {self.emulator.stats.frames_sent} frames, {self.fixes_sent} fixes")
 
     def _tick(self) -> None:
         period = 1.0 / self.p["clock_rate_hz"]
-        while not self._stop.is_set() and not self.done:
-            t = self.sim_time()
-            self._publish_clock(t)
-            while self.next_fix < len(self.gnss) and self.gnss.t[self.next_fix] <= t:
-                self._publish_fix(self.next_fix)
-                self.next_fix += 1
-            time.sleep(period)
+        with self._until_shutdown():
+            while not self._stop.is_set() and not self.done:
+                t = self.sim_time()
+                self._publish_clock(t)
+                while self.next_fix < len(self.gnss) and self.gnss.t[self.next_fix] <= t:
+                    self._publish_fix(self.next_fix)
+                    self.next_fix += 1
+                self._stop.wait(period)
+
+    @contextlib.contextmanager
+    def _until_shutdown(self):
+        """A thread's body: an error raised because the node is shutting down (Ctrl-C) ends it quietly."""
+        try:
+            yield
+        except Exception:  # noqa: BLE001 - publishing on a context that Ctrl-C just shut down
+            if not (self._stop.is_set() or not self.context.ok()):
+                raise
 
     def _publish_clock(self, t: float) -> None:
         msg = Clock()
@@ -156,9 +171,12 @@ class ScenarioPlayer(Node):
             rclpy.try_shutdown()
 
     def close(self) -> None:
-        """Stop the threads and remove the port."""
+        """Stop the threads, then remove the port (Ctrl-C ends the run without a traceback)."""
         self._stop.set()
-        self.emulator.loop = False
+        self.emulator.stop()
+        for thread in (self._thread, self._ticker):
+            if thread is not None:
+                thread.join(timeout=5.0)
         self.port.unplug()
 
 

@@ -13,9 +13,9 @@ from rclpy.exceptions import (InvalidParameterTypeException, InvalidParameterVal
 from nav_core.params import ConfigError, Param
 
 
-def descriptor(p: Param) -> ParameterDescriptor:
-    """The ROS ``ParameterDescriptor`` of ``p``: description, range, choices as a constraint."""
-    desc = ParameterDescriptor(description=p.description)
+def descriptor(p: Param, read_only: bool = False) -> ParameterDescriptor:
+    """The ROS ``ParameterDescriptor`` of ``p``: description, range, choices as a constraint, read-only flag."""
+    desc = ParameterDescriptor(description=p.description, read_only=read_only)
     if p.choices:
         desc.additional_constraints = f"one of {list(p.choices)}"
     if p.low is not None and p.high is not None and not isinstance(p.default, bool):
@@ -33,10 +33,10 @@ def _override(node, name: str):
     return None if value is None else value.value
 
 
-def declare_one(node, p: Param):
+def declare_one(node, p: Param, read_only: bool = False):
     """Declare ``p`` on ``node`` and return its checked value; ConfigError for any bad value."""
     try:
-        node.declare_parameter(p.name, p.default, descriptor(p))
+        node.declare_parameter(p.name, p.default, descriptor(p, read_only))
         value = node.get_parameter(p.name).value
     except InvalidParameterTypeException:
         raise ConfigError(f"parameter '{p.name}': {_override(node, p.name)!r} has the wrong type; "
@@ -49,13 +49,19 @@ def declare_one(node, p: Param):
     return value
 
 
-def declare_parameters(node, params) -> dict:
+def declare_parameters(node, params, dynamic=()) -> dict:
     """Declare ``params`` with descriptors, validate them (ConfigError), return name -> value.
 
-    Later changes are validated by an on-set-parameters callback that rejects bad values.
+    A parameter is read-only (``set_parameters`` is refused, "read-only") unless it is named in
+    ``dynamic``: those the node applies at run time itself (its own on-set callback, or reading
+    the parameter each time). So a change is applied or refused, never accepted and ignored.
+    Changes to dynamic ones are validated by an on-set-parameters callback that rejects bad values.
     """
     by_name = {p.name: p for p in params}
-    values = {p.name: declare_one(node, p) for p in params}
+    unknown = set(dynamic) - set(by_name)
+    if unknown:
+        raise ValueError(f"dynamic parameters {sorted(unknown)} are not declared")
+    values = {p.name: declare_one(node, p, read_only=p.name not in dynamic) for p in params}
 
     def on_set(changes):
         for change in changes:
