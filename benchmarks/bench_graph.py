@@ -75,7 +75,7 @@ def run_graph(specs, env, player: str, timeout_s: float, topics: dict, imu_topic
     appear in the result as (receive time, stamp ns array) pairs.
     """
     from nav_bringup.graph import PARAMS_FILE, Graph
-    from nav_bringup.live_status import diag_values, graph_probe
+    from nav_bringup.live_status_ros import diag_values, graph_probe
     from nav_core.ros_node import ImuBatchSubscription
 
     graph = Graph(specs, env, PARAMS_FILE)

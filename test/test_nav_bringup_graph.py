@@ -12,7 +12,7 @@ from nav_msgs.msg import Odometry
 
 from nav_bringup.demo import simulate_scenario
 from nav_bringup.graph import PARAMS_FILE, REPO, Graph, NodeSpec
-from nav_bringup.live_status import diag_values, graph_probe
+from nav_bringup.live_status_ros import diag_values, graph_probe
 from nav_bringup.truth import TruthTrack
 from nav_core import recording
 from nav_core.ros_node import stamp_to_s

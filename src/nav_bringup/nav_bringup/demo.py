@@ -16,6 +16,7 @@ import os
 import random
 import shutil
 import sys
+import tempfile
 import time
 from pathlib import Path
 
@@ -60,17 +61,52 @@ def simulate_scenario(scenario: Path, model: Path, seed: int, out: Path, duratio
     return scen
 
 
+SIM_MARKER = ".nav-demo-simulation"  # in a simulation folder nav-demo wrote: the names it wrote there, one a line
+
+
+class DemoError(RuntimeError):
+    """A user error the demo reports in one line (exit 2)."""
+
+
 def simulate_once(scenario: Path, model: Path, seed: int, out: Path) -> Path:
-    """Simulate the scenario with the model (cached by seed); return the simulation folder."""
+    """Simulate the scenario with the model (cached by seed); return the simulation folder.
+
+    A stale cache is replaced name by name: only what nav-demo wrote there (listed in its marker
+    file) is removed; a folder of that name nav-demo did not write is refused (DemoError).
+    """
     sim_dir = out / f"sim_seed{seed}"
     newest_input = max(scenario.stat().st_mtime, model.stat().st_mtime)
+    if sim_dir.exists() and not (sim_dir / SIM_MARKER).is_file() and any(sim_dir.iterdir()):
+        raise DemoError(f"{sim_dir} exists and was not written by nav-demo (no {SIM_MARKER}): "
+                        "move it away or choose another --out")
     if (sim_dir / "bp3010.bin").exists() and (sim_dir / "bp3010.bin").stat().st_mtime > newest_input:
         print(f"[demo] using the simulation in {sim_dir}")
         return sim_dir
     print(f"[demo] simulating {scenario.name} with {model.name} (seed {seed}) into {sim_dir}")
-    shutil.rmtree(sim_dir, ignore_errors=True)
-    simulate_scenario(scenario, model, seed, sim_dir)
+    out.mkdir(parents=True, exist_ok=True)
+    fresh = Path(tempfile.mkdtemp(prefix=f".sim_seed{seed}.", dir=out))
+    try:
+        simulate_scenario(scenario, model, seed, fresh)
+        _replace_simulation(sim_dir, fresh)
+    finally:
+        shutil.rmtree(fresh, ignore_errors=True)  # a temporary folder of our own
     return sim_dir
+
+
+def _replace_simulation(sim_dir: Path, fresh: Path) -> None:
+    """Move the entries of ``fresh`` into ``sim_dir``, removing only entries nav-demo wrote there before."""
+    sim_dir.mkdir(parents=True, exist_ok=True)
+    ours = set((sim_dir / SIM_MARKER).read_text().split()) if (sim_dir / SIM_MARKER).is_file() else set()
+    names = sorted(p.name for p in fresh.iterdir())
+    present = [sim_dir / n for n in names if (sim_dir / n).exists() or (sim_dir / n).is_symlink()]
+    foreign = [p for p in present if p.name not in ours]
+    if foreign:  # checked before anything is removed
+        raise DemoError(f"{foreign[0]} exists and was not written by nav-demo: move it away or choose another --out")
+    for old in present:
+        shutil.rmtree(old) if old.is_dir() and not old.is_symlink() else old.unlink()
+    for name in names:
+        (fresh / name).rename(sim_dir / name)
+    (sim_dir / SIM_MARKER).write_text("".join(f"{n}\n" for n in names))
 
 
 def _use_converted_folder(args) -> None:
@@ -109,6 +145,13 @@ def graph_specs(args, run_dir: Path, sim_dir: Path | None) -> list:
                                           "duration_s": args.duration})])
 
 
+def filter_params(params_file: Path, specs) -> dict:
+    """The filter node's parameters in this run: the params file's section with the run's overrides."""
+    section = yaml.safe_load(Path(params_file).read_text()).get("ins_gps_kf_node", {}).get("ros__parameters", {})
+    overrides = next((s.overrides for s in specs if s.executable == "ins_gps_kf_node"), {})
+    return {k: v for k, v in {**section, **overrides}.items() if k != "use_sim_time"}
+
+
 def main(argv=None) -> int:
     """Simulate (or take the recording), run the graph, write the report."""
     args = parse_args(argv)
@@ -118,7 +161,11 @@ def main(argv=None) -> int:
     env.setdefault("ROS_DOMAIN_ID", str(random.randint(1, 99)))
     env.setdefault("ROS_AUTOMATIC_DISCOVERY_RANGE", "LOCALHOST")
     os.environ.update({k: env[k] for k in ("ROS_DOMAIN_ID", "ROS_AUTOMATIC_DISCOVERY_RANGE")})
-    sim_dir = None if args.recording else simulate_once(args.scenario, args.model, args.seed, args.out)
+    try:
+        sim_dir = None if args.recording else simulate_once(args.scenario, args.model, args.seed, args.out)
+    except DemoError as err:
+        print(f"nav-demo: error: {err}", file=sys.stderr)
+        return 2
     run_dir = args.out / time.strftime("run_%Y%m%d_%H%M%S")
     run_dir.mkdir(parents=True)
     graph = Graph(graph_specs(args, run_dir, sim_dir), env, args.params, log_dir=run_dir / "logs")
@@ -126,7 +173,7 @@ def main(argv=None) -> int:
     print(f"[demo] starting the graph (ROS_DOMAIN_ID={env['ROS_DOMAIN_ID']}); output in {run_dir}")
     try:
         graph.start()
-        from nav_bringup.live_status import watch
+        from nav_bringup.live_status_ros import watch
 
         watch(graph, player, sim_dir)
     except GraphError as err:
@@ -139,7 +186,8 @@ def main(argv=None) -> int:
     print("[demo] exit codes: " + ", ".join(f"{k} {v}" for k, v in codes.items()))
     from nav_bringup.report import write_report
 
-    summary = write_report(run_dir, sim_dir=sim_dir, truth_csv=args.truth, exit_codes=codes)
+    summary = write_report(run_dir, sim_dir=sim_dir, truth_csv=args.truth, exit_codes=codes,
+                           filter_params=filter_params(args.params, graph.specs))
     print(summary)
     return 0 if all(c == 0 for c in codes.values()) else 1
 

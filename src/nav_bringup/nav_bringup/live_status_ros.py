@@ -1,4 +1,5 @@
-"""Live one-line status of a running graph: simulated time, filter state, fixes, position error (rclpy)."""
+"""ROS glue of the demo and the graph tests: an rclpy probe on a running graph, and the live one-line status
+(simulated clock, filter state, fixes, position error)."""
 from __future__ import annotations
 
 import time
@@ -41,12 +42,22 @@ def diag_values(probe) -> dict:
 def watch(graph, player: str, sim_dir: Path | None, period_s: float = 5.0) -> None:
     """Print a status line every ``period_s`` until the player node exits (or any node dies)."""
     from nav_msgs.msg import Odometry
+    from rclpy.qos import QoSProfile, ReliabilityPolicy
+    from rosgraph_msgs.msg import Clock
 
     from nav_core.ros_node import stamp_to_s
 
     truth = TruthTrack.from_sim_dir(sim_dir) if sim_dir else None
     with graph_probe({"odometry/filtered": Odometry}) as probe:
+        probe.clock = {}  # first and newest /clock (s): the simulated time runs from the start, navigating or not
+        probe.create_subscription(Clock, "/clock", lambda m: _on_clock(probe.clock, stamp_to_s(m.clock)),
+                                  QoSProfile(depth=10, reliability=ReliabilityPolicy.BEST_EFFORT))
         _print_status(graph, player, probe, truth, period_s, stamp_to_s)
+
+
+def _on_clock(clock: dict, t_s: float) -> None:
+    clock.setdefault("first", t_s)
+    clock["now"] = t_s
 
 
 def _print_status(graph, player, probe, truth, period_s, stamp_to_s) -> None:
@@ -65,8 +76,8 @@ def _print_status(graph, player, probe, truth, period_s, stamp_to_s) -> None:
             msg = odom[-1][1]
             p = msg.pose.pose.position
             err = f"{truth.horizontal_error(stamp_to_s(msg.header.stamp), np.array([p.x, p.y, p.z])):8.2f}"
-        first = stamp_to_s(odom[0][1].header.stamp) if odom else 0.0
-        sim_t = stamp_to_s(odom[-1][1].header.stamp) - (truth.epoch_s if truth else first) if odom else 0.0
+        clock = probe.clock
+        sim_t = clock["now"] - (truth.epoch_s if truth else clock["first"]) if clock else 0.0
         print(f"{time.monotonic() - start:6.0f} {sim_t:8.1f} {len(odom):6d} "
               f"{(kf.message if kf else 'waiting')[:28]:<28} {kfv.get('fixes', '-'):>6} "
               f"{kfv.get('rejected_fixes', '-'):>4} {err:>8}", flush=True)

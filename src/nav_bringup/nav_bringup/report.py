@@ -3,7 +3,10 @@
 Figures follow the paper: the trajectory on north/east axes with GPS and truth
 (Fig. 6), errors over time with the filter's 3-sigma bounds, the Allan deviation
 of the stationary head (Fig. 3), raw against denoised signals (Figs. 4 and 5),
-and the diagnostics of every node.
+and the diagnostics of every node. The live odometry is checked against an offline replay of
+the run's own bag (``imu/data_corrected`` and ``gps/fix`` through the same filter with the
+node's parameters): the largest difference, what either side has alone, and whatever the
+filter node dropped or found missing, so a run that did not give the offline answer says so.
 """
 from __future__ import annotations
 
@@ -148,9 +151,41 @@ def plot_raw_vs_denoised(raw, den, path: Path) -> None:
     plt.close(fig)
 
 
+def compare_with_offline(bag: Path, odom, filter_params: dict) -> dict:
+    """The recorded odometry against an offline replay of the bag's ``imu/data_corrected`` and ``gps/fix``.
+
+    ``filter_params``: the filter node's parameters (as in the params file, with the run's
+    overrides). Returns epochs on each side, common epochs, the largest position difference
+    there (m) and the stamps going backwards in the live odometry.
+    """
+    from ins_gps_kf import config as kfconfig
+    from ins_gps_kf.filter import InsGpsFilter
+    from ins_gps_kf.replay import load_model, run
+
+    p = {k: v for k, v in filter_params.items() if k in kfconfig.SPEC_BY_NAME}
+    imu = recording.read_imu(bag, topic=p.get("imu_topic", "imu/data_corrected"))
+    gnss = recording.read_gnss(bag, topic=p.get("gps_topic", "gps/fix"))
+    filt = InsGpsFilter(kfconfig.from_params(p), load_model(p.get("sensor_model_path") or "default"))
+    estimates = run(filt, imu, gnss)
+    off_t = np.array([e.t for e in estimates])
+    off_pos = np.array([e.position_n for e in estimates]).reshape(-1, 3)
+    live_ns, off_ns = np.round(odom.t * 1e6).astype(np.int64), np.round(off_t * 1e6).astype(np.int64)
+    common, i_live, i_off = np.intersect1d(live_ns, off_ns, return_indices=True)
+    diff = np.linalg.norm(odom.position[i_live] - off_pos[i_off], axis=1)
+    return {"live epochs": len(odom), "offline epochs": len(off_t), "common epochs": len(common),
+            "only live": len(np.setdiff1d(live_ns, off_ns)), "only offline": len(np.setdiff1d(off_ns, live_ns)),
+            "largest difference (m)": float(diff.max()) if len(diff) else float("nan"),
+            "live stamps going back": int(np.sum(np.diff(odom.t) <= 0)),
+            "imu samples replayed": len(imu)}
+
+
 def write_report(run_dir: Path, sim_dir: Path | None = None, truth_csv: Path | None = None,
-                 exit_codes: dict | None = None) -> str:
-    """Write ``run_dir/report.html`` and PNGs from ``run_dir/bag``; return a one-screen summary."""
+                 exit_codes: dict | None = None, filter_params: dict | None = None) -> str:
+    """Write ``run_dir/report.html`` and PNGs from ``run_dir/bag``; return a one-screen summary.
+
+    With ``filter_params`` (the filter node's parameters) the live odometry is compared with an
+    offline replay of the bag (:func:`compare_with_offline`).
+    """
     run_dir = Path(run_dir)
     bag = run_dir / "bag"
     diags = last_diagnostics(bag)
@@ -158,6 +193,12 @@ def write_report(run_dir: Path, sim_dir: Path | None = None, truth_csv: Path | N
         odom = recording.read_odometry(bag)
     except recording.RecordingError:
         return _no_odometry(run_dir, diags, exit_codes or {})
+    offline = None
+    if filter_params is not None:
+        try:
+            offline = compare_with_offline(bag, odom, filter_params)
+        except (recording.RecordingError, ValueError) as err:
+            offline = {"not compared": str(err)}
     gnss = recording.read_gnss(bag)
     gnss = _finite(gnss)
     if sim_dir is not None:
@@ -180,8 +221,25 @@ def write_report(run_dir: Path, sim_dir: Path | None = None, truth_csv: Path | N
     if (run_dir / "allan" / "allan.png").exists():
         shutil.copy(run_dir / "allan" / "allan.png", run_dir / "allan.png")
         figures.append("allan.png")
+    res["offline"] = offline
+    res["stream"] = _stream_checks(raw, den, diags)
     _write_html(run_dir, res, odom, gnss, raw, den, diags, figures, exit_codes or {})
     return _summary(run_dir, res, odom, gnss, raw, den, diags, exit_codes or {})
+
+
+def _stream_checks(raw, den, diags) -> dict:
+    """Stamps going back in the recorded IMU streams, and what the filter node dropped or missed."""
+    out = {}
+    for name, rec in (("imu/data_raw", raw), ("imu/data_corrected", den)):
+        if rec is not None:
+            out[f"{name} stamps going back"] = int(np.sum(np.diff(rec.t) <= 0))
+    kf = next((v for n, (_, _, v) in diags.items() if n.startswith("ins_gps_kf")), {})
+    for key, label in (("imu_received", "IMU samples the filter received"),
+                       ("late_dropped", "messages the filter dropped"),
+                       ("imu_missing", "IMU samples missing in the filter's input")):
+        if key in kf:
+            out[label] = int(float(kf[key]))
+    return out
 
 
 def _no_odometry(run_dir: Path, diags: dict, codes: dict) -> str:
@@ -218,6 +276,14 @@ def _summary(run_dir, res, odom, gnss, raw, den, diags, codes) -> str:
     lines += [f"    {k:<32} {v:10.3f}" for k, v in res["rms"].items()]
     lines += [f"    {k:<32} {v:10.3f}" if isinstance(v, float) else f"    {k:<32} {v:10d}"
               for k, v in _counts(odom, gnss, raw, den).items()]
+    lines += [f"    {k:<38} {v:4d}" for k, v in res.get("stream", {}).items()]
+    off = res.get("offline")
+    if off and "not compared" in off:
+        lines.append(f"    live against offline replay: not compared ({off['not compared']})")
+    elif off:
+        lines.append(f"    live against offline replay of the bag: largest difference {off['largest difference (m)']:.3g} m "
+                     f"over {off['common epochs']} common epochs (live {off['live epochs']}, offline "
+                     f"{off['offline epochs']}; only live {off['only live']}, only offline {off['only offline']})")
     for name, (level, message, values) in sorted(diags.items()):
         keys = [k for k in ("frames_received", "checksum_errors", "lost_frames", "rejected_fixes", "fixes",
                             "restarts", "state") if k in values]
@@ -243,12 +309,15 @@ def _write_html(run_dir, res, odom, gnss, raw, den, diags, figures, codes) -> No
         for n, (l, m, vals) in sorted(diags.items()))
     imgs = "".join(f'<h2>{f.replace("_", " ").replace(".png", "")}</h2><img src="{f}" style="max-width:100%">'
                    for f in figures)
+    no_offline = {"not compared": "no filter parameters given"}
     page = f"""<!doctype html><html><head><meta charset="utf-8"><title>Navigation report</title>
 <style>body{{font-family:sans-serif;max-width:1200px;margin:auto}} td{{padding:2px 10px;border-bottom:1px solid #ddd}}
 table{{border-collapse:collapse;margin-bottom:1em}}</style></head><body>
 <h1>Navigation report</h1><p>Run folder: {html.escape(str(run_dir))}. Errors against {res['reference']}.</p>
 <h2>Accuracy (RMS)</h2>{_table(res['rms'])}
 <h2>Messages</h2>{_table(_counts(odom, gnss, raw, den))}
+<h2>Stamps and drops</h2>{_table(res.get("stream", {}))}
+<h2>Live odometry against an offline replay of the bag</h2>{_table(res.get("offline") or no_offline)}
 <h2>Exit codes</h2>{_table(codes)}
 {imgs}
 <h2>Diagnostics (last status of every node)</h2><table>{diag_rows}</table>
