@@ -1,8 +1,12 @@
 """``bag_record``: record topics into a new rosbag2 bag (sqlite3 or MCAP) that ``ros2 bag`` reads.
 
 Topics are discovered by name (like ``ros2 bag record``): each is subscribed
-as serialized CDR as soon as it appears in the graph, with a best-effort QoS
-that also connects to reliable publishers. Queues are drained in batches every
+as serialized CDR as soon as a publisher of it appears, with the QoS its publishers
+offer (as rosbag2 adapts it): reliable when every publisher is reliable (odometry,
+diagnostics, /tf), best effort otherwise (sensor data); transient local when every
+publisher is (/tf_static, so the latched transforms are recorded). The offered QoS
+go into the bag's metadata (``offered_qos_profiles``), so ``ros2 bag play`` offers
+them again. Queues are drained in batches every
 ``intake_period_s`` (:class:`nav_core.ros_node.PolledSubscription`): one executor
 callback per message lost messages of a 640 Hz topic on a busy machine. Log time is
 the receive time: the middleware's receive stamp moved onto the node clock.
@@ -12,7 +16,8 @@ from __future__ import annotations
 import time
 
 from rclpy.node import Node
-from rclpy.qos import QoSProfile, ReliabilityPolicy
+from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
+from rosbags.interfaces import Qos, QosDurability, QosHistory, QosLiveliness, QosReliability, QosTime
 
 from imu_driver.bag_play_node import message_class
 from nav_core.bagio import BagWriter
@@ -55,11 +60,15 @@ class BagRecorder(Node):
                 if cls is None:
                     self.get_logger().warning(f"cannot record {topic}: type {types[0]} not installed")
                     continue
-                qos = QoSProfile(depth=5000, reliability=ReliabilityPolicy.BEST_EFFORT)
+                offered = [info.qos_profile for info in self.get_publishers_info_by_topic(topic)]
+                if not offered:
+                    continue  # only subscribers so far: wait for a publisher and its QoS
+                self.writer.add_topic(topic, types[0], [bag_qos(q) for q in offered])
                 self._subs[topic] = PolledSubscription(self, cls, topic, self._writer_for(topic, types[0]),
-                                                       self.p["intake_period_s"], qos)
+                                                       self.p["intake_period_s"], subscription_qos(offered))
                 self.counts[topic] = 0
-                self.get_logger().info(f"recording {topic} ({types[0]})")
+                self.get_logger().info(f"recording {topic} ({types[0]}, "
+                                       f"{subscription_qos(offered).reliability.name.lower()})")
 
     def _writer_for(self, topic: str, msgtype: str):
         def write(taken):
@@ -81,6 +90,28 @@ class BagRecorder(Node):
                 break
         self.writer.__exit__(None, None, None)
         self.get_logger().info(f"closed {self.p['output']}: {self.counts}")
+
+
+def subscription_qos(offered) -> QoSProfile:
+    """The QoS that receives everything the publishers (their ``offered`` QoSProfiles) send: reliable only when
+    every one is reliable, transient local only when every one is (a reliable subscriber does not match a
+    best-effort publisher, a transient-local one does not match a volatile one)."""
+    reliable = all(q.reliability == ReliabilityPolicy.RELIABLE for q in offered)
+    latched = all(q.durability == DurabilityPolicy.TRANSIENT_LOCAL for q in offered)
+    return QoSProfile(depth=5000, reliability=ReliabilityPolicy.RELIABLE if reliable else ReliabilityPolicy.BEST_EFFORT,
+                      durability=DurabilityPolicy.TRANSIENT_LOCAL if latched else DurabilityPolicy.VOLATILE)
+
+
+def bag_qos(q: QoSProfile) -> Qos:
+    """rclpy QoSProfile -> rosbags Qos (the rmw enum values and durations rosbag2 writes in its metadata)."""
+    def span(duration) -> QosTime:
+        ns = duration.nanoseconds
+        return QosTime(ns // 1_000_000_000, ns % 1_000_000_000)
+
+    return Qos(QosHistory(int(q.history)), int(q.depth), QosReliability(int(q.reliability)),
+               QosDurability(int(q.durability)), span(q.deadline), span(q.lifespan),
+               QosLiveliness(int(q.liveliness)), span(q.liveliness_lease_duration),
+               bool(q.avoid_ros_namespace_conventions))
 
 
 def main(args=None) -> int:

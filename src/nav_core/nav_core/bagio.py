@@ -314,8 +314,16 @@ class BagWriter:
     def _conn(self, topic: str, msgtype: str):
         key = "/" + norm_topic(topic)
         if key not in self._conns:
-            self._conns[key] = self._writer.add_connection(key, msgtype, typestore=TYPESTORE)
+            self.add_topic(topic, msgtype)
         return self._conns[key]
+
+    def add_topic(self, topic: str, msgtype: str, offered_qos_profiles=()) -> None:
+        """Declare ``topic`` before its first message, with the QoS its publishers offered (rosbags ``Qos``),
+        which ``ros2 bag play`` offers again (metadata ``offered_qos_profiles``)."""
+        key = "/" + norm_topic(topic)
+        if key not in self._conns:
+            self._conns[key] = self._writer.add_connection(key, msgtype, typestore=TYPESTORE,
+                                                           offered_qos_profiles=tuple(offered_qos_profiles))
 
     def write(self, topic: str, log_ns: int, msg) -> None:
         """Serialize a rosbags message and write it at log time ``log_ns``."""
