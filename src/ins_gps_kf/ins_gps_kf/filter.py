@@ -213,12 +213,8 @@ class InsGpsFilter:
 
     def _state_ok(self, est: Estimate) -> bool:
         """False (and reset, counted) if the state is not finite or faster than twice the speed limit."""
-        speed = float(np.hypot(*est.velocity_n[:2]))
-        if (np.all(np.isfinite(self.nav)) and np.all(np.isfinite(self.cov))
-                and speed <= 2.0 * self.cfg.max_speed):
+        if input_checks.state_ok(self.nav, self.cov, est.velocity_n, est.t, 2.0 * self.cfg.max_speed, self.input):
             return True
-        self.input.state_resets += 1
-        self.input.last_rejection = f"state at t={est.t:.3f} s not finite or too fast ({speed:.3g} m/s): reset"
         self.reset(f"diverged state at t={est.t:.3f} s")
         return False
 
@@ -469,6 +465,9 @@ class InsGpsFilter:
         yaw_ins = float(frames.euler_from_quat_xyzw(self.nav[strapdown.Q])[2])
         window = HEADING_HISTORY_S if fix.std_known else UNKNOWN_STD_HEADING_HISTORY_S
         self.heading_history = [(f, y) for f, y in self.heading_history if fix.t - f.t <= window]
+        if input_checks.jumps([f for f, _ in self.heading_history[-2:]] + [fix], self.cfg.max_speed,
+                              self.cfg.max_accel):
+            return False  # the fix jumped away from the track: neither a course nor a baseline for one
         for prev, prev_yaw in reversed(self.heading_history):
             d, dt = fix.enu - prev.enu, fix.t - prev.t
             dist = float(np.hypot(d[0], d[1]))

@@ -88,6 +88,17 @@ def screen_imu(t, gyro, accel, t_prev, max_gyro, max_accel, counters: InputCount
     return keep
 
 
+def state_ok(nav, cov, velocity_n, t, max_speed, counters: InputCounters) -> bool:
+    """Whether a state vector and covariance are finite and the velocity (m/s, ENU) no faster than ``max_speed``
+    m/s horizontally; counted as ``state_resets`` if not (the filter then resets)."""
+    speed = float(np.hypot(velocity_n[0], velocity_n[1]))
+    if np.all(np.isfinite(nav)) and np.all(np.isfinite(cov)) and speed <= max_speed:
+        return True
+    counters.state_resets += 1
+    counters.last_rejection = f"state at t={t:.3f} s not finite or too fast ({speed:.3g} m/s): reset"
+    return False
+
+
 def check_fix(t, lat_rad, lon_rad, h_m, status, last, t_imu, stale_s, future_s) -> str | None:
     """Why a fix (s, rad, rad, m, NavSatStatus) cannot be used, as an :class:`InputCounters` key; None if it can.
 

@@ -19,13 +19,15 @@ from ins_gps_kf.filter import STATUS_CODES, Estimate, InsGpsFilter
 
 
 def _feed_limits(t_fix: np.ndarray) -> np.ndarray:
-    """For each fix, the stamp up to which IMU samples go before it: its own, or a later fix's if smaller.
+    """For each fix, the stamp up to which IMU samples go before it: its own, or the next fix's if smaller.
 
-    Equal to the stamps for a time-ordered recording; a fix stamped in the far future (or NaN)
-    must not pull the whole IMU in before the fixes that follow it (the node would not either).
+    Equal to the stamps for a time-ordered recording. A fix stamped far ahead of the next one (or
+    NaN) must not pull the IMU in before the fixes that follow it: the filter then judges it against
+    the IMU time, as the node would. A NaN limit feeds nothing.
     """
-    t = np.where(np.isfinite(t_fix), t_fix, np.inf)
-    return np.minimum.accumulate(t[::-1])[::-1]
+    t_next = np.append(t_fix[1:], np.nan)
+    limits = np.fmin(t_fix, t_next)
+    return np.where(np.isnan(limits), -np.inf, limits)
 
 
 def run(filt: InsGpsFilter, imu: ImuRecording, gnss: GnssRecording | None, progress: bool = False) -> list[Estimate]:
