@@ -1,5 +1,6 @@
 """The workspace is a real colcon workspace: valid package.xml files, colcon build, executables in lib/<pkg>."""
 import ast
+import json
 import os
 import subprocess
 import sys
@@ -9,7 +10,10 @@ import pytest
 from catkin_pkg.package import parse_package
 
 REPO = Path(__file__).resolve().parents[1]
-PACKAGES = sorted(p.parent.name for p in (REPO / "src").glob("*/package.xml"))
+PACKAGES = sorted(p.parent.name for p in (REPO / "src").glob("*/setup.py"))  # ament_python; tf2_msgs is CMake
+# tf2_msgs/msg/TFMessage's type hash in ROS 2 Jazzy (what `ros2 topic info -v /tf` shows): the message built here
+# must be the same type, or a full ROS install's tf2 listeners would not match our /tf publisher.
+TFMESSAGE_RIHS01 = "RIHS01_e369d0f05a23ae52508854b66f6aa0437f3449d652e8cbf22d5abe85d020f087"
 
 
 def _console_scripts(pkg: str) -> list:
@@ -36,6 +40,17 @@ def test_package_xml_is_format_3_ament_python_with_marker_and_setup_cfg(pkg):
     assert (root / "resource" / pkg).exists()
     cfg = (root / "setup.cfg").read_text()
     assert f"script_dir=$base/lib/{pkg}" in cfg and f"install_scripts=$base/lib/{pkg}" in cfg
+
+
+def test_tf2_msgs_is_built_by_setup_never_by_colcon_and_is_jazzys_type():
+    root = REPO / "src" / "tf2_msgs"
+    package = parse_package(str(root / "package.xml"))
+    assert package.name == "tf2_msgs" and (root / "COLCON_IGNORE").exists()  # a full install keeps its own
+    assert (root / "msg" / "TFMessage.msg").read_text().split() == ["geometry_msgs/TransformStamped[]", "transforms"]
+    description = Path(sys.prefix) / "share" / "tf2_msgs" / "msg" / "TFMessage.json"
+    hashes = {h["type_name"]: h["hash_string"] for h in json.loads(description.read_text())["type_hashes"]}
+    assert hashes["tf2_msgs/msg/TFMessage"] == TFMESSAGE_RIHS01
+    from tf2_msgs.msg import TFMessage  # noqa: F401  (importable by the nodes)
 
 
 @pytest.mark.slow
