@@ -24,6 +24,8 @@ from imu_sim.simulate import simulate
 CHANNELS = ("gyro_x", "gyro_y", "gyro_z", "accel_x", "accel_y", "accel_z")
 DETERMINISTIC_TERMS = ("bias", "scale_factor", "misalignment")
 MIN_SAMPLES = 256
+COVER_TOL = 0.005
+"""Largest fraction of the recording the scenario may leave uncovered (cut with a note); beyond it: an error."""
 
 
 class DiagnosisInputError(ValueError):
@@ -84,10 +86,17 @@ def make_case(rec: ImuRecording, sc: Scenario, model: SensorModel, gnss=None, wh
     rate = rec.rate_hz
     sc = copy.deepcopy(sc)
     sc.rate_hz = rate
-    traj = build_trajectory(sc)
+    try:
+        traj = build_trajectory(sc)
+    except (ValueError, RecordingError, OSError) as err:
+        raise DiagnosisInputError(f"{sc.where}: the simulator cannot build this scenario's trajectory: {err}") from err
     t_abs = kinematics.sample_times(traj, rate)
     n = min(len(rec), len(t_abs))
     notes = []
+    if len(rec) - n > max(2, int(COVER_TOL * len(rec))):
+        raise DiagnosisInputError(
+            f"{where}: the recording spans {len(rec) / rate:.1f} s but the scenario ({sc.where}) only "
+            f"{traj.duration:.1f} s: the truth must cover the recording (cut the recording or extend the truth)")
     if n < len(rec):
         notes.append(f"recording cut from {len(rec)} to {n} samples (the scenario spans {traj.duration:.1f} s)")
     if n < MIN_SAMPLES:

@@ -10,12 +10,14 @@ from __future__ import annotations
 import numpy as np
 from scipy import stats
 
-from imu_sim.diagnose import noise_candidates, noise_tests, regressors
+from imu_sim.diagnose import metrics, noise_candidates, noise_tests, reference, regressors
 from imu_sim.diagnose.candidate import ALPHA, CONING_NOTE, Candidate, Context, not_testable, threshold
 from imu_sim.diagnose.case import CHANNELS, effective_model
 from imu_sim.diagnose.spectral import gls
 
 KINEMATIC = ("earth_rotation", "gravity_model", "coriolis")
+FILE_LATTICE = 0.01
+"""A lattice step below this fraction of the per-sample noise std is the file's, not the sensor's."""
 
 
 def _names_values(names, theta, ci):
@@ -111,11 +113,15 @@ def _carry_tau_uncertainty(case, wh, resid_f, design, cand, tau) -> None:
 def vibration(ctx: Context) -> Candidate:
     """Largest whitened periodogram line; when significant, its frequency refined and amplitudes fitted."""
     case, model, wh, resid, resid_f = ctx.case, ctx.model, ctx.wh, ctx.resid, ctx.resid_f
-    f_min = 10.0 / (case.n * case.dt)
-    lr, ch, f0, n_bins = noise_tests.vibration_scan(wh, resid_f, f_min)
-    thr = 2.0 * np.log(ctx.m_tests * n_bins / ALPHA) * ctx.factor("vibration")
+    f_min = max(10.0 / (case.n * case.dt), reference.F_MECH_HZ)
+    harmonics = reference.harmonic_bins(case)
+    if f_min >= 0.5 / case.dt:
+        return not_testable("vibration", f"the sample rate leaves no band above {f_min:g} Hz to search")
+    lr, ch, f0, n_bins = noise_tests.vibration_scan(wh, resid_f, f_min, harmonics)
+    thr = 2.0 * np.log(ctx.m_tests * max(n_bins, 1) / ALPHA) * ctx.factor("vibration")
     cand = Candidate("vibration", lr, thr, "max whitened periodogram ordinate (chi-square 2 per bin)",
-                     kind="vibration", block_s=case.dt)
+                     kind="vibration", block_s=case.dt,
+                     reason=reference.note(case, int(np.sum(harmonics & (np.fft.rfftfreq(case.n, case.dt) >= f_min)))))
     if lr <= thr:
         cand.params = {"frequency_hz": f0}
         return cand
@@ -145,11 +151,25 @@ def quantization(ctx: Context) -> Candidate:
     out = [noise_tests.lattice(case.measured[:, c]) for c in range(6)]
     z = np.array([o[2] for o in out])
     thr = 2.0 * np.log(6 * ctx.m_tests / ALPHA) * ctx.factor("quantization")
-    cand = Candidate("quantization", float(2 * z.max()), thr,
+    # a lattice far below the per-sample noise (e.g. the file's print precision) is a property of the file
+    sigma = np.sqrt([metrics.robust_var(case.measured[:, c]) for c in range(6)])
+    fine = np.array([0 < o[0] < FILE_LATTICE * s for o, s in zip(out, sigma)])
+    z_phys = np.where(fine, 0.0, z)
+    cand = Candidate("quantization", float(2 * z_phys.max()), thr,
                      "Rayleigh lattice statistic 2z of raw values (chi-square 2 for continuous values)",
                      kind="quantization")
+    on_file = [c for c in range(6) if fine[c] and 2 * z[c] > thr]
+    if on_file:
+        digits = [int(round(-np.log10(out[c][0] / max(np.max(np.abs(case.measured[:, c])), 1e-300))))
+                  for c in on_file]
+        cand.reason = (f"{', '.join(CHANNELS[c] for c in on_file)}: values on a lattice of step "
+                       f"{', '.join(f'{out[c][0]:.3g}' for c in on_file)} (about {min(digits)}-{max(digits)} "
+                       f"significant digits of the file), below {FILE_LATTICE:g} of the per-sample noise: a property "
+                       "of the file (its print precision), not missing physics")
     if cand.stat <= thr:
         return cand
+    out = [o if not f else (0.0, 0.0, 0.0, o[3]) for o, f in zip(out, fine)]
+    z = z_phys
     mdl = effective_model(model)
     lsb = {"gyro": (mdl.gyro.quantization * np.sqrt(12)).copy(), "accel": (mdl.accel.quantization * np.sqrt(12)).copy()}
     for c, (q, se, zc, frac) in enumerate(out):

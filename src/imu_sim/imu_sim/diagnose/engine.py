@@ -17,7 +17,7 @@ import numpy as np
 
 from nav_core.sensor_model import EFFECTS, SensorModel
 
-from imu_sim.diagnose import gnss_candidates, metrics
+from imu_sim.diagnose import gnss_candidates, metrics, reference, share
 from imu_sim.diagnose.candidate import (ALPHA, EXPLAIN, GNSS_EFFECTS, Candidate, Context, add_effect, evidence,
                                         load_calibration, rounded)
 from imu_sim.diagnose.case import CHANNELS, Case, residual
@@ -27,6 +27,11 @@ from imu_sim.diagnose.ranking import rank_low_frequency
 from imu_sim.diagnose.spectral import Whitener
 
 __all__ = ["Candidate", "Diagnosis", "diagnose", "evaluate"]
+GAIN_TOL = 1e-9
+"""Smallest relative held-out gain that counts (below it the metric did not move)."""
+SHARE_SCALE = ("findings ordered by share_of_mismatch: each finding's energy in the residual over the per-sample "
+               "noise variance (sum of contrib^2 / sigma^2 over samples and channels; for noise terms their "
+               "variance times the samples), over the sum for all findings")
 
 
 def evaluate(case: Case, model: SensorModel, resid: np.ndarray, exclude=(), factors: dict | None = None) -> list:
@@ -35,6 +40,7 @@ def evaluate(case: Case, model: SensorModel, resid: np.ndarray, exclude=(), fact
     ``factors`` scale the analytic thresholds per effect (None: the committed calibration; {}: analytic).
     """
     factors = load_calibration() if factors is None else factors
+    resid = reference.clean(case, resid)
     ctx = Context(case, model, resid, Whitener.from_model(model, resid, case.dt), np.fft.rfft(resid, axis=0),
                   len(EFFECTS), factors)
     gnss = {c.effect: c for c in gnss_candidates.candidates(case, model, ctx.m_tests, factors, exclude)}
@@ -80,9 +86,10 @@ def diagnose(case: Case, max_effects: int = 4, seed: int = 0, progress=None, fac
         best = sig[0]
         accepted.add(best.effect)
         new_model = add_effect(model, best)
-        name, before, after = fit_metric(case, best, model, new_model, resid, seed)
+        name, before, after = fit_metric(case, best, model, new_model, reference.clean(case, resid), seed)
         new_resid = residual(case, new_model)
-        if not after < before:
+        # no held-out gain, or one at the metric's rounding (a format artifact: 0 -> 0), is not a finding
+        if not after < before - GAIN_TOL * max(abs(before), 1e-300):
             best.reason = f"significant but no held-out improvement ({before:.4g} -> {after:.4g}); not kept"
             continue
         if best.kind == "gnss":
@@ -99,9 +106,11 @@ def diagnose(case: Case, max_effects: int = 4, seed: int = 0, progress=None, fac
             "band": band, "parameters": best.params, "intervals": best.intervals,
             "metric": name, "fit_before": before, "fit_after": after,
             "statistic": {"name": best.statistic, "value": rounded(best.stat), "threshold": rounded(best.threshold)},
-            "explanation": " ".join(filter(None, [EXPLAIN.get(best.effect, best.effect), best.caveat]))})
+            "explanation": " ".join(filter(None, [EXPLAIN.get(best.effect, best.effect), best.caveat])),
+            "mismatch_energy": rounded(share.energy(case, best, model, reference.clean(case, resid)))})
         details.append((best, resid, new_resid))
         model, resid = new_model, new_resid
+    _rank_by_share(findings, details)
     tested_out = [c.tested_entry() for c in tested]
     for entry in tested_out:
         if entry["effect"] in accepted and entry["effect"] not in [f["effect"] for f in findings]:
@@ -110,8 +119,18 @@ def diagnose(case: Case, max_effects: int = 4, seed: int = 0, progress=None, fac
               "channels": list(CHANNELS), "samples": case.n, "rate_hz": 1.0 / case.dt, "notes": case.notes,
               "alpha_familywise": ALPHA,
               "calibration": factors or "uncalibrated (chi-square, Bonferroni)",
-              "n_significant_first_pass": int(sum(c.significant for c in tested))}
+              "n_significant_first_pass": int(sum(c.significant for c in tested)),
+              "share_scale": SHARE_SCALE}
     return Diagnosis(result, model, case, resid0, resid, details)
+
+
+def _rank_by_share(findings: list, details: list) -> None:
+    """Order findings (and their details) by their share of the mismatch, largest first; write the share."""
+    for f, sh in zip(findings, share.shares([f["mismatch_energy"] or 0.0 for f in findings])):
+        f["share_of_mismatch"] = round(sh, 4)
+    order = sorted(range(len(findings)), key=lambda i: -findings[i]["share_of_mismatch"])
+    findings[:] = [findings[i] for i in order]
+    details[:] = [details[i] for i in order]
 
 
 def _band(case, resid, new_resid, cand) -> dict:

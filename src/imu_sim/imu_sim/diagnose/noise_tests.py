@@ -52,10 +52,14 @@ def _mean_cos(t, dt, f, phase=0.0):
     return (np.sin(w * t + phase) - np.sin(w * (t - dt) + phase)) / (w * dt)
 
 
-def vibration_scan(wh, resid_f: np.ndarray, f_min_hz: float):
-    """Largest whitened periodogram ordinate: (lr, channel, bin frequency Hz, number of bins searched)."""
+def vibration_scan(wh, resid_f: np.ndarray, f_min_hz: float, exclude=None):
+    """Largest whitened periodogram ordinate: (lr, channel, bin frequency Hz, number of bins searched).
+
+    ``exclude``: mask of bins not searched (e.g. harmonics of the trajectory)."""
     freqs = np.fft.rfftfreq(wh.n, wh.dt)
     sel = (freqs >= f_min_hz) & (freqs < 0.5 / wh.dt)
+    if exclude is not None:
+        sel &= ~exclude
     power = np.abs(resid_f.T) ** 2 * wh.weights / (wh.n * wh.scale2[:, None])
     power[:, ~sel] = 0.0
     ch, k = np.unravel_index(np.argmax(power), power.shape)

@@ -1,0 +1,63 @@
+"""Each finding's share of the mismatch, on one scale for every effect: the residual power it accounts for.
+
+Scale: the effect's energy in the residual over the per-sample noise variance of each channel it shows on,
+sum over samples and channels (a signal-to-noise energy, the expected likelihood-ratio gain of knowing the
+effect). Deterministic effects and lines: sum of contrib^2 / sigma^2; a bias random walk: n K^2 T / 6 / sigma^2
+(a walk's variance about its mean over a record of T s); a Gauss-Markov bias: n sigma_gm^2 / sigma^2;
+quantization: n (step^2 / 12) / sigma^2; GNSS effects the same on the fix residual with the fixes' white sigma.
+The share of a finding is its energy over the sum over all findings.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from imu_sim.diagnose import metrics
+from imu_sim.diagnose.case import CHANNELS, effective_model
+
+
+def energy(case, cand, model, resid: np.ndarray) -> float:
+    """The finding's energy in units of the per-sample noise variance (see module docstring)."""
+    if cand.kind == "gnss":
+        return _gnss_energy(case, cand, model)
+    chans = [CHANNELS.index(c) for c in cand.channels] or list(range(6))
+    sigma2 = np.array([max(metrics.robust_var(resid[:, c]), 1e-300) for c in range(6)])
+    if cand.contrib is not None:
+        return float(sum(np.sum((cand.contrib[:, c] - cand.contrib[:, c].mean()) ** 2) / sigma2[c] for c in chans))
+    mdl = effective_model(model)
+    total = 0.0
+    for c in chans:
+        tri, i, ax = ("gyro", "accel")[c // 3], c % 3, "xyz"[c % 3]
+        if cand.effect == "bias_random_walk":
+            unit = "rad_per_s_per_sqrt_s" if tri == "gyro" else "mps2_per_sqrt_s"
+            k2 = max(cand.params.get(f"{tri}_{unit}[{ax}]", 0.0) ** 2 - mdl.triad(tri).rate_random_walk[i] ** 2, 0)
+            var = k2 * (case.n * case.dt) / 6.0
+        elif cand.effect == "gauss_markov_bias":
+            unit = "sigma_rad_per_s" if tri == "gyro" else "sigma_mps2"
+            var = cand.params.get(f"{tri}_{unit}[{ax}]", 0.0) ** 2
+        elif cand.effect == "quantization":
+            unit = "output_step_rad_per_s" if tri == "gyro" else "output_step_mps2"
+            var = cand.params.get(f"{tri}_{unit}[{ax}]", 0.0) ** 2 / 12.0
+        else:
+            var = 0.0
+        total += case.n * var / sigma2[c]
+    return float(total)
+
+
+def _gnss_energy(case, cand, model) -> float:
+    from imu_sim.diagnose import gnss_tests as gt
+    gr = gt.gnss_residual(case, model)
+    if gr is None:
+        return 0.0
+    sw2 = np.maximum(np.asarray(gr.sigma_w, float) ** 2, 1e-300) * np.ones(3)
+    if cand.contrib is not None:
+        c = cand.contrib - cand.contrib.mean(axis=0)
+        return float(np.sum(c**2 / sw2))
+    extra = np.array([max(cand.params.get(f"sigma_m[{a}]", 0.0) ** 2 - s**2, 0.0)
+                      for a, s in zip("enu", np.asarray(gr.colored_sigma, float) * np.ones(3))])
+    return float(len(gr.r) * np.sum(extra / sw2))
+
+
+def shares(energies) -> list:
+    """Each energy's fraction of their sum (0 each when the sum is 0)."""
+    total = float(np.sum(energies))
+    return [float(e / total) if total > 0 else 0.0 for e in energies]
