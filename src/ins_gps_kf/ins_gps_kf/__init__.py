@@ -12,8 +12,9 @@ every error is *estimate minus truth*; the attitude error ``phi`` is defined by
 ``C_est = (I - [phi x]) C_true``.
 
 Modules: :mod:`strapdown` (per-sample mechanization, numba), :mod:`alignment`,
-:mod:`error_model`, :mod:`kalman`, :mod:`measurements`, :mod:`filter` (the
-epoch logic shared by the node and the replay), :mod:`replay` (offline CLI),
-:mod:`datasets` (real-recording loaders), :mod:`evaluate` (error figures).
-Only :mod:`ins_gps_kf_node` imports rclpy.
+:mod:`error_model`, :mod:`kalman`, :mod:`measurements`, :mod:`input_checks` (bad input,
+counted in ``InsGpsFilter.input_counters``), :mod:`records`, :mod:`filter` (the epoch logic
+shared by the node and the replay), :mod:`offline` (``run``, ``to_trajectory``, ``load_model``),
+:mod:`replay` (the ``ins-gps-kf`` CLI), :mod:`synthetic` (closed-form test motions).
+Only :mod:`ins_gps_kf_node` imports rclpy. The evaluations are the ``nav_eval`` package.
 """
