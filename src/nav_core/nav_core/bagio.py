@@ -129,9 +129,28 @@ def _iter_mcap(storages, wanted):
 
 
 def iter_messages(path, wanted_topics):
-    """Yield ``(topic, log_time_ns, msg)`` (rosbags message objects); damage as in :func:`iter_raw`."""
-    for topic, msgtype, log_ns, raw in iter_raw(path, wanted_topics):
-        yield topic, log_ns, TYPESTORE.deserialize_cdr(raw, msgtype)
+    """Yield ``(topic, log_time_ns, msg)`` (rosbags message objects); damage as in :func:`iter_raw`.
+
+    A message that does not deserialize (damaged bytes, an unknown type) is skipped and
+    counted; :class:`BagDamage` at the end names how many.
+    """
+    bad, first, count = 0, None, 0
+    try:
+        for topic, msgtype, log_ns, raw in iter_raw(path, wanted_topics):
+            try:
+                msg = TYPESTORE.deserialize_cdr(raw, msgtype)
+            except Exception as err:  # rosbags raises many kinds on bad CDR or an unknown type
+                bad += 1
+                first = first or f"{topic} at log time {log_ns * 1e-9:.3f} s: {type(err).__name__}: {err}"
+                continue
+            count += 1
+            yield topic, log_ns, msg
+    except BagDamage as err:
+        if bad:
+            raise BagDamage(f"{err}; {bad} message(s) could not be decoded (first: {first})", count) from err
+        raise
+    if bad:
+        raise BagDamage(f"{path}: {bad} message(s) could not be decoded (first: {first})", count)
 
 
 def _storage_files(path: Path) -> list:
@@ -206,24 +225,20 @@ def _recover_sqlite(storage: Path, wanted):
 
 def _scan_mcap(storage: Path, wanted, problems: list):
     """Intact messages of one MCAP file (:mod:`nav_core.mcap_scan`); adds a description of any damage to ``problems``."""
-    import mmap
-
     from nav_core.mcap_scan import MAGIC, Scanner
 
-    size = storage.stat().st_size
-    if size < 2 * len(MAGIC):
-        problems.append(f"{storage}: {size} bytes, too short to be an MCAP file")
+    data = storage.read_bytes()
+    if len(data) < 2 * len(MAGIC):
+        problems.append(f"{storage}: {len(data)} bytes, too short to be an MCAP file")
         return
-    with open(storage, "rb") as fh, mmap.mmap(fh.fileno(), 0, access=mmap.ACCESS_READ) as data:
-        scanner = Scanner(data)
-        read = {}
-        for channel, log_ns, raw in scanner.messages():
-            topic, mtype = scanner.channels[channel]
-            topic = norm_topic(topic)
-            read[channel] = read.get(channel, 0) + 1
-            if wanted is None or topic in wanted:
-                yield topic, mtype, log_ns, raw
-        del scanner.buf  # the memoryview must go before the mmap closes
+    scanner = Scanner(data)
+    read = {}
+    for channel, log_ns, raw in scanner.messages():
+        topic, mtype = scanner.channels[channel]
+        topic = norm_topic(topic)
+        read[channel] = read.get(channel, 0) + 1
+        if wanted is None or topic in wanted:
+            yield topic, mtype, log_ns, raw
     text = _describe_damage(storage, scanner, read, wanted)
     if text:
         problems.append(text)

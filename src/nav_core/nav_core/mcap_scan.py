@@ -15,6 +15,7 @@ Record layout (MCAP spec): opcode u8, length u64, body; all integers little-endi
 """
 from __future__ import annotations
 
+import re
 import struct
 from dataclasses import dataclass, field
 
@@ -26,6 +27,8 @@ _REC = struct.Struct("<BQ")
 _MSG = struct.Struct("<HIQQ")
 _CHUNK = struct.Struct("<QQQI")
 MIN_MESSAGE_LEN = _MSG.size
+_CANDIDATE = re.compile(rb"(?=[\x01-\x10][\x00-\xff]{4}\x00\x00\x00\x00)", re.DOTALL)
+"""Where a record may start: a known opcode and a length below 4 GiB (searched in C, not byte by byte)."""
 
 
 @dataclass
@@ -120,6 +123,10 @@ class Scanner:
         """Offset of the next intact record after ``pos`` in [pos, end), or ``end``."""
         p = pos + 1
         while p < end:
+            found = _CANDIDATE.search(self.buf, p, end)
+            if found is None:
+                return end
+            p = found.start()
             if self._valid_at(p, end, span):
                 return p
             p += 1
@@ -127,8 +134,26 @@ class Scanner:
 
     # -- scanning -------------------------------------------------------------------------------
 
+    def read_summary(self) -> None:
+        """Learn schemas, channels and statistics from the summary section, when the footer points to one.
+
+        So messages can be recognised even where the channel records at the start are damaged.
+        """
+        footer = self.end - len(MAGIC) - 9 - 20
+        if footer < len(MAGIC) or bytes(self.buf[footer:footer + 9]) != _REC.pack(OP_FOOTER, 20):
+            return
+        (start,) = struct.unpack_from("<Q", self.buf, footer + 9)
+        pos = start
+        while len(MAGIC) <= pos < footer:
+            head = self._header(pos, footer)
+            if head is None:
+                return
+            self._metadata(head[0], self.buf, pos + 9, head[1])
+            pos += 9 + head[1]
+
     def messages(self):
         """Yield ``(channel_id, log_time_ns, data bytes)`` of every intact message, in storage order."""
+        self.read_summary()
         if bytes(self.buf[:len(MAGIC)]) != MAGIC:
             start = self._resync(0, self.end, None)
             self._damaged(0, start)
