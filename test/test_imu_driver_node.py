@@ -1,5 +1,6 @@
 """bp3010_driver end to end: emulator -> real pseudo-terminal -> driver process -> DDS -> rclpy probe."""
 import time
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -9,6 +10,7 @@ from sensor_msgs.msg import Imu
 
 from imu_driver.bp3010_codec import DEFAULT_FORMAT, to_counts
 from imu_driver.emulator import builtin_increments
+from nav_core import sensor_model
 from nav_core.processes import NodeProcess
 from nav_core.ros_node import Probe
 
@@ -50,10 +52,16 @@ def test_driver_publishes_the_increments_the_emulator_encoded_as_rates(tmp_path,
     start = int(np.argmin(np.abs(rates - got[0]).sum(axis=1)))
     np.testing.assert_allclose(got, rates[start:start + len(got)], rtol=0, atol=1e-9)
     assert msgs[0].header.frame_id == "imu_link" and msgs[0].orientation_covariance[0] == -1.0
-    assert msgs[0].angular_velocity_covariance[0] == pytest.approx(0.007**2)
-    stamps_ns = np.array([m.header.stamp.sec * 10**9 + m.header.stamp.nanosec for m in msgs])
-    # Counter-based stamps: one nominal period apart (to float rounding at epoch scale), no read jitter.
-    np.testing.assert_allclose(np.diff(stamps_ns) * 1e-9, 1 / 64, rtol=0, atol=1e-6)
+    # Default noise: the shipped BP3010 model's white noise at 64 Hz (sigma per sample = N sqrt(rate)).
+    model = sensor_model.load(Path(__file__).parents[1] / "config/sensor_models/bp3010.yaml")
+    assert msgs[0].angular_velocity_covariance[0] == pytest.approx(np.max(model.gyro.white_noise) ** 2 * 64)
+    assert msgs[0].linear_acceleration_covariance[0] == pytest.approx(np.max(model.accel.white_noise) ** 2 * 64)
+    stamps = np.array([m.header.stamp.sec * 10**9 + m.header.stamp.nanosec for m in msgs]) * 1e-9
+    # Counter-based stamps: one nominal period apart (to float rounding at epoch scale), no read jitter;
+    # only a read more prompt than all before it moves the offset (by less than half a period, or slewed).
+    steps = np.diff(stamps)
+    assert np.all(steps >= 0.5 / 64 - 1e-6) and np.all(steps <= (1 + 200e-6) / 64 + 1e-6), steps
+    assert np.mean(np.abs(steps - 1 / 64) < 1e-6) > 0.9, steps
 
 
 def test_driver_survives_unplug_and_corrupt_bytes_and_reports_them(tmp_path, rclpy_context):

@@ -209,6 +209,7 @@ class DecoderStats:
     checksum_errors: int = 0
     resyncs: int = 0
     lost_frames: int = 0
+    duplicates: int = 0
     bytes_discarded: int = 0
 
     def as_dict(self) -> dict:
@@ -221,19 +222,24 @@ class StreamDecoder:
     """Find frames in an arbitrary byte stream; resynchronise after garbage, partial and dropped bytes.
 
     Locked onto the stream, a frame is accepted when its sync and checksum are
-    good and its counter follows the last one. Otherwise the decoder searches
-    for a sync byte and accepts a candidate frame whose checksum is good,
-    unless a competing candidate overlapping it is better confirmed (followed
-    by another good frame, or with a plausible counter). While unlocked it may
-    wait for one more frame of data to decide; :meth:`flush` decides with what
-    is there. Lost frames are counted from gaps in the counter.
+    good and its counter follows the last one; a repeat of the last frame is
+    skipped and counted in ``duplicates``. Otherwise the decoder searches for a
+    sync byte. A candidate whose checksum is good and whose counter follows the
+    last accepted one (a step of 1 to ``max_plausible_gap``) is accepted as soon
+    as its bytes are in. Any other candidate must be confirmed: followed by a
+    good frame whose counter follows its own, or better confirmed than the
+    candidates overlapping it; so the decoder waits for the next frame's bytes
+    (:meth:`flush` decides with what is there). A lone window that nothing
+    confirms is taken for line noise, unless it opens a clean stream (nothing
+    discarded before it, no counter to check). Lost frames are counted from
+    counter gaps of accepted frames; duplicates and noise are not lost frames.
 
     With ``lookahead`` a locked frame is also held until the next frame's sync
     byte arrives. That catches the one damage an 8-bit checksum cannot: a
     dropped byte equal to the sync value (1 drop in 256), which otherwise
     passes as a frame and costs the next intact one. It adds up to one frame
-    period of latency, so the live driver leaves it off; offline decoding
-    turns it on.
+    period of latency (and confirms every candidate after damage), so the live
+    driver leaves it off; offline decoding turns it on.
     """
 
     fmt: FrameFormat = DEFAULT_FORMAT
@@ -267,6 +273,7 @@ class StreamDecoder:
         self._buf.clear()
         self._locked = False
         self._last_counter = None
+        self._discarding = False
 
     # -- internals -------------------------------------------------------
 
@@ -284,6 +291,10 @@ class StreamDecoder:
         if self._last_counter is None:
             return 0
         return (counter - self._last_counter - 1) % self.fmt.counter_modulo
+
+    def _follows(self, counter: int, last) -> bool:
+        """Whether ``counter`` can follow ``last`` (a step of 1 to ``max_plausible_gap``)."""
+        return last is not None and 1 <= (counter - last) % self.fmt.counter_modulo <= self.max_plausible_gap
 
     def _decode(self, final: bool) -> FrameBatch:
         self._final = final
@@ -305,7 +316,9 @@ class StreamDecoder:
     def _accept(self, pos: int, n: int, accepted: list) -> None:
         """Take the n good frames at ``pos``."""
         L, cb = self.fmt.length, self.fmt.counter_byte
-        self.stats.lost_frames += self._gap(self._buf[pos + cb])
+        gap = self._gap(self._buf[pos + cb])
+        # A counter a few steps behind the last: the last frame was not what it seemed (noise), nothing was lost.
+        self.stats.lost_frames += gap if gap < self.fmt.counter_modulo - 1 - self.max_plausible_gap else 0
         self._last_counter = self._buf[pos + (n - 1) * L + cb]
         self.stats.frames += n
         accepted.append(bytes(self._buf[pos:pos + n * L]))
@@ -323,10 +336,13 @@ class StreamDecoder:
             self._accept(pos, k, accepted)
         if k == n:
             return pos + k * L
-        # The frame at pos + k*L broke the lock: damaged, or a counter jump that needs confirmation.
+        # The frame at pos + k*L broke the lock: damaged, repeated, or a counter jump that needs confirmation.
         bad = pos + k * L
         if self._buf[bad] == fmt.sync and not self._valid_at(bad):
             self.stats.checksum_errors += 1
+        elif self._valid_at(bad) and self._counter_at(bad) == self._last_counter:
+            self.stats.duplicates += 1  # the same frame sent twice: not data, not a loss
+            return bad + L
         self._locked = False
         return bad
 
@@ -374,8 +390,11 @@ class StreamDecoder:
             self._waiting = True
             return start
         if choice != start:
-            self._discard(choice - start)
-            return choice
+            self._discard(max(choice - start, 1))
+            return max(choice, start + 1)
+        if self._counter_at(start) == self._last_counter:  # a confirmed repeat of the last frame
+            self.stats.duplicates += 1
+            return start + L
         self._accept(start, 1, accepted)
         self._locked = True
         if self._discarding:
@@ -384,23 +403,24 @@ class StreamDecoder:
         return start + L
 
     def _choose(self, start: int, final: bool):
-        """Pick among ``start`` and overlapping good candidates; None when more data is needed."""
-        L = self.fmt.length
-        if not final and start + 2 * L - 1 > len(self._buf):
+        """Pick among ``start`` and overlapping good candidates; -1: reject ``start``; None: more data needed."""
+        L, last = self.fmt.length, self._last_counter
+        if not self.lookahead and self._follows(self._counter_at(start), last):
+            return start  # its counter follows the last frame's: publish it now
+        if not final and start + 2 * L > len(self._buf):
             return None
         candidates = [start] + [q for q in range(start + 1, start + L) if self._valid_at(q)]
         # Judge competitors only once each can show whether a good frame follows it.
         if not final and len(candidates) > 1 and candidates[-1] + 2 * L > len(self._buf):
             return None
-        if len(candidates) == 1:
-            return start
 
         def score(q):
-            chained = self._valid_at(q + L)
-            plausible = self._last_counter is not None and self._gap(self._counter_at(q)) < self.max_plausible_gap
-            return 2 * chained + plausible
+            chained = self._valid_at(q + L) and self._follows(self._counter_at(q + L), self._counter_at(q))
+            return 2 * chained + self._follows(self._counter_at(q), last)
 
         best = max(candidates, key=lambda q: (score(q), -q))
+        if score(best) == 0 and (last is not None or self._discarding):
+            return -1  # a lone window in noise: nothing confirms it, its counter cannot follow the last
         return best
 
     def _discard(self, n: int) -> None:

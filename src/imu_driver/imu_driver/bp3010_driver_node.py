@@ -2,37 +2,56 @@
 
 A background thread reads the port (pyserial) and publishes; the executor
 thread runs the diagnostics timer. The node never exits on bad bytes or a
-lost port: it reports and reconnects every ``reconnect_period_s``.
+lost port: it reports and reconnects every ``reconnect_period_s``. Parameters
+changed at runtime are applied (``port``, ``baud`` and ``rate_hz`` reopen the
+port and send the rate command) or refused (the frame layout and the stamping).
 """
 from __future__ import annotations
 
+import struct
 import threading
 import time
 
+import numpy as np
 import serial
+from rcl_interfaces.msg import SetParametersResult
+from rosgraph_msgs.msg import Clock
 from sensor_msgs.msg import Imu
 
 from imu_driver.bp3010_codec import FIELDS, RATE_SELECT, FrameFormat
-from imu_driver.driver_core import DriverCore
+from imu_driver.driver_core import ClockFollower, DriverCore
+from nav_core import sensor_model
 from nav_core.imu_cdr import stamps_from_s
 from nav_core.params import ConfigError, Param
-from nav_core.ros_node import SENSOR_QOS, Diagnostics, declare_parameters, publish_imu_batch, run_node
+from nav_core.ros_node import (SENSOR_QOS, Diagnostics, PolledSubscription, declare_parameters, publish_imu_batch,
+                               run_node)
 from rclpy.node import Node
+
+# The shipped BP3010 model's white noise (config/sensor_models/bp3010.yaml: 0.00175 rad/s/sqrt(Hz),
+# 0.00196 m/s^2/sqrt(Hz)) at 64 Hz: sigma per sample = N sqrt(rate).
+GYRO_SIGMA_64HZ = 0.00175 * 8.0
+ACCEL_SIGMA_64HZ = 0.00196 * 8.0
 
 PARAMS = (
     Param("port", "/dev/ttyUSB0", "serial device (or a stable symlink such as /dev/serial/by-id/...)"),
     Param("baud", 38400, "UART speed, bit/s (8N1)", 1200, 4_000_000),
     Param("rate_hz", 64, "output rate, Hz; selected on start with 7B 88/89/8A/8B", choices=(64, 32, 16, 8)),
     Param("frame_id", "imu_link", "frame_id of the published messages"),
-    Param("angular_velocity_stddev", 0.007, "1-sigma angular rate noise per sample, rad/s (covariance diagonal)",
-          0.0, 10.0),
-    Param("linear_acceleration_stddev", 0.0096, "1-sigma specific force noise per sample, m/s^2", 0.0, 100.0),
+    Param("angular_velocity_stddev", GYRO_SIGMA_64HZ, "1-sigma angular rate noise per sample, rad/s (covariance "
+          "diagonal; default: the BP3010 model at 64 Hz)", 0.0, 10.0),
+    Param("linear_acceleration_stddev", ACCEL_SIGMA_64HZ, "1-sigma specific force noise per sample, m/s^2 "
+          "(default: the BP3010 model at 64 Hz)", 0.0, 100.0),
+    Param("sensor_model_path", "", "sensor-model YAML; when set, the two stddevs are its white noise x "
+          "sqrt(rate_hz) (largest axis) instead"),
     Param("reconnect_period_s", 1.0, "time between attempts to reopen a lost port, s", 0.01, 600.0),
     Param("diagnostics_period_s", 1.0, "period of /diagnostics, s", 0.05, 60.0),
     Param("min_read_interval_s", 0.002, "the reader waits at least this long between reads, s: at 1 kHz a read "
           "per frame costs more than the frame (adds at most this much latency; 0 = read every frame)", 0.0, 0.1),
-    Param("max_stamp_offset_s", 0.1, "re-anchor the frame clock when it drifts this far from host time, s",
-          0.001, 10.0),
+    Param("max_clock_drift_ppm", 200.0, "largest rate difference between the unit's and the host's clock, ppm "
+          "(the stamps' offset may grow this fast between prompt reads)", 0.0, 10000.0),
+    Param("stamp_window_s", 10.0, "stamps follow the smallest read delay seen over this much time, s", 0.1, 3600.0),
+    Param("stamp_slew", 0.5, "when stamps are ahead of the counter model, each frame advances at least "
+          "(1 - stamp_slew) periods until they meet it (never a step back)", 0.01, 0.99),
     Param("frame.sync", 0xA5, "sync byte value", 0, 255),
     Param("frame.checksum", "sum_zero", "checksum kind", choices=("sum_zero", "sum", "xor")),
     Param("frame.byteorder", "little", "byte order of the int16 increments", choices=("little", "big")),
@@ -40,6 +59,12 @@ PARAMS = (
     Param("frame.dtheta_lsb_rad", 2.5e-6, "angle increment scale, rad/LSB", 1e-12, 1.0),
     Param("frame.dv_lsb_mps", 5e-5, "velocity increment scale, (m/s)/LSB", 1e-12, 10.0),
 )
+
+
+APPLIED_AT_RUNTIME = ("port", "baud", "rate_hz", "frame_id", "angular_velocity_stddev", "linear_acceleration_stddev",
+                      "reconnect_period_s", "min_read_interval_s", "diagnostics_period_s")
+"""Parameters a running driver applies; ``set_parameters`` on any other one is refused (restart the node)."""
+_CLOCK_CDR = struct.Struct("<iI")  # builtin_interfaces/Time after the 4-byte CDR header
 
 
 class Bp3010Driver(Node):
@@ -54,7 +79,9 @@ class Bp3010Driver(Node):
                               dtheta_lsb_rad=self.p["frame.dtheta_lsb_rad"], dv_lsb_mps=self.p["frame.dv_lsb_mps"])
         except ValueError as err:
             raise ConfigError(f"frame layout: {err}") from err
-        self.core = DriverCore(self.p["rate_hz"], fmt, self.p["max_stamp_offset_s"])
+        self._noise_density = self._load_noise_density()
+        self.core = DriverCore(self.p["rate_hz"], fmt, max_drift=self.p["max_clock_drift_ppm"] * 1e-6,
+                               window_s=self.p["stamp_window_s"], slew=self.p["stamp_slew"])
         self.pub = self.create_publisher(Imu, "imu/data_raw", SENSOR_QOS)
         self.diag = Diagnostics(self, "BP3010", hardware_id=self.p["port"])
         self.port_state = "connecting"
@@ -62,15 +89,66 @@ class Bp3010Driver(Node):
         self.frames_before_clock = 0
         self.last_error = ""
         self._serial = None
+        self._reopen = threading.Event()
         self._frames_at_last_diag = 0
         self._last_diag_time = time.monotonic()
         self._stop = threading.Event()
-        self._gyro_var = self.p["angular_velocity_stddev"] ** 2
-        self._accel_var = self.p["linear_acceleration_stddev"] ** 2
+        self._set_noise()
+        # Under simulated time the node's clock stands still between /clock deliveries: read /clock's receive times.
+        self._sim = None
+        if self.get_parameter("use_sim_time").value:
+            self._sim = ClockFollower()
+            self._clock_sub = PolledSubscription(self, Clock, "/clock", None, None)
+        self.add_on_set_parameters_callback(self._refuse_fixed)
+        self.add_post_set_parameters_callback(self._apply)
         self._thread = threading.Thread(target=self._read_loop, name="bp3010_reader", daemon=True)
         self._thread.start()
-        self.create_timer(self.p["diagnostics_period_s"], self._publish_diagnostics)
+        self._diag_timer = self.create_timer(self.p["diagnostics_period_s"], self._publish_diagnostics)
         self.get_logger().info(f"ready: port {self.p['port']} at {self.p['baud']} baud, {self.p['rate_hz']} Hz")
+
+    # -- parameters ------------------------------------------------------
+
+    def _load_noise_density(self):
+        """White noise (gyro rad/s/sqrt(Hz), accel m/s^2/sqrt(Hz)) of ``sensor_model_path``, largest axis; or None."""
+        path = self.p["sensor_model_path"]
+        if not path:
+            return None
+        try:
+            model = sensor_model.load(path)
+        except (OSError, ValueError) as err:
+            raise ConfigError(f"parameter 'sensor_model_path': {err}") from None
+        return float(np.max(model.gyro.white_noise)), float(np.max(model.accel.white_noise))
+
+    def _set_noise(self) -> None:
+        if self._noise_density is not None:
+            root = np.sqrt(self.p["rate_hz"])
+            self.p["angular_velocity_stddev"] = self._noise_density[0] * root
+            self.p["linear_acceleration_stddev"] = self._noise_density[1] * root
+        self._gyro_var = self.p["angular_velocity_stddev"] ** 2
+        self._accel_var = self.p["linear_acceleration_stddev"] ** 2
+
+    def _refuse_fixed(self, changes) -> SetParametersResult:
+        fixed = [c.name for c in changes if c.name in self.p and c.name not in APPLIED_AT_RUNTIME]
+        if self._noise_density is not None:
+            fixed += [c.name for c in changes if c.name.endswith("_stddev")]  # the sensor model sets them
+        if fixed:
+            return SetParametersResult(successful=False, reason=f"{', '.join(fixed)}: read at start only; restart "
+                                       f"the node to change (applied at runtime: {', '.join(APPLIED_AT_RUNTIME)})")
+        return SetParametersResult(successful=True)
+
+    def _apply(self, changes) -> None:
+        names = {c.name for c in changes}
+        for change in changes:
+            if change.name in self.p:
+                self.p[change.name] = change.value
+        self._set_noise()
+        if "diagnostics_period_s" in names:
+            self.destroy_timer(self._diag_timer)
+            self._diag_timer = self.create_timer(self.p["diagnostics_period_s"], self._publish_diagnostics)
+        if names & {"port", "baud", "rate_hz"}:
+            self.diag.hardware_id = self.p["port"]
+            self._reopen.set()  # the reader closes the port and opens it with the new settings
+        self.get_logger().info("applied " + ", ".join(f"{c.name}={c.value!r}" for c in changes))
 
     # -- port ------------------------------------------------------------
 
@@ -84,7 +162,7 @@ class Bp3010Driver(Node):
             return False
         if self.port_state != "connecting":
             self.reconnects += 1
-        self.core.reconnected()
+        self.core.set_rate(self.p["rate_hz"])
         self._set_state("connected", "")
         return True
 
@@ -109,6 +187,10 @@ class Bp3010Driver(Node):
 
     def _read_once(self) -> None:
         """Open the port if needed, read what is there, publish the frames."""
+        if self._reopen.is_set():
+            self._reopen.clear()
+            self._close_port()
+            self.port_state = "reopening"
         if self._serial is None and not self._open():
             self._stop.wait(self.p["reconnect_period_s"])
             return
@@ -122,18 +204,25 @@ class Bp3010Driver(Node):
             return
         read_at = time.monotonic()
         if data:
-            self._publish(data)
+            self._publish(data, self._host_time_s())
         wait = read_at + self.p["min_read_interval_s"] - time.monotonic()
         if wait > 0 and data:
             self._stop.wait(wait)
 
-    def _publish(self, data: bytes) -> None:
-        now_ns = self.get_clock().now().nanoseconds
-        if now_ns == 0:  # use_sim_time and no /clock yet: no stamp to give, so nothing to publish
-            self.frames_before_clock += len(self.core.feed(data, 0.0).t)
-            self.core.clock.reset()
+    def _host_time_s(self):
+        """Host time of a read that just returned, s (None: simulated time and no /clock yet)."""
+        if self._sim is None:
+            return self.get_clock().now().nanoseconds * 1e-9
+        for blob, received_ns in self._clock_sub.take_all():
+            sec, nanosec = _CLOCK_CDR.unpack_from(blob, 4)
+            self._sim.update(sec + 1e-9 * nanosec, received_ns * 1e-9)
+        return self._sim.now(time.time())
+
+    def _publish(self, data: bytes, host_time_s) -> None:
+        if host_time_s is None:  # use_sim_time and no /clock yet: no stamp to give, so nothing to publish
+            self.frames_before_clock += len(self.core.decoder.feed(data))
             return
-        samples = self.core.feed(data, now_ns * 1e-9)
+        samples = self.core.feed(data, host_time_s)
         if len(samples.t):
             # raw CDR for the whole read: building rclpy Imu objects cost ~70 us a frame, 7 % of a core at 1 kHz
             sec, nanosec = stamps_from_s(samples.t)
@@ -151,7 +240,7 @@ class Bp3010Driver(Node):
     # -- diagnostics -----------------------------------------------------
 
     def _publish_diagnostics(self) -> None:
-        stats = self.core.decoder.stats
+        stats, clock = self.core.decoder.stats, self.core.clock
         now = time.monotonic()
         rate = (stats.frames - self._frames_at_last_diag) / max(now - self._last_diag_time, 1e-9)
         self._frames_at_last_diag, self._last_diag_time = stats.frames, now
@@ -159,8 +248,10 @@ class Bp3010Driver(Node):
                   "resyncs": stats.resyncs, "lost_frames": stats.lost_frames,
                   "bytes_discarded": stats.bytes_discarded, "actual_rate_hz": rate,
                   "nominal_rate_hz": self.p["rate_hz"], "port": self.p["port"], "port_state": self.port_state,
-                  "reconnects": self.reconnects, "clock_reanchors": self.core.clock.reanchors,
-                  "frames_before_clock": self.frames_before_clock,
+                  "duplicates": stats.duplicates, "reconnects": self.reconnects,
+                  "clock_reanchors": clock.reanchors, "clock_gaps_bridged": clock.gaps_bridged,
+                  "stamp_read_delay_s": clock.delay_s, "stamp_ahead_s": clock.ahead_s,
+                  "stamp_slewed_frames": clock.slewed_frames, "frames_before_clock": self.frames_before_clock,
                   "last_error": self.last_error}
         if self.port_state != "connected":
             level, msg = "ERROR", f"port {self.port_state}"

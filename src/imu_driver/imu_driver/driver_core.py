@@ -1,6 +1,7 @@
 """Driver core without ROS: decode bytes, stamp frames by their counter, turn increments into rates."""
 from __future__ import annotations
 
+from collections import deque
 from dataclasses import dataclass
 
 import numpy as np
@@ -8,46 +9,217 @@ import numpy as np
 from imu_driver.bp3010_codec import DEFAULT_FORMAT, FrameFormat, StreamDecoder
 
 
+def hull_slope(u, y) -> float:
+    """Slope of the line under all points ``(u, y)`` (u increasing) that lies closest to them on average.
+
+    The lower convex hull's edge above the points' mean ``u`` (Moon, Skelly and Towsley's linear
+    program for one-way delays); 0 for fewer than two points.
+    """
+    hull = []
+    for p in zip(u, y):
+        while len(hull) >= 2 and ((hull[-1][0] - hull[-2][0]) * (p[1] - hull[-2][1])
+                                  - (hull[-1][1] - hull[-2][1]) * (p[0] - hull[-2][0])) <= 0:
+            hull.pop()
+        hull.append(p)
+    if len(hull) < 2:
+        return 0.0
+    mean = float(np.mean(u))
+    for (u0, y0), (u1, y1) in zip(hull, hull[1:]):
+        if u1 >= mean:
+            return (y1 - y0) / (u1 - u0)
+    return (hull[-1][1] - hull[-2][1]) / (hull[-1][0] - hull[-2][0])
+
+
 @dataclass
 class FrameClock:
-    """Stamps frames by counter x nominal period from a host-time anchor, so read jitter stays out.
+    """Counter -> host time for frames whose reads can only be late, never early; stamps never go back.
 
-    The anchor is the host time of the first frame; it is set again (re-anchored)
-    after a gap in the counter, after a reconnect, and when the prediction
-    drifts more than ``max_offset_s`` from host time either way (clock drift,
-    or a stall). ``max_offset_s`` must exceed the read jitter, which under
-    simulated time grows with the playback rate.
+    Model: frame n is read at host time ``h = t0 + n P (1 + e) + d`` with an unknown delay
+    ``d >= 0`` (scheduling, serial buffering) and drift ``|e| <= max_drift``. With
+    ``u = n P`` and the offset ``y = h - u``, every read bounds the true offset from above.
+    The window (``window_s``, in ten blocks) keeps each block's most prompt read; the drift
+    ``e_hat`` is the slope of the lower convex hull of those points (the edge above their
+    mean time: the line under all points closest to them, as in TICSync and Moon et al.'s
+    linear program), clipped to ``max_drift``; the offset at ``u`` is
+    ``min_i (y_i + e_hat (u - u_i))`` over the kept reads. So only the luckiest read's delay
+    enters the stamps, not the scheduling delay of each read: the error is at most the
+    smallest delay in the window plus ``|e_hat - e|`` times its age.
+
+    Stamps are ``u + offset``, strictly increasing: when a prompter read lowers the offset by
+    more than the next period, stamps advance by ``(1 - slew)`` periods per frame until they
+    meet the model again, instead of stepping back. A counter gap keeps the offset when its
+    length (modulo the counter's wrap) can be told from host time; otherwise, and after a
+    reconnect, the clock re-anchors on host time, forward only.
     """
 
     period_s: float
-    max_offset_s: float = 0.1
+    max_drift: float = 2e-4
+    window_s: float = 10.0
+    slew: float = 0.5
     modulo: int = 256
     reanchors: int = 0
+    gaps_bridged: int = 0
+    slewed_frames: int = 0
 
     def __post_init__(self):
-        self._anchor_time = None
-        self._frames_since_anchor = 0
-        self._last_counter = None
+        self._block_s = self.window_s / 10.0
+        self._last_stamp = None
+        self.reset()
+        self.ahead_s = 0.0
+        """How far the last stamp is ahead of the model (still slewing back), s."""
 
     def reset(self) -> None:
-        """Forget the anchor (after a reconnect or a rate change)."""
-        self._anchor_time = None
+        """Forget counter and offsets (a reconnect or a rate change); stamps still only go forward."""
         self._last_counter = None
+        self._x = 0  # frames since the anchor
+        self._blocks = deque()  # (block index, u, y) of each finished block's most prompt read, in the window
+        self._block = None
+        self._best = (0.0, np.inf)  # (u, y) of the current block's most prompt read
+        self._z_blocks = np.inf  # min of y - drift * u over the finished blocks
+        self.drift = 0.0
+        """Estimated drift e_hat of the unit's clock against the host's (dimensionless)."""
+        self._prev_x = None
+        self.delay_s = 0.0
+        """Host time of the last read minus the model stamp of its last frame: that read's delay, s."""
 
-    def stamp(self, counter: int, host_time_s: float) -> float:
-        """Stamp in s of the frame with ``counter`` received at ``host_time_s``."""
-        if self._anchor_time is not None:
-            step = (counter - self._last_counter) % self.modulo
-            self._frames_since_anchor += step
-            predicted = self._anchor_time + self._frames_since_anchor * self.period_s
-            if step == 1 and abs(host_time_s - predicted) <= self.max_offset_s:
-                self._last_counter = counter
-                return predicted
-            self.reanchors += 1
-        self._anchor_time = host_time_s
-        self._frames_since_anchor = 0
-        self._last_counter = counter
-        return host_time_s
+    def offset_s(self, u: float) -> float:
+        """Estimated host-minus-device offset at device time ``u`` (s since the anchor)."""
+        e = self.drift
+        return min(self._z_blocks, self._best[1] - e * self._best[0]) + e * u
+
+    def stamp(self, counters, host_time_s: float) -> np.ndarray:
+        """Stamps (n,) in s of the frames with ``counters`` (n,) that one read returned at ``host_time_s``."""
+        n = len(counters)
+        if n == 0:
+            return np.zeros(0)
+        x, gap = self._unwrap(counters)
+        period = self.period_s
+        if self._last_counter is not None and gap is not None:
+            self._bridge_or_reanchor(x, gap, host_time_s)
+        if self._block is None:
+            self.reanchors += self._last_stamp is not None
+            x = x - x[0]  # a new anchor: device time counts from the first frame of this read
+        u_last = x[-1] * period
+        self._observe(u_last, host_time_s - u_last)
+        model = x * period + self.offset_s(u_last)
+        self.delay_s = host_time_s - model[-1]
+        self._x, self._last_counter = int(x[-1]), int(counters[-1])
+        return self._forward_only(model, x)
+
+    def _unwrap(self, counters):
+        """Frames since the anchor of each counter (a step is the shortest one forward), and the last gap's index."""
+        last, mod = self._last_counter, self.modulo
+        if len(counters) <= 8:  # the usual read: plain Python beats numpy's per-call overhead
+            x, gap, prev, acc = [], None, (counters[0] - 1 if last is None else last), self._x
+            for i, c in enumerate(counters):
+                step = (int(c) - prev) % mod or mod
+                if step != 1:
+                    gap = i
+                acc += step
+                x.append(acc)
+                prev = int(c)
+            return np.array(x), gap
+        steps = np.diff(np.concatenate([[counters[0] - 1 if last is None else last], counters])) % mod
+        steps[steps == 0] = mod
+        gaps = np.flatnonzero(steps != 1)
+        return self._x + np.cumsum(steps), (int(gaps[-1]) if len(gaps) else None)
+
+    def _bridge_or_reanchor(self, x: np.ndarray, gap: int, host_time_s: float) -> None:
+        """After a counter gap: keep the offset if host time confirms the counter's step, else re-anchor.
+
+        A read later than the model by a quarter of the counter's wrap is either a long delay or
+        a gap of whole wraps; the two cannot be told apart, so the clock starts again from host time.
+        """
+        u = x[-1] * self.period_s
+        late = host_time_s - u - self.offset_s(u)
+        if abs(late) > self.modulo * self.period_s / 4:
+            self.reset()
+        else:
+            self.gaps_bridged += 1
+
+    def _observe(self, u: float, y: float) -> None:
+        """Add the offset ``y`` seen at device time ``u`` to the window; refit the drift when a block ends."""
+        block = int(u // self._block_s)
+        if self._block is not None and block != self._block:
+            self._blocks.append((self._block, *self._best))
+            self._best = (0.0, np.inf)
+            while self._blocks and self._blocks[0][0] <= block - 10:
+                self._blocks.popleft()
+            if len(self._blocks) >= 5:  # over a shorter baseline the delays' spread outweighs any real drift
+                self.drift = float(np.clip(hull_slope([b[1] for b in self._blocks], [b[2] for b in self._blocks]),
+                                           -self.max_drift, self.max_drift))
+            self._z_blocks = min(y - self.drift * ub for _, ub, y in self._blocks)
+        self._block = block
+        if y - self.drift * u < self._best[1] - self.drift * self._best[0]:
+            self._best = (u, y)
+
+    def _forward_only(self, model: np.ndarray, x: np.ndarray) -> np.ndarray:
+        """The model stamps, held strictly increasing: at least ``(1 - slew)`` periods per frame."""
+        out = model.copy()
+        prev = self._last_stamp
+        prev_x = None if prev is None else self._prev_x
+        for i in range(len(out)):
+            if prev is not None:
+                frames = (x[i] - prev_x) if prev_x is not None and x[i] > prev_x else 1
+                floor = prev + frames * self.period_s * (1.0 - self.slew)
+                if out[i] < floor:
+                    self.slewed_frames += 1
+                    out[i] = floor
+            prev, prev_x = out[i], x[i]
+        self._last_stamp, self._prev_x = prev, prev_x
+        self.ahead_s = out[-1] - model[-1]
+        return out
+
+
+class ClockFollower:
+    """Simulated time (``/clock``) at any wall instant, from the messages' receive times.
+
+    Between ``/clock`` messages, and while the executor that would deliver them is busy, a
+    node's ROS clock stands still, so a serial read stamped with it looks early: the one
+    error a late-only :class:`FrameClock` cannot undo. Here each message ``(recv_i, sim_i)``
+    (``recv_i`` the middleware's receive time, which is only ever late) lies on or under the
+    line ``sim = a + rate recv``; the estimate is the line over all messages of the last
+    ``window_s`` closest to them (upper convex hull, as :func:`hull_slope`), so a late
+    delivery does not make the time early and the time runs on between messages.
+    """
+
+    def __init__(self, window_s: float = 1.0, max_extrapolation_s: float = 1.0, refit_every: int = 20):
+        self.window_s, self.max_extrapolation_s, self.refit_every = window_s, max_extrapolation_s, refit_every
+        self._sim = deque()
+        self._recv = deque()
+        self.rate = 0.0
+        self._best = None  # max of sim_i - rate * recv_i, both relative to the first message (precision)
+        self._ref = None
+        self._count = 0
+        self.jumps = 0
+
+    def update(self, sim_s: float, received_s: float) -> None:
+        """Add a ``/clock`` message: simulated time ``sim_s`` received at wall time ``received_s`` (s)."""
+        if self._sim and sim_s - self._ref[0] < self._sim[-1]:  # the simulated clock went back: a new run
+            self._sim.clear()
+            self._recv.clear()
+            self.jumps += 1
+        if not self._sim:
+            self._ref = (sim_s, received_s)
+            self.rate, self._count = 0.0, 0
+        self._sim.append(sim_s - self._ref[0])
+        self._recv.append(received_s - self._ref[1])
+        while self._recv[-1] - self._recv[0] > self.window_s and len(self._recv) > 2:
+            self._sim.popleft()
+            self._recv.popleft()
+        self._count += 1
+        sim, recv = np.array(self._sim), np.array(self._recv)
+        if self._count % self.refit_every == 1 or self.rate == 0.0:
+            span = recv[-1] - recv[0]
+            self.rate = max(0.0, -hull_slope(recv, -sim)) if span > 0.25 * self.window_s else 0.0
+        self._best = float(np.max(sim - self.rate * recv))
+
+    def now(self, wall_s: float):
+        """Simulated time at ``wall_s`` (s), or None before the first message."""
+        if self._best is None:
+            return None
+        wall = min(wall_s - self._ref[1], self._recv[-1] + self.max_extrapolation_s)
+        return self._ref[0] + max(self._best + self.rate * wall, self._sim[-1])
 
 
 @dataclass
@@ -62,23 +234,25 @@ class ImuSamples:
 class DriverCore:
     """Bytes in, stamped rate samples out, with the counters the diagnostics report."""
 
-    def __init__(self, rate_hz: float, fmt: FrameFormat = DEFAULT_FORMAT, max_offset_s: float = 0.1):
+    def __init__(self, rate_hz: float, fmt: FrameFormat = DEFAULT_FORMAT, **clock):
         self.rate_hz = rate_hz
         self.decoder = StreamDecoder(fmt=fmt)
-        self.clock = FrameClock(1.0 / rate_hz, max_offset_s, fmt.counter_modulo)
+        self.clock = FrameClock(1.0 / rate_hz, modulo=fmt.counter_modulo, **clock)
 
     def feed(self, data: bytes, host_time_s: float) -> ImuSamples:
-        """Decode ``data`` read at ``host_time_s``; frames of one read are spaced by the nominal period."""
+        """Decode ``data`` read at ``host_time_s``; stamp the frames by their counters."""
         batch = self.decoder.feed(data)
-        n = len(batch)
-        t = np.empty(n)
-        for i in range(n):
-            # Frames that arrived together were made one period apart, the last one just before the read.
-            t[i] = self.clock.stamp(int(batch.counter[i]), host_time_s - (n - 1 - i) / self.rate_hz)
+        t = self.clock.stamp(batch.counter, host_time_s)
         dt = 1.0 / self.rate_hz
         return ImuSamples(t, batch.dtheta / dt, batch.dv / dt)
 
     def reconnected(self) -> None:
-        """Drop partial bytes and the time anchor after the port came back."""
+        """Drop partial bytes and the counter anchor after the port came back."""
         self.decoder.reset()
         self.clock.reset()
+
+    def set_rate(self, rate_hz: float) -> None:
+        """A new output rate: new period, new anchor (stamps still only go forward)."""
+        self.rate_hz = rate_hz
+        self.clock.period_s = 1.0 / rate_hz
+        self.reconnected()

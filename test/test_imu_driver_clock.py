@@ -1,0 +1,150 @@
+"""Frame stamps from the counter: reads only late, drift, gaps -> strictly increasing, bounded error (hypothesis)."""
+from collections import deque
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from imu_driver.driver_core import ClockFollower, FrameClock, hull_slope
+
+
+def _run(rate_hz, drift, seed, mean_delay_s, stall_p, stall_s, drop_p, outage_s=0.0, seconds=24.0, calm_tail_s=10.0):
+    """Read a simulated unit whose frame n is made at ``t0 + n P (1 + drift)``: reads at random instants, each
+    stamped late by a random delay; frames dropped; one outage. Returns per read (true time, delay, stamps,
+    frame times, clock state)."""
+    rng = np.random.default_rng(seed)
+    period = 1.0 / rate_hz
+    clock = FrameClock(period)
+    t0 = 1.7e9 + rng.uniform(0, 1)
+    n = int(seconds * rate_hz)
+    made = t0 + np.arange(n) * period * (1 + drift)
+    keep = rng.random(n) >= drop_p
+    if outage_s:
+        start = int(0.4 * n)
+        keep[start:start + int(outage_s * rate_hz)] = False
+    reads, now, first = [], t0, 0
+    while first < n:
+        now += rng.exponential(0.004) + 1e-4
+        last = int(np.searchsorted(made, now, "right"))
+        if last <= first:
+            continue
+        idx = np.arange(first, last)[keep[first:last]]
+        first = last
+        if not len(idx):
+            continue
+        calm = now > made[-1] - calm_tail_s
+        delay = rng.exponential(mean_delay_s) + (stall_s if not calm and rng.random() < stall_p else 0.0)
+        host = now + delay
+        reanchors = clock.reanchors
+        stamps = clock.stamp(idx % 256, host)
+        reads.append(dict(host=host, delay=host - made[idx[-1]], stamps=stamps, made=made[idx],
+                          ahead=clock.ahead_s, reanchored=clock.reanchors > reanchors))
+    return clock, reads
+
+
+def _check(clock, reads, window_s=9.0):
+    """Strictly increasing; error within [-2 max_drift W, min delay over the window + 2 max_drift W]."""
+    stamps = np.concatenate([r["stamps"] for r in reads])
+    assert np.all(np.diff(stamps) > 0), "a stamp went back"
+    drift_allowance = 2 * clock.max_drift * window_s + 1e-9
+    since_anchor = deque()  # (frame time, delay) of the reads in the window, delays increasing (a monotone queue)
+    for r in reads:
+        if r["reanchored"]:
+            since_anchor.clear()
+        t_now = r["made"][-1]
+        while since_anchor and since_anchor[-1][1] >= r["delay"]:
+            since_anchor.pop()
+        since_anchor.append((t_now, r["delay"]))
+        while since_anchor[0][0] < t_now - window_s:
+            since_anchor.popleft()
+        err = r["stamps"][-1] - t_now
+        recent = since_anchor[0][1]
+        assert err >= -drift_allowance, f"stamp {-err:.6f} s early"
+        assert err <= recent + drift_allowance + r["ahead"], f"stamp {err:.6f} s late, best delay {recent:.6f} s"
+    return stamps
+
+
+@settings(max_examples=20, deadline=None)
+@given(rate=st.sampled_from([64, 1000]), drift_ppm=st.floats(-100, 100), seed=st.integers(0, 2**32 - 1),
+       mean_delay_s=st.floats(1e-5, 5e-3), stall_p=st.floats(0, 0.05), stall_s=st.floats(0.0, 0.6),
+       drop_p=st.sampled_from([0.0, 0.01, 0.05]), outage_s=st.sampled_from([0.0, 0.1, 2.0, 6.0]))
+def test_stamps_strictly_increase_and_their_error_is_bounded_by_the_smallest_delay_and_the_drift(
+        rate, drift_ppm, seed, mean_delay_s, stall_p, stall_s, drop_p, outage_s):
+    clock, reads = _run(rate, drift_ppm * 1e-6, seed, mean_delay_s, stall_p, stall_s, drop_p, outage_s)
+    _check(clock, reads)
+    # after a calm tail every slew is over: the stamps are the counter model again
+    assert reads[-1]["ahead"] == 0.0
+
+
+@pytest.mark.parametrize("rate", [64, 1000])
+def test_a_late_first_read_under_load_is_slewed_out_never_stepped_back(rate):
+    # The start-up of the issue: the first reads come 0.40 and 0.55 s late, then the reader gets the CPU back.
+    period = 1.0 / rate
+    clock = FrameClock(period)
+    stamps, made = [], []
+    for k in range(3 * rate):
+        late = 0.40 if k == 0 else 0.55 if k == 3 else 0.0005
+        stamps.append(clock.stamp(np.array([k % 256]), 100.0 + k * period + late)[0])
+        made.append(100.0 + k * period)
+    stamps, made = np.array(stamps), np.array(made)
+    assert np.all(np.diff(stamps) >= period * (1 - clock.slew) - 1e-12)
+    settled = np.flatnonzero(stamps - made > 0.001)[-1] * period
+    assert settled < 2 * 0.55 / clock.slew  # half a period back per frame: 1.1 s of device time per 0.55 s late
+    np.testing.assert_allclose(stamps[-rate:] - made[-rate:], 0.0005, atol=1e-9)
+    assert clock.reanchors == 0 and clock.ahead_s == 0.0
+
+
+def test_a_gap_of_whole_counter_wraps_reanchors_forward_and_a_short_one_keeps_the_offset():
+    period = 1 / 64
+    clock = FrameClock(period)
+    t = 50.0 + np.arange(2000) * period
+    for k in range(300):
+        clock.stamp(np.array([k % 256]), t[k] + 0.001)
+    s_short = clock.stamp(np.array([305 % 256]), t[305] + 0.001)  # 4 frames lost
+    assert clock.gaps_bridged == 1 and clock.reanchors == 0
+    assert s_short[0] == pytest.approx(t[305] + 0.001, abs=1e-9)
+    s_long = clock.stamp(np.array([1000 % 256]), t[1000] + 0.002)  # 694 lost: the counter wrapped twice
+    assert clock.reanchors == 1 and s_long[0] > s_short[0]
+    assert s_long[0] == pytest.approx(t[1000] + 0.002, abs=1e-9)
+
+
+def test_a_reconnect_never_takes_the_stamps_back():
+    period = 1 / 1000
+    clock = FrameClock(period)
+    last = clock.stamp(np.arange(10) % 256, 10.0)[-1]
+    clock.reset()
+    again = clock.stamp(np.array([77, 78]), 9.5)  # host time went back (or the port returned a stale buffer)
+    assert np.all(again > last) and np.all(np.diff(again) > 0)
+
+
+def test_the_hull_slope_is_the_line_under_the_points_through_the_prompt_ones():
+    rng = np.random.default_rng(3)
+    u = np.linspace(0, 10, 11)
+    y = 3.0 + 1e-4 * u + rng.exponential(1e-3, 11)
+    y[[2, 7]] = 3.0 + 1e-4 * u[[2, 7]]  # two prompt reads either side of the mean time
+    assert hull_slope(u, y) == pytest.approx(1e-4, abs=1e-12)
+    assert hull_slope([1.0], [2.0]) == 0.0
+
+
+@settings(max_examples=30, deadline=None)
+@given(rate=st.sampled_from([1.0, 3.0, 8.0]), seed=st.integers(0, 2**32 - 1), stall_s=st.floats(0, 0.3))
+def test_simulated_time_between_clock_messages_is_never_late_and_follows_the_clock(rate, seed, stall_s):
+    # /clock every 5 ms of wall time, delivered late (and not at all during an executor stall): the follower's
+    # time at any wall instant stays within the most prompt deliveries' delay x rate of the true one, and
+    # does not stand still between messages.
+    rng = np.random.default_rng(seed)
+    follower = ClockFollower()
+    sim0, wall0 = 1.7e9, 1000.0
+    errors = []
+    for k in range(600):
+        sent = wall0 + k * 0.005
+        delay = rng.exponential(0.0005) + (stall_s if 300 <= k < 310 else 0.0)
+        follower.update(sim0 + (sent - wall0) * rate, sent + delay)
+        probe = sent + delay + rng.uniform(0, 0.005)
+        errors.append(follower.now(probe) - (sim0 + (probe - wall0) * rate))
+    errors = np.array(errors[300:])  # once the rate is measured over the window
+    assert np.all(np.abs(errors) <= 1e-4 * rate)
+    assert follower.rate == pytest.approx(rate, rel=0.01)
+    follower.update(sim0, wall0 + 10.0)  # a new run: the clock went back
+    assert follower.now(wall0 + 10.0) == pytest.approx(sim0) and follower.jumps == 1
