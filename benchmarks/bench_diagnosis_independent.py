@@ -242,7 +242,9 @@ def run_case(name: str, seed: int, max_effects: int = 2) -> dict:
 
 
 def table(rows: list) -> str:
-    """Markdown: per case right-first / coverage, per null the runs with a kept finding."""
+    """Markdown: per case right-first / coverage, per null the runs with a kept finding (crashed runs counted apart)."""
+    errors = [r for r in rows if "error" in r]
+    rows = [r for r in rows if "error" not in r]
     lines = ["| case | runs | right effect first | interval coverage |", "|---|---|---|---|"]
     for name in [c for c in CASES if any(r["case"] == c for r in rows)]:
         rs = [r for r in rows if r["case"] == name]
@@ -270,6 +272,9 @@ def table(rows: list) -> str:
         k = sum(not r["findings"] for r in nul)
         lo = stats.beta.ppf(0.025, k, len(nul) - k + 1) if k else 0.0
         lines.append(f"| all null cases | {len(nul)} | no finding {k / len(nul):.1%} (95 % lower bound {lo:.1%}) | |")
+    if errors:
+        lines.append(f"| runs that crashed (not scored) | {len(errors)} | "
+                     f"{'; '.join(sorted({r['case'] + ': ' + r['error'][:80] for r in errors}))} | |")
     return "\n".join(lines)
 
 
@@ -290,7 +295,12 @@ def main(argv=None) -> int:
     rows, start = [], time.perf_counter()
     for name, seed in jobs:
         t0 = time.perf_counter()
-        rows.append(done.get((name, seed)) or run_case(name, seed))
+        try:
+            rows.append(done.get((name, seed)) or run_case(name, seed))
+        except Exception as err:  # noqa: BLE001 - a crashed case is reported, not hidden, and the run goes on
+            rows.append({"case": name, "seed": seed, "error": f"{type(err).__name__}: {err}"})
+            print(f"{name} {seed}: ERROR {rows[-1]['error']}", file=sys.stderr, flush=True)
+            continue
         print(f"{name} {seed}: first {rows[-1]['first']} findings {rows[-1]['findings']} "
               f"({time.perf_counter() - t0:.0f} s)", file=sys.stderr, flush=True)
         (out / "rows.json").write_text(json.dumps(rows, indent=1, default=float))

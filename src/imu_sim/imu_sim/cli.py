@@ -55,7 +55,8 @@ def _diagnose(args) -> int:
     res = diag.result
     print("mismatch: " + ("yes" if res["mismatch"] else "no"))
     for f in res["findings"]:
-        print(f"  {f['effect']}: channels {', '.join(f['channels'])}; fit {f['fit_before']:.4g} -> {f['fit_after']:.4g}")
+        print(f"  {f['effect']}: {f['share_of_mismatch']:.0%} of the mismatch; channels {', '.join(f['channels'])}; "
+              f"fit {f['fit_before']:.4g} -> {f['fit_after']:.4g}")
     for name, path in paths.items():
         print(f"  {name}: {path}")
     return 0

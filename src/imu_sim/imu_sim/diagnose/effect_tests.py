@@ -158,14 +158,17 @@ def quantization(ctx: Context) -> Candidate:
     cand = Candidate("quantization", float(2 * z_phys.max()), thr,
                      "Rayleigh lattice statistic 2z of raw values (chi-square 2 for continuous values)",
                      kind="quantization")
-    on_file = [c for c in range(6) if fine[c] and 2 * z[c] > thr]
-    if on_file:
-        digits = [int(round(-np.log10(out[c][0] / max(np.max(np.abs(case.measured[:, c])), 1e-300))))
-                  for c in on_file]
-        cand.reason = (f"{', '.join(CHANNELS[c] for c in on_file)}: values on a lattice of step "
-                       f"{', '.join(f'{out[c][0]:.3g}' for c in on_file)} (about {min(digits)}-{max(digits)} "
-                       f"significant digits of the file), below {FILE_LATTICE:g} of the per-sample noise: a property "
-                       "of the file (its print precision), not missing physics")
+    digits = [noise_tests.print_digits(case.measured[:, c]) for c in range(6)]
+    printed = [c for c in range(6) if digits[c] is not None
+               and noise_tests.print_step(case.measured[:, c], digits[c]) < FILE_LATTICE * sigma[c]]
+    if printed or any(fine):
+        steps = ", ".join(f"{noise_tests.print_step(case.measured[:, c], digits[c]):.3g}" for c in printed)
+        cand.reason = (f"values printed with {min(digits[c] for c in printed)}-{max(digits[c] for c in printed)} "
+                       f"significant digits (step at most {steps} on {', '.join(CHANNELS[c] for c in printed)})"
+                       if printed else "values on a fine lattice (" + ", ".join(
+                           f"{CHANNELS[c]} {out[c][0]:.3g}" for c in range(6) if fine[c]) + ")")
+        cand.reason += (f", below {FILE_LATTICE:g} of the per-sample noise: a property of the file (its print "
+                        "precision), not missing physics")
     if cand.stat <= thr:
         return cand
     out = [o if not f else (0.0, 0.0, 0.0, o[3]) for o, f in zip(out, fine)]

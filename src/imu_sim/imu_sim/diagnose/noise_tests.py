@@ -130,6 +130,22 @@ def lattice(x: np.ndarray):
     return q, se, z, len(u) / n
 
 
+def print_digits(x: np.ndarray, sample: int = 2000) -> int | None:
+    """Fewest significant decimal digits that reproduce every value of x (a sample of them), None above 15."""
+    x = np.asarray(x, float)
+    x = x[np.isfinite(x) & (x != 0)][:: max(1, len(x) // sample)]
+    for digits in range(1, 16):
+        if all(float(f"{v:.{digits}g}") == v for v in x):
+            return digits
+    return None
+
+
+def print_step(x: np.ndarray, digits: int) -> float:
+    """Largest step of a decimal print lattice of ``digits`` significant digits over the values x."""
+    top = float(np.max(np.abs(x)))
+    return 10.0 ** (np.floor(np.log10(top)) - digits + 1) if top > 0 else 0.0
+
+
 def block_means(x: np.ndarray, m: int) -> np.ndarray:
     """Means of consecutive blocks of m rows (the tail that does not fill a block is dropped)."""
     nb = len(x) // m

@@ -146,7 +146,8 @@ def _html(diag, sources, pngs) -> str:
         params = "<br>".join(f"{html.escape(k)} = {v:.4g} [{f['intervals'].get(k, ['', ''])[0]:.4g}, "
                              f"{f['intervals'].get(k, ['', ''])[1]:.4g}]" if k in f["intervals"]
                              else f"{html.escape(k)} = {v:.4g}" for k, v in f["parameters"].items())
-        rows.append(f"<tr><td><b>{f['effect']}</b></td><td>{', '.join(f['channels'])}</td>"
+        rows.append(f"<tr><td><b>{f['effect']}</b><br>{f.get('share_of_mismatch', 0):.0%} of the mismatch</td>"
+                    f"<td>{', '.join(f['channels'])}</td>"
                     f"<td>{f['time_span_s'][0]:.1f} – {f['time_span_s'][1]:.1f}</td><td>{html.escape(json.dumps(f['band']))}</td>"
                     f"<td>{params}</td><td>{f['fit_before']:.4g} → {f['fit_after']:.4g}<br><small>{html.escape(f['metric'])}"
                     f"</small></td><td>{html.escape(f['explanation'])}</td></tr>")
@@ -159,7 +160,7 @@ def _html(diag, sources, pngs) -> str:
     return (f"<html><head><meta charset='utf-8'><title>imu-sim diagnose</title></head><body>"
             f"<h1>Sim versus real: {verdict}</h1><ul>{src}</ul><p>{res['samples']} samples at {res['rate_hz']:.3g} Hz. "
             f"{html.escape('; '.join(res['notes']))}</p>"
-            f"<h2>Findings (by evidence)</h2><table border=1 cellpadding=4><tr><th>effect</th><th>channels</th>"
+            f"<h2>Findings (by share of the mismatch)</h2><table border=1 cellpadding=4><tr><th>effect</th><th>channels</th>"
             f"<th>time span (s)</th><th>band</th><th>parameters [95 %]</th><th>held-out fit</th><th>why</th></tr>"
             f"{''.join(rows)}</table><h2>Every effect tested</h2><table border=1 cellpadding=3><tr><th>effect</th>"
             f"<th>statistic</th><th>threshold</th><th>significant</th><th>test</th><th>note</th></tr>{tested}</table>"

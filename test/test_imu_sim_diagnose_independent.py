@@ -1,0 +1,150 @@
+"""The diagnosis on recordings it did not make: files from benchmarks/independent_gen.py (no imu_sim code)."""
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+import yaml
+
+from imu_sim.cli import main
+from imu_sim.diagnose import reference, share
+from imu_sim.diagnose.case import DiagnosisInputError, load_case
+from imu_sim.diagnose.effect_tests import regression
+from imu_sim.diagnose.candidate import Context
+from imu_sim.diagnose.engine import _rank_by_share, diagnose, evaluate
+from imu_sim.diagnose.regressors import Design
+from imu_sim.diagnose.spectral import Whitener
+from nav_core.earth import RATE as EARTH_RATE, normal_gravity
+from nav_core.sensor_model import SensorModel, TriadModel, save as save_model
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "benchmarks"))
+import bench_diagnosis_independent as bench  # noqa: E402
+import independent_gen as gen  # noqa: E402
+
+
+def test_independent_generator_agrees_with_first_principles_at_rest():
+    site = gen.Site(51.0784, -114.13, 1100.0)
+    _, gyro, accel = site.true_imu(gen.Poses([(0, 0, 0), (0, 0, 90)], 5.0, 2.0), 20.0)
+    lat = np.radians(51.0784)
+    # level, x east: the Earth rate's north part on y, its vertical part on z; specific force up on z
+    np.testing.assert_allclose(gyro[0], [0, EARTH_RATE * np.cos(lat), EARTH_RATE * np.sin(lat)], atol=1e-12)
+    # two independent gravity formulas (nav_core's and the generator's) agree to well below any sensor
+    np.testing.assert_allclose(accel[0], [0, 0, normal_gravity(lat, 1100.0)], atol=1e-9)
+    # yawed 90 deg left: x points north
+    np.testing.assert_allclose(gyro[-1, :2], [EARTH_RATE * np.cos(lat), 0], atol=1e-12)
+
+
+def _static_files(tmp_path, seconds=60.0, rate=50.0, cover_s=None, digits=10):
+    site = gen.Site(*bench.SITE)
+    t, gyro, accel = site.true_imu(gen.Poses([(0, 0, 0)], seconds, 1.0), rate)
+    rng = np.random.default_rng(5)
+    gyro = gyro + rng.normal(0, bench.GYRO_WHITE * np.sqrt(rate), gyro.shape)
+    accel = accel + rng.normal(0, bench.ACCEL_WHITE * np.sqrt(rate), accel.shape)
+    rec = gen.write_csv(tmp_path / "imu.csv", {"t": t, "gx": gyro[:, 0], "gy": gyro[:, 1], "gz": gyro[:, 2],
+                                               "ax": accel[:, 0], "ay": accel[:, 1], "az": accel[:, 2]}, digits)
+    sc = {"latitude_deg": bench.SITE[0], "longitude_deg": bench.SITE[1], "height_m": bench.SITE[2], "rate_hz": rate,
+          "gps": False, "static_segments": [{"t0": 0.0, "t1": cover_s or seconds, "roll_deg": 0.0, "pitch_deg": 0.0,
+                                             "yaw_deg": 0.0}]}
+    (tmp_path / "scenario.yaml").write_text(yaml.safe_dump(sc))
+    model = SensorModel(gyro=TriadModel(white_noise=np.full(3, bench.GYRO_WHITE)),
+                        accel=TriadModel(white_noise=np.full(3, bench.ACCEL_WHITE)), sample_rate_hz=rate,
+                        physics={"earth_rotation": {}, "gravity_model": {}})
+    return rec, tmp_path / "scenario.yaml", save_model(model, tmp_path / "model.yaml")
+
+
+def test_ten_digit_csv_lattice_is_a_property_of_the_file_not_quantization(tmp_path):
+    case = load_case(*_static_files(tmp_path, digits=10))
+    quant = next(c for c in evaluate(case, case.model, case.measured - case.measured.mean(axis=0))
+                 if c.effect == "quantization")
+    assert not quant.significant
+    assert "print precision" in quant.reason and "significant digits" in quant.reason
+
+
+def test_truth_that_does_not_cover_the_recording_is_an_input_error(tmp_path, capsys):
+    rec, sc, model = _static_files(tmp_path, seconds=60.0, cover_s=30.0)
+    with pytest.raises(DiagnosisInputError, match="must cover the recording"):
+        load_case(rec, sc, model)
+    code = main(["diagnose", "--recording", str(rec), "--scenario", str(sc), "--model", str(model),
+                 "--out", str(tmp_path / "out")])
+    assert code == 2 and "must cover the recording" in capsys.readouterr().err
+
+
+def test_scenario_the_simulator_cannot_build_is_an_input_error(tmp_path):
+    rec, sc, model = _static_files(tmp_path)
+    (tmp_path / "truth.csv").write_text("t,lat_deg,lon_deg,h_m,roll_deg,pitch_deg,yaw_deg\n0,51,-114,1100,0,0,0\n")
+    (tmp_path / "bad.yaml").write_text(yaml.safe_dump({"trajectory": "truth.csv", "rate_hz": 50.0, "gps": False}))
+    with pytest.raises(ValueError, match="bad.yaml|truth.csv"):
+        load_case(rec, tmp_path / "bad.yaml", model)
+
+
+def test_an_effect_with_some_constant_regressors_is_tested_on_the_others(tmp_path):
+    case = load_case(*_static_files(tmp_path, seconds=20.0))
+    rng = np.random.default_rng(1)
+    ramp = np.linspace(-1, 1, case.n)
+    resid = rng.normal(0, 1e-3, (case.n, 6))
+    resid[:, 0] += 3e-3 * ramp
+    cols = {0: np.column_stack([ramp, np.zeros(case.n)]), 1: np.column_stack([np.zeros(case.n), np.ones(case.n)])}
+    design = Design("scale_factor", cols, ["gyro[x]", "gyro[y]"], lambda th: {"gyro": list(th) + [0.0]})
+    ctx = Context(case, case.model, resid, Whitener.from_model(case.model, resid, case.dt),
+                  np.fft.rfft(resid, axis=0), 16, {})
+    cand = regression(ctx, design)
+    assert cand.identifiable and cand.significant
+    assert list(cand.params) == ["gyro[x]"] and "gyro[y]" in cand.reason
+    lo, hi = cand.intervals["gyro[x]"]
+    assert lo < 3e-3 < hi
+    assert cand.physics == {"gyro": [pytest.approx(cand.params["gyro[x]"]), 0.0, 0.0]}
+
+
+def test_findings_are_ordered_by_their_share_of_the_mismatch():
+    findings = [{"effect": "vibration", "mismatch_energy": 3.0}, {"effect": "quantization", "mismatch_energy": 0.0},
+                {"effect": "earth_rotation", "mismatch_energy": 97.0}]
+    details = ["v", "q", "e"]
+    _rank_by_share(findings, details)
+    assert [f["effect"] for f in findings] == ["earth_rotation", "vibration", "quantization"]
+    assert details == ["e", "v", "q"]
+    assert [f["share_of_mismatch"] for f in findings] == [0.97, 0.03, 0.0]
+    assert share.shares([0.0, 0.0]) == [0.0, 0.0]
+
+
+def test_lines_of_the_trajectory_itself_are_flagged_as_harmonics(tmp_path):
+    case = load_case(*_static_files(tmp_path, seconds=100.0))
+    f0 = 0.25  # a periodic motion: the truth's rate has lines at f0 and 3 f0
+    case.gyro_true = case.gyro_true + np.column_stack([np.sin(2 * np.pi * f0 * case.t),
+                                                       0.1 * np.sin(2 * np.pi * 3 * f0 * case.t), 0 * case.t])
+    freqs = np.fft.rfftfreq(case.n, case.dt)
+    mask = reference.harmonic_bins(case)
+    assert mask[np.argmin(abs(freqs - f0))] and mask[np.argmin(abs(freqs - 3 * f0))]
+    assert mask.sum() <= 6
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("name, effect, par, true", [("scale_factor_table", "scale_factor", "gyro[z]", 7e-4),
+                                                     ("misalignment_table", "axis_misalignment", "gyro[xz]", 7e-4)])
+def test_rate_table_from_a_truth_csv_identifies_gyro_scale_and_misalignment(tmp_path, name, effect, par, true):
+    p = bench.generate(name, 7000, tmp_path)
+    res = diagnose(load_case(p["recording"], p["scenario"], p["model"]), max_effects=1, seed=7000).result
+    first = res["findings"][0]
+    assert first["effect"] == effect
+    lo, hi = first["intervals"][par]
+    assert lo < true < hi
+    assert first["share_of_mismatch"] == 1.0
+    assert "accel" in next(t for t in res["tested"] if t["effect"] == effect)["note"]
+
+
+@pytest.mark.slow
+def test_navigation_grade_up_down_names_earth_rotation_first_with_most_of_the_mismatch(tmp_path):
+    p = bench.generate("earth_rotation_updown", 7001, tmp_path)
+    res = diagnose(load_case(p["recording"], p["scenario"], p["model"]), max_effects=3, seed=7001).result
+    first = res["findings"][0]
+    assert first["effect"] == "earth_rotation" and first["share_of_mismatch"] > 0.5
+    lo, hi = first["intervals"]["earth_rate_rad_per_s"]
+    assert lo < EARTH_RATE < hi
+    assert "quantization" not in [f["effect"] for f in res["findings"]]
+
+
+@pytest.mark.slow
+def test_drive_from_a_truth_csv_with_nothing_missing_gives_no_finding(tmp_path):
+    p = bench.generate("null_drive", 8001, tmp_path)
+    res = diagnose(load_case(p["recording"], p["scenario"], p["model"], p["gnss"]), max_effects=2, seed=8001).result
+    assert res["findings"] == []
+    assert "harmonic" in next(t for t in res["tested"] if t["effect"] == "vibration")["note"]
