@@ -134,7 +134,9 @@ def graph_specs(args, run_dir: Path, sim_dir: Path | None) -> list:
                   datum_h_m=float(scen["height_m"]))
     specs = [NodeSpec("wmra_node", dict(sim, **model)), NodeSpec("ins_gps_kf_node", kf),
              NodeSpec("allan_node", dict(sim, out_dir=str(run_dir / "allan")), ready="collecting"),
-             NodeSpec("bag_record", dict(sim, output=str(run_dir / "bag")))]
+             # the report replays the bag: it must hold all the filter received, so the recorder must be
+             # subscribed before anything plays (its last subscription: the filter's output)
+             NodeSpec("bag_record", dict(sim, output=str(run_dir / "bag")), ready="recording /odometry/filtered")]
     if sim_dir is None:
         return specs + [NodeSpec("bag_play", {"bag": str(args.recording.resolve()), "rate": args.rate})]
     link = run_dir / "bp3010_port"
@@ -142,7 +144,9 @@ def graph_specs(args, run_dir: Path, sim_dir: Path | None) -> list:
     driver = dict(sim, port=str(link), reconnect_period_s=0.2, max_stamp_offset_s=0.1 * max(1.0, args.rate))
     return ([NodeSpec("bp3010_driver", driver)] + specs +
             [NodeSpec("scenario_player", {"sim_dir": str(sim_dir), "link": str(link), "rate": args.rate,
-                                          "duration_s": args.duration})])
+                                          "duration_s": args.duration,
+                                          # imu/data: only the recorder subscribes it
+                                          "wait_for_subscribers": ["gps/fix", "imu/data_raw", "imu/data"]})])
 
 
 def filter_params(params_file: Path, specs) -> dict:

@@ -1,6 +1,6 @@
 """Run report: what the graph recorded against truth (or GPS), as HTML with PNG plots and a terminal summary.
 
-Figures follow the paper: the trajectory on north/east axes with GPS and truth
+``summary.json`` carries the figures for scripts. Figures follow the paper: the trajectory on north/east axes with GPS and truth
 (Fig. 6), errors over time with the filter's 3-sigma bounds, the Allan deviation
 of the stationary head (Fig. 3), raw against denoised signals (Figs. 4 and 5),
 and the diagnostics of every node. The live odometry is checked against an offline replay of
@@ -11,6 +11,7 @@ filter node dropped or found missing, so a run that did not give the offline ans
 from __future__ import annotations
 
 import html
+import json
 import shutil
 from pathlib import Path
 
@@ -224,6 +225,8 @@ def write_report(run_dir: Path, sim_dir: Path | None = None, truth_csv: Path | N
     res["offline"] = offline
     res["stream"] = _stream_checks(raw, den, diags)
     _write_html(run_dir, res, odom, gnss, raw, den, diags, figures, exit_codes or {})
+    summary = {"rms": res["rms"], "offline": offline, "stream": res["stream"], "exit_codes": exit_codes or {}}
+    (run_dir / "summary.json").write_text(json.dumps(summary, indent=1, default=str))
     return _summary(run_dir, res, odom, gnss, raw, den, diags, exit_codes or {})
 
 
@@ -233,6 +236,9 @@ def _stream_checks(raw, den, diags) -> dict:
     for name, rec in (("imu/data_raw", raw), ("imu/data_corrected", den)):
         if rec is not None:
             out[f"{name} stamps going back"] = int(np.sum(np.diff(rec.t) <= 0))
+    if raw is not None and len(raw) > 1:  # samples missing upstream of the denoiser and the filter
+        steps = np.round(np.diff(raw.t) * raw.rate_hz)
+        out["imu/data_raw samples missing"] = int(np.sum(steps[steps > 1] - 1))
     kf = next((v for n, (_, _, v) in diags.items() if n.startswith("ins_gps_kf")), {})
     for key, label in (("imu_received", "IMU samples the filter received"),
                        ("late_dropped", "messages the filter dropped"),
