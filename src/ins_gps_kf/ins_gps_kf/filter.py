@@ -138,7 +138,7 @@ class InsGpsFilter:
         accel = np.atleast_2d(np.asarray(accel, dtype=float))
         keep = input_checks.screen_imu(t, gyro, accel, self.t_last, self.cfg.imu_max_gyro, self.cfg.imu_max_accel,
                                        self.input)
-        if not keep.all():
+        if keep is not None:
             t, gyro, accel = t[keep], gyro[keep], accel[keep]
         if self.cfg.apply_calibration:
             gyro, accel = self.model.gyro.correct(gyro), self.model.accel.correct(accel)

@@ -63,12 +63,17 @@ class InputCounters:
         return sum(v for k, v in asdict(self).items() if k != "last_rejection")
 
 
-def screen_imu(t, gyro, accel, t_prev, max_gyro, max_accel, counters: InputCounters) -> np.ndarray:
-    """Mask (n,) of the IMU samples to keep: finite, within the sensor range (rad/s, m/s^2), stamp not repeated.
+def screen_imu(t, gyro, accel, t_prev, max_gyro, max_accel, counters: InputCounters) -> np.ndarray | None:
+    """Mask (n,) of the IMU samples to keep: finite, within the sensor range (rad/s, m/s^2), stamp not repeated;
+    None when all are kept (the common case, checked first in a few whole-array reductions).
 
     ``t_prev`` is the stamp of the last sample already processed (None at the start); counts go to
     ``counters`` and the last one is described in ``counters.last_rejection``.
     """
+    with np.errstate(invalid="ignore"):  # NaN fails every comparison: it falls to the slow path
+        if (len(t) and np.abs(gyro).max() <= max_gyro and np.abs(accel).max() <= max_accel
+                and math.isfinite(t.sum()) and t[0] != t_prev and np.all(t[1:] != t[:-1])):
+            return None
     finite = np.isfinite(t) & np.all(np.isfinite(gyro), axis=1) & np.all(np.isfinite(accel), axis=1)
     with np.errstate(invalid="ignore"):
         in_range = np.all(np.abs(gyro) <= max_gyro, axis=1) & np.all(np.abs(accel) <= max_accel, axis=1)
@@ -91,8 +96,8 @@ def screen_imu(t, gyro, accel, t_prev, max_gyro, max_accel, counters: InputCount
 def state_ok(nav, cov, velocity_n, t, max_speed, counters: InputCounters) -> bool:
     """Whether a state vector and covariance are finite and the velocity (m/s, ENU) no faster than ``max_speed``
     m/s horizontally; counted as ``state_resets`` if not (the filter then resets)."""
-    speed = float(np.hypot(velocity_n[0], velocity_n[1]))
-    if np.all(np.isfinite(nav)) and np.all(np.isfinite(cov)) and speed <= max_speed:
+    speed = math.hypot(velocity_n[0], velocity_n[1])
+    if math.isfinite(nav.sum() + cov.sum()) and speed <= max_speed:  # a sum is finite only if every term is
         return True
     counters.state_resets += 1
     counters.last_rejection = f"state at t={t:.3f} s not finite or too fast ({speed:.3g} m/s): reset"
@@ -119,7 +124,7 @@ def check_fix(t, lat_rad, lon_rad, h_m, status, last, t_imu, stale_s, future_s) 
 def std_unknown(std_enu) -> bool:
     """Whether a fix's std (m, ENU) says nothing: a component <= 0 or not finite."""
     std = np.asarray(std_enu, dtype=float)
-    return bool(np.any(~np.isfinite(std)) or np.any(std <= 0.0))
+    return not (std.min() > 0.0 and std.max() < math.inf)  # NaN fails both
 
 
 def _h_std(fix) -> float:
@@ -131,21 +136,22 @@ def jumps(track: list, max_speed: float, max_accel: float) -> bool:
     """Whether a fix sequence (``.t`` s, ``.enu`` m, ``.cov`` m^2) needs more than the physical limits.
 
     A chord faster than ``max_speed`` m/s, or two chords whose velocity change needs more than
-    ``max_accel`` m/s^2, beyond ``NOISE_SIGMAS`` of the fixes' noise, is a jump.
+    ``max_accel`` m/s^2, beyond ``NOISE_SIGMAS`` of the fixes' noise, is a jump. (Scalar arithmetic:
+    it runs once per fix.)
     """
-    vel, sig = [], []
+    chords = []  # (ve, vn, dt, std_a / dt, std_b / dt)
     for a, b in zip(track[:-1], track[1:]):
         dt = b.t - a.t
         if dt <= 0.0:
             return True
-        d = (b.enu - a.enu)[:2]
-        noise = math.hypot(_h_std(a), _h_std(b))
-        if float(np.hypot(*d)) > max_speed * dt + NOISE_SIGMAS * noise:
+        de, dn = float(b.enu[0] - a.enu[0]), float(b.enu[1] - a.enu[1])
+        sa, sb = _h_std(a), _h_std(b)
+        if math.hypot(de, dn) > max_speed * dt + NOISE_SIGMAS * math.hypot(sa, sb):
             return True
-        vel.append((d / dt, dt, _h_std(a) / dt, _h_std(b) / dt))
-    for (v1, dt1, s0, s1), (v2, dt2, s1b, s2) in zip(vel[:-1], vel[1:]):
+        chords.append((de / dt, dn / dt, dt, sa / dt, sb / dt))
+    for (e1, n1, dt1, s0, s1), (e2, n2, dt2, s1b, s2) in zip(chords[:-1], chords[1:]):
         noise = math.sqrt(s0**2 + (s1 + s1b) ** 2 + s2**2)
-        if float(np.hypot(*(v2 - v1))) > max_accel * 0.5 * (dt1 + dt2) + NOISE_SIGMAS * noise:
+        if math.hypot(e2 - e1, n2 - n1) > max_accel * 0.5 * (dt1 + dt2) + NOISE_SIGMAS * noise:
             return True
     return False
 
