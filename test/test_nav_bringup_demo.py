@@ -63,8 +63,10 @@ def test_a_users_file_with_a_name_nav_demo_writes_is_not_overwritten(inputs):
     assert (sim / "truth.csv").read_text() == "run 0\n" and (sim / "bp3010.bin").exists()  # nothing removed
 
 
-def test_the_demo_exits_2_with_one_line_on_a_foreign_folder(inputs, capsys):
+def test_the_demo_exits_2_with_one_line_on_a_foreign_folder(inputs, capsys, monkeypatch):
     scenario, model, out, _ = inputs
+    for key in ("ROS_DOMAIN_ID", "ROS_AUTOMATIC_DISCOVERY_RANGE"):  # main() sets them: restored after the test
+        monkeypatch.setenv(key, os.environ.get(key, "0" if key == "ROS_DOMAIN_ID" else "LOCALHOST"))
     (out / "sim_seed1").mkdir(parents=True)
     (out / "sim_seed1" / "x").write_text("x")
     code = demo.main(["--scenario", str(scenario), "--model", str(model), "--out", str(out)])
