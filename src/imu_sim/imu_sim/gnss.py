@@ -55,13 +55,17 @@ class GpsEffects:
             default = np.zeros(3) if scenario_lever_arm is None else scenario_lever_arm
             out.lever_arm_m = param(p, "gps_lever_arm", "lever_arm_m", default)
         if "gps_latency" in physics:
-            out.latency_s = float((physics["gps_latency"] or {}).get("latency_s", 0.0))
+            out.latency_s = float(param(physics["gps_latency"] or {}, "gps_latency", "latency_s", 0.0, shape=()))
+            if not 0.0 <= out.latency_s <= 10.0:
+                raise EffectError(f"physics.gps_latency.latency_s: expected a number in [0, 10] s, got {out.latency_s}")
         if "colored_gps_noise" in physics:
             p = physics["colored_gps_noise"] or {}
             out.colored_sigma_m = param(p, "colored_gps_noise", "sigma_m", 0.0)
-            out.colored_time_s = float(p.get("correlation_time_s", 60.0))
+            if np.any(out.colored_sigma_m < 0):
+                raise EffectError("physics.colored_gps_noise.sigma_m: expected numbers >= 0 (m)")
+            out.colored_time_s = float(param(p, "colored_gps_noise", "correlation_time_s", 60.0, shape=()))
             if not out.colored_time_s > 0:
-                raise EffectError("physics.colored_gps_noise.correlation_time_s: must be > 0")
+                raise EffectError("physics.colored_gps_noise.correlation_time_s: must be > 0 (s)")
         return out
 
 

@@ -6,12 +6,14 @@ Paths are relative to the YAML file. See src/imu_sim/README.md for every key.
 """
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
 import yaml
 
+from nav_core.params import did_you_mean, unknown_keys_error
 from nav_core.recording import RecordingError, read_trajectory_csv
 from nav_core.sensor_model import SensorModelError, validate_physics
 
@@ -24,6 +26,15 @@ KNOWN_KEYS = {"name", "description", "latitude_deg", "longitude_deg", "height_m"
               "temperature", "physics", "error_terms", "sensor_model", "seed", "notes"}
 SOURCES = ("segments", "trajectory", "gnss_track", "static_segments")
 BUILTIN_TRAJECTORIES = ("paper_drive",)
+SEGMENT_KEYS = {"stand": (), "cruise": (), "stop": (), "accelerate": ("speed_mps",), "turn": ("angle_deg",)}
+"""Keys each segment type takes besides ``type`` and ``duration_s``."""
+STATIC_KEYS = ("t0", "t1", "roll_deg", "pitch_deg", "yaw_deg", "rate_dps", "axis_body")
+GPS_KEYS = ("rate_hz", "sigma_m", "status", "outages", "outage_mode", "enabled")
+MAX_RATE_HZ = 10_000.0
+"""Highest IMU rate simulated, Hz (MEMS IMUs output at most a few kHz)."""
+MAX_DURATION_S = 7 * 86400.0
+MAX_SAMPLES = 50_000_000
+"""Most IMU samples one simulation makes (about 10 GB of working memory)."""
 
 
 class ScenarioError(ValueError):
@@ -53,15 +64,39 @@ class Scenario:
     where: str = "<scenario>"
 
 
-def _num(data, key, where, default=None, positive=False):
+def _num(data, key, where, default=None, positive=False, low=None, high=None, prefix=""):
+    """A finite number (within [low, high]; > 0 with ``positive``), else ScenarioError naming file and field.
+
+    ``prefix`` is the path of ``data`` in the file (``gps.``, ``segments[2].``).
+    """
     value = data.get(key, default)
     if value is None:
         return None
-    if isinstance(value, bool) or not isinstance(value, (int, float)):
-        raise ScenarioError(f"{where}: {key}: expected a number, got {value!r}")
-    if positive and not value > 0:
-        raise ScenarioError(f"{where}: {key}: must be > 0, got {value!r}")
+    rng = f" in [{'-inf' if low is None else f'{low:g}'}, {'inf' if high is None else f'{high:g}'}]"
+    want = ("a number > 0" if positive else "a number") + (rng if low is not None or high is not None else "")
+    if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
+        raise ScenarioError(f"{where}: {prefix}{key}: expected {want}, got {value!r}")
+    if (positive and not value > 0) or (low is not None and value < low) or (high is not None and value > high):
+        raise ScenarioError(f"{where}: {prefix}{key}: expected {want}, got {value!r}")
     return float(value)
+
+
+def _vector(value, key, where, nonnegative=False, prefix=""):
+    """A finite 3-vector (a scalar is broadcast), else ScenarioError naming the field."""
+    try:
+        arr = np.broadcast_to(np.asarray(value, dtype=float), (3,)).copy()
+    except (TypeError, ValueError):
+        arr = None
+    if arr is None or isinstance(value, bool) or not np.all(np.isfinite(arr)) or (nonnegative and np.any(arr < 0)):
+        kind = "finite numbers >= 0" if nonnegative else "finite numbers"
+        raise ScenarioError(f"{where}: {prefix}{key}: expected a number or [x, y, z] of {kind}, got {value!r}")
+    return arr
+
+
+def _check_keys(data, known, where):
+    unknown = set(data) - set(known)
+    if unknown:
+        raise ScenarioError(unknown_keys_error(where, unknown, known))
 
 
 def _gps(data, where) -> GpsConfig:
@@ -70,32 +105,85 @@ def _gps(data, where) -> GpsConfig:
     if data is False:
         return GpsConfig(enabled=False)
     if not isinstance(data, dict):
-        raise ScenarioError(f"{where}: gps: expected a mapping")
-    unknown = set(data) - {"rate_hz", "sigma_m", "status", "outages", "outage_mode", "enabled"}
-    if unknown:
-        raise ScenarioError(f"{where}: gps: unknown key(s) {sorted(unknown)}")
-    cfg = GpsConfig(rate_hz=_num(data, "rate_hz", f"{where}: gps", 1.0, positive=True),
-                    status=int(data.get("status", 0)), outage_mode=str(data.get("outage_mode", "nofix")),
-                    enabled=bool(data.get("enabled", True)))
-    try:
-        cfg.sigma_m = np.broadcast_to(np.asarray(data.get("sigma_m", cfg.sigma_m), float), (3,)).copy()
-        cfg.outages = [tuple(map(float, o)) for o in data.get("outages", [])]
-    except (TypeError, ValueError) as err:
-        raise ScenarioError(f"{where}: gps: sigma_m must be a number or [e, n, u]; outages [[t0, t1], ...] ({err})")
-    if any(len(o) != 2 or o[1] <= o[0] for o in cfg.outages):
-        raise ScenarioError(f"{where}: gps.outages: each must be [t0, t1] with t1 > t0")
+        raise ScenarioError(f"{where}: gps: expected a mapping (or false), got {data!r}")
+    _check_keys(data, GPS_KEYS, f"{where}: gps")  # "file: gps: unknown key(s) ..."
+    sub, pre = where, "gps."
+    status = data.get("status", 0)
+    if isinstance(status, bool) or status not in (-1, 0, 1, 2):
+        raise ScenarioError(f"{sub}: {pre}status: expected one of [-1, 0, 1, 2] (NavSatStatus), got {status!r}")
+    enabled = data.get("enabled", True)
+    if not isinstance(enabled, bool):
+        raise ScenarioError(f"{sub}: {pre}enabled: expected true or false, got {enabled!r}")
+    cfg = GpsConfig(rate_hz=_num(data, "rate_hz", sub, 1.0, positive=True, high=100.0, prefix=pre),
+                    status=int(status),
+                    outage_mode=str(data.get("outage_mode", "nofix")), enabled=enabled)
+    cfg.sigma_m = _vector(data.get("sigma_m", cfg.sigma_m), "sigma_m", sub, nonnegative=True, prefix=pre)
+    outages = data.get("outages", [])
+    if not isinstance(outages, list):
+        raise ScenarioError(f"{sub}: {pre}outages: expected [[t0, t1], ...] in s, got {outages!r}")
+    for i, o in enumerate(outages):
+        ok = isinstance(o, (list, tuple)) and len(o) == 2 and all(
+            isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v) for v in o)
+        if not ok or not o[1] > o[0]:
+            raise ScenarioError(f"{sub}: {pre}outages[{i}]: expected [t0, t1] in s with t1 > t0, got {o!r}")
+    cfg.outages = [(float(a), float(b)) for a, b in outages]
     if cfg.outage_mode not in ("nofix", "drop"):
-        raise ScenarioError(f"{where}: gps.outage_mode: 'nofix' or 'drop', got {cfg.outage_mode!r}")
+        raise ScenarioError(f"{sub}: {pre}outage_mode: expected 'nofix' or 'drop', got {cfg.outage_mode!r}")
     return cfg
+
+
+def _segments(spec, where):
+    """Check every road segment: its type, its keys, and each value's range."""
+    for i, seg in enumerate(spec):
+        pre = f"segments[{i}]."
+        at = f"{where}: segments[{i}]"
+        kind = seg.get("type")
+        if kind not in SEGMENT_KEYS:
+            raise ScenarioError(f"{at}.type: expected one of {list(SEGMENT_KEYS)}, got {kind!r}"
+                                f"{did_you_mean(kind, SEGMENT_KEYS)}")
+        known = ("type", "duration_s") + SEGMENT_KEYS[kind]
+        unknown = set(seg) - set(known)
+        if unknown:
+            others = {k for keys in SEGMENT_KEYS.values() for k in keys} - set(known)
+            name = sorted(unknown)[0]
+            hint = (f" ({name} applies to another segment type)" if name in others
+                    else did_you_mean(name, known))
+            raise ScenarioError(f"{at} ({kind}): unknown key {name!r}{hint}; {kind} segments take {list(known)}")
+        _num(seg, "duration_s", where, None, positive=True, high=MAX_DURATION_S, prefix=pre)
+        if "duration_s" not in seg:
+            raise ScenarioError(f"{at}.duration_s: required (a number > 0, s)")
+        _num(seg, "speed_mps", where, None, low=0.0, high=350.0, prefix=pre)
+        _num(seg, "angle_deg", where, None, low=-3600.0, high=3600.0, prefix=pre)
+
+
+def _static_segments(spec, where):
+    for i, seg in enumerate(spec):
+        pre = f"static_segments[{i}]."
+        _check_keys(seg, STATIC_KEYS, f"{where}: static_segments[{i}]")
+        for key in ("t0", "t1"):
+            if key not in seg:
+                raise ScenarioError(f"{where}: {pre}{key}: required (a number, s)")
+            _num(seg, key, where, low=0.0, high=MAX_DURATION_S, prefix=pre)
+        for key in ("roll_deg", "pitch_deg", "yaw_deg"):
+            _num(seg, key, where, None, low=-360.0, high=360.0, prefix=pre)
+        _num(seg, "rate_dps", where, None, low=-1e5, high=1e5, prefix=pre)
+        if "axis_body" in seg and not np.linalg.norm(_vector(seg["axis_body"], "axis_body", where, prefix=pre)) > 0:
+            raise ScenarioError(f"{where}: {pre}axis_body: must not be [0, 0, 0]")
+
+
+def _seed(value, where):
+    if value is None:
+        return None
+    if isinstance(value, bool) or not isinstance(value, int) or value < 0:
+        raise ScenarioError(f"{where}: seed: expected an integer >= 0, got {value!r}")
+    return value
 
 
 def from_dict(data, where: str = "<scenario>", base_dir: Path = Path(".")) -> Scenario:
     """Validate a scenario mapping; relative paths resolve against ``base_dir``."""
     if not isinstance(data, dict):
         raise ScenarioError(f"{where}: expected a mapping at the top level")
-    unknown = set(data) - KNOWN_KEYS
-    if unknown:
-        raise ScenarioError(f"{where}: unknown key(s) {sorted(unknown)}; known: {sorted(KNOWN_KEYS)}")
+    _check_keys(data, KNOWN_KEYS, where)
     given = [k for k in SOURCES if data.get(k) is not None]
     if len(given) != 1:
         raise ScenarioError(f"{where}: give exactly one trajectory source of {SOURCES}, got {given or 'none'}")
@@ -110,35 +198,38 @@ def from_dict(data, where: str = "<scenario>", base_dir: Path = Path(".")) -> Sc
                 raise ScenarioError(f"{where}: {source}: file not found: {spec}")
     elif not isinstance(spec, list) or not spec or not all(isinstance(s, dict) for s in spec):
         raise ScenarioError(f"{where}: {source}: expected a non-empty list of mappings")
+    elif source == "segments":
+        _segments(spec, where)
+    else:
+        _static_segments(spec, where)
     sc = Scenario(source=source, spec=spec, where=where, name=str(data.get("name", Path(where).stem)))
-    sc.latitude_deg = _num(data, "latitude_deg", where)
-    sc.longitude_deg = _num(data, "longitude_deg", where)
-    sc.height_m = _num(data, "height_m", where, 0.0)
+    sc.latitude_deg = _num(data, "latitude_deg", where, low=-90.0, high=90.0)
+    sc.longitude_deg = _num(data, "longitude_deg", where, low=-180.0, high=360.0)
+    sc.height_m = _num(data, "height_m", where, 0.0, low=-12_000.0, high=100_000.0)
     if source in ("segments", "static_segments") and (sc.latitude_deg is None or sc.longitude_deg is None):
         raise ScenarioError(f"{where}: latitude_deg and longitude_deg are required with {source}")
-    if sc.latitude_deg is not None and not -90 <= sc.latitude_deg <= 90:
-        raise ScenarioError(f"{where}: latitude_deg: must be within [-90, 90], got {sc.latitude_deg}")
-    sc.yaw0_deg = _num(data, "yaw0_deg", where, 0.0)
-    sc.duration_s = _num(data, "duration_s", where, None, positive=True)
-    sc.rate_hz = _num(data, "rate_hz", where, 64.0, positive=True)
+    sc.yaw0_deg = _num(data, "yaw0_deg", where, 0.0, low=-360.0, high=360.0)
+    sc.duration_s = _num(data, "duration_s", where, None, positive=True, high=MAX_DURATION_S)
+    sc.rate_hz = _num(data, "rate_hz", where, 64.0, positive=True, high=MAX_RATE_HZ)
     sc.gps = _gps(data.get("gps"), where)
     if data.get("gps_lever_arm_m") is not None:
-        try:
-            sc.gps_lever_arm_m = np.broadcast_to(np.asarray(data["gps_lever_arm_m"], float), (3,)).copy()
-        except (TypeError, ValueError) as err:
-            raise ScenarioError(f"{where}: gps_lever_arm_m: expected [x, y, z] in m ({err})") from err
+        sc.gps_lever_arm_m = _vector(data["gps_lever_arm_m"], "gps_lever_arm_m", where)
     sc.temperature = _temperature(data.get("temperature"), where)
     sc.physics = _physics(data.get("physics"), where)
     terms = data.get("error_terms")
     if terms is not None:
+        if not isinstance(terms, list):
+            raise ScenarioError(f"{where}: error_terms: expected a list of {list(TERMS)}, got {terms!r}")
         bad = [t for t in terms if t not in TERMS]
         if bad:
-            raise ScenarioError(f"{where}: error_terms: unknown {bad}; known: {TERMS}")
+            raise ScenarioError(f"{where}: error_terms: unknown {bad}{did_you_mean(bad[0], TERMS)}; "
+                                f"known: {list(TERMS)}")
         sc.error_terms = tuple(terms)
     if data.get("sensor_model"):
         sc.sensor_model = (base_dir / str(data["sensor_model"])).resolve()
-    if data.get("seed") is not None:
-        sc.seed = int(data["seed"])
+        if not sc.sensor_model.exists():
+            raise ScenarioError(f"{where}: sensor_model: file not found: {sc.sensor_model}")
+    sc.seed = _seed(data.get("seed"), where)
     return sc
 
 
@@ -146,15 +237,15 @@ def _temperature(data, where):
     if data is None:
         return None
     if isinstance(data, (int, float)) and not isinstance(data, bool):
-        return {"start_c": float(data), "end_c": float(data), "time_constant_s": 1.0}
+        value = _num({"temperature": data}, "temperature", where, low=-100.0, high=200.0)
+        return {"start_c": value, "end_c": value, "time_constant_s": 1.0}
     if not isinstance(data, dict):
         raise ScenarioError(f"{where}: temperature: a number (deg C) or {{start_c, end_c, time_constant_s}}")
-    unknown = set(data) - {"start_c", "end_c", "time_constant_s"}
-    if unknown:
-        raise ScenarioError(f"{where}: temperature: unknown key(s) {sorted(unknown)}")
-    start = _num(data, "start_c", f"{where}: temperature", 25.0)
-    return {"start_c": start, "end_c": _num(data, "end_c", f"{where}: temperature", start),
-            "time_constant_s": _num(data, "time_constant_s", f"{where}: temperature", 600.0, positive=True)}
+    _check_keys(data, ("start_c", "end_c", "time_constant_s"), f"{where}: temperature")
+    pre = "temperature."
+    start = _num(data, "start_c", where, 25.0, low=-100.0, high=200.0, prefix=pre)
+    return {"start_c": start, "end_c": _num(data, "end_c", where, start, low=-100.0, high=200.0, prefix=pre),
+            "time_constant_s": _num(data, "time_constant_s", where, 600.0, positive=True, prefix=pre)}
 
 
 def _physics(data, where):
@@ -173,8 +264,10 @@ def load(path) -> Scenario:
         data = yaml.safe_load(path.read_text())
     except FileNotFoundError:
         raise ScenarioError(f"{path}: scenario file not found") from None
-    except yaml.YAMLError as err:
-        raise ScenarioError(f"{path}: not valid YAML: {err}") from err
+    except (yaml.YAMLError, UnicodeDecodeError) as err:
+        raise ScenarioError(f"{path}: not valid YAML: {' '.join(str(err).split())}") from None
+    except IsADirectoryError:
+        raise ScenarioError(f"{path}: is a folder, expected a scenario YAML file") from None
     return from_dict(data, where=str(path), base_dir=path.parent)
 
 

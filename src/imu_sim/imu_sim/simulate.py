@@ -28,7 +28,8 @@ from nav_core.sensor_model import SensorModel, load as load_model
 
 from imu_sim import effects, errors, kinematics
 from imu_sim.gnss import GpsEffects, simulate_gnss
-from imu_sim.scenario import Scenario, build_trajectory, load as load_scenario, temperature_profile
+from imu_sim.scenario import (MAX_RATE_HZ, MAX_SAMPLES, Scenario, ScenarioError, build_trajectory,
+                              load as load_scenario, temperature_profile)
 
 LOG = logging.getLogger(__name__)
 
@@ -118,12 +119,28 @@ def simulate(scenario, model=None, seed: int | None = None, rate_hz: float | Non
     """
     sc = scenario if isinstance(scenario, Scenario) else load_scenario(scenario)
     seed = int(seed if seed is not None else (sc.seed if sc.seed is not None else 0))
-    rate = float(rate_hz or sc.rate_hz)
+    if seed < 0:
+        raise ScenarioError(f"seed: expected an integer >= 0, got {seed}")
+    rate = float(rate_hz if rate_hz is not None else sc.rate_hz)
+    if not 0 < rate <= MAX_RATE_HZ:  # also NaN
+        raise ScenarioError(f"rate_hz: expected a number in (0, {MAX_RATE_HZ:g}] Hz, got {rate_hz}")
     terms = tuple(terms) if terms is not None else sc.error_terms
     base = _resolve_model(sc, model)
     base.physics = merge_physics(base.physics, sc.physics)
-    mdl = effects.apply_model_overrides(base)
-    traj = build_trajectory(sc)
+    try:
+        mdl = effects.apply_model_overrides(base)
+        traj = build_trajectory(sc)
+        return _simulate(sc, mdl, traj, seed, rate, terms, with_bytes, temp_c)
+    except effects.EffectError as err:  # name the files the physics came from
+        source = f"{sc.where}" + (f" or {model}" if isinstance(model, (str, Path)) else "")
+        raise ScenarioError(f"{source}: {err}") from None
+
+
+def _simulate(sc, mdl, traj, seed, rate, terms, with_bytes, temp_c) -> SimResult:
+    n = traj.duration * rate
+    if n > MAX_SAMPLES:
+        raise ScenarioError(f"{sc.where}: {traj.duration:.6g} s at rate_hz {rate:g} is {n:.3g} IMU samples; "
+                            f"at most {MAX_SAMPLES:.3g} (lower rate_hz or duration_s)")
     dt = 1.0 / rate
     t = kinematics.sample_times(traj, rate)
     dtheta0, dv0 = kinematics.increments(traj, t, dt, kinematics.Physics.from_effects(mdl.physics))
@@ -162,6 +179,11 @@ def write_outputs(res: SimResult, out_dir, fmt: str = "all", storage: str = "sql
     if fmt not in FORMATS:
         raise ValueError(f"format must be one of {FORMATS}, got {fmt!r}")
     out = Path(out_dir)
+    names = ["truth.csv", "sim_info.yaml"] + (["bp3010.bin"] if res.bp3010 is not None else [])
+    names += (["imu.csv", "gnss.csv"] if fmt in ("csv", "all") else []) + (["bag"] if fmt in ("bag", "all") else [])
+    existing = [n for n in names if (out / n).exists()]
+    if existing:  # checked before writing anything: never a folder that mixes two simulations
+        raise FileExistsError(f"{out}: already holds {existing}; choose a new --out folder (or --force)")
     out.mkdir(parents=True, exist_ok=True)
     paths = {"truth": recording.write_trajectory_csv(out / "truth.csv", res.truth)}
     if fmt in ("csv", "all"):
@@ -170,8 +192,6 @@ def write_outputs(res: SimResult, out_dir, fmt: str = "all", storage: str = "sql
             paths["gnss_csv"] = recording.write_gnss_csv(out / "gnss.csv", res.gnss)
     if fmt in ("bag", "all"):
         bag = out / "bag"
-        if bag.exists():
-            raise FileExistsError(f"{bag}: exists; choose a new --out folder")
         gnss = _shift(res.gnss, BAG_EPOCH_S) if res.gnss is not None else None
         paths["bag"] = recording.write_bag(bag, _shift(res.imu, BAG_EPOCH_S), gnss, storage=storage)
     if res.bp3010 is not None:

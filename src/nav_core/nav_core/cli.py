@@ -1,0 +1,89 @@
+"""What every command-line tool shares: ``--debug``, ``--force``, number arguments with ranges, one-line errors.
+
+A user error (a bad file, value or path: ``ValueError`` and its kin such as
+``RecordingError``, ``SensorModelError``, ``ConfigError``, ``OutputError``, or an
+``OSError``) prints one line ``<prog>: error: <message>`` and exits 2. Anything else
+is a bug: one line naming it and exit 1. ``--debug`` (or ``NAV_DEBUG=1``) shows the
+traceback instead. Use::
+
+    parser = argparse.ArgumentParser(prog="tool"); add_common(parser)
+    ...
+    return run_cli("tool", command, args)
+"""
+from __future__ import annotations
+
+import argparse
+import math
+import os
+import struct
+import sys
+
+USER_ERRORS = (ValueError, OSError, struct.error)
+"""Exception types that mean bad input, not a bug (all project error types derive from ValueError)."""
+
+
+def add_common(parser: argparse.ArgumentParser, force: bool = False, sub: bool = False) -> None:
+    """Add ``--debug`` (and ``--force`` when the command writes outputs) to ``parser``.
+
+    ``sub=True`` for subparsers: the option may then be given before or after the subcommand.
+    """
+    default = argparse.SUPPRESS if sub else False
+    parser.add_argument("--debug", action="store_true", default=default,
+                        help="show the full traceback of an error (also NAV_DEBUG=1)")
+    if force:
+        parser.add_argument("--force", action="store_true", default=False,
+                            help="replace an existing --out (it is only removed once the new one is complete)")
+
+
+def number(low: float | None = None, high: float | None = None, integer: bool = False,
+           low_open: bool = False):
+    """An argparse ``type``: a finite number in [low, high] (``low_open``: > low), else a one-line usage error."""
+    def parse(text: str):
+        kind = "an integer" if integer else "a number"
+        try:
+            value = int(text) if integer else float(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"{text!r} is not {kind}") from None
+        if not math.isfinite(value):
+            raise argparse.ArgumentTypeError(f"{text!r} must be finite")
+        too_low = low is not None and (value <= low if low_open else value < low)
+        if too_low or (high is not None and value > high):
+            lo = "-inf" if low is None else f"{low:g}"
+            hi = "inf" if high is None else f"{high:g}"
+            raise argparse.ArgumentTypeError(f"{text} is outside {'(' if low_open else '['}{lo}, {hi}]")
+        return value
+    return parse
+
+
+def one_line(err: BaseException) -> str:
+    """The message of ``err`` on one line."""
+    text = str(err) or type(err).__name__
+    if isinstance(err, OSError) and err.filename and str(err.filename) not in text:
+        text = f"{err.filename}: {text}"
+    return " | ".join(line.strip() for line in text.splitlines() if line.strip())
+
+
+def debug_wanted(args=None) -> bool:
+    """Whether ``--debug`` was given or ``NAV_DEBUG`` is set."""
+    return bool(getattr(args, "debug", False)) or os.environ.get("NAV_DEBUG", "") not in ("", "0")
+
+
+def run_cli(prog: str, func, args, user_errors=USER_ERRORS) -> int:
+    """Run ``func(args)``: its return code, 2 for a user error, 1 for a bug, 130 on Ctrl-C (one line each)."""
+    debug = debug_wanted(args)
+    try:
+        return func(args)
+    except KeyboardInterrupt:
+        print(f"{prog}: interrupted", file=sys.stderr)
+        return 130
+    except user_errors as err:
+        if debug:
+            raise
+        print(f"{prog}: error: {one_line(err)}", file=sys.stderr)
+        return 2
+    except Exception as err:  # a bug: still one line, unless asked for the traceback
+        if debug:
+            raise
+        print(f"{prog}: internal error: {type(err).__name__}: {one_line(err)} (run with --debug for the traceback)",
+              file=sys.stderr)
+        return 1
