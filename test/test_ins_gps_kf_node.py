@@ -126,7 +126,7 @@ def test_node_output_equals_offline_replay_of_the_same_messages(ros_env, feeder,
         roll, pitch, yaw = frames.euler_from_quat_xyzw([q.x, q.y, q.z, q.w])
         assert frames.wrap_angle(yaw - traj.yaw[i]) == pytest.approx(0.0, abs=1e-8)
         assert m.pose.covariance[0] == pytest.approx(traj.extra["std_e"][i] ** 2, rel=1e-8)
-        assert m.header.frame_id == "odom" and m.child_frame_id == "base_link"
+        assert m.header.frame_id == "map" and m.child_frame_id == "base_link"
     oriented = [m for _, m in feeder.probe.received["imu/data"]]
     assert oriented and oriented[-1].orientation_covariance[0] > 0.0
     diags = [s for _, a in feeder.probe.received["/diagnostics"] for s in a.status if "ins_gps_kf" in s.name]

@@ -65,7 +65,7 @@ def test_graph_runs_the_paper_drive_and_every_node_exits_cleanly(sim_dir, tmp_pa
     stamps = np.array([stamp_to_s(m.header.stamp) for m in odom])
     assert len(odom) > 80
     assert np.median(np.diff(stamps)) == pytest.approx(0.5, abs=1e-6)
-    assert odom[0].header.frame_id == "odom" and odom[0].child_frame_id == "base_link"
+    assert odom[0].header.frame_id == "map" and odom[0].child_frame_id == "base_link"
     assert odom[-1].pose.covariance[0] > 0 and odom[-1].twist.covariance[0] > 0
 
     # Position error against the simulator's truth, within what the filter issue measured for this drive.

@@ -90,7 +90,8 @@ PARAMETERS = (
          "sensor's range): rejected and counted, deg/s", 1.0, 1e5),
     Param("imu_max_accel_mps2", 160.0, "IMU samples with a larger |specific force| component are impossible: "
          "rejected and counted, m/s^2", 1.0, 1e5),
-    Param("frame_id", "odom", "odometry pose frame (local ENU at the datum)"),
+    Param("frame_id", "map", "odometry pose frame: local ENU at the datum, GPS-corrected (REP-105 map; it may "
+          "jump, the continuous odom frame is the node's odom_frame_id)"),
     Param("child_frame_id", "base_link", "odometry twist / body frame"),
 )
 SPEC_BY_NAME = {s.name: s for s in PARAMETERS}

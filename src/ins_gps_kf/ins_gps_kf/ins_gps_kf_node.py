@@ -2,7 +2,9 @@
 
 Subscribes ``imu_topic`` (default ``imu/data_corrected``) and ``gps_topic`` (``gps/fix``)
 with the sensor-data QoS (best effort); publishes ``odometry/filtered`` (pose in
-``odom`` = local ENU at the datum, twist in ``base_link``) at every filter epoch,
+``map`` = local ENU at the datum, twist in ``base_link``: velocity and the epoch's bias-corrected
+rate) and ``map -> odom -> base_link`` on ``/tf`` (REP-105, :mod:`nav_core.tf_tree`) at every filter epoch,
+the sensor mounts on ``/tf_static``,
 ``imu/data`` (with orientation) once aligned, and ``/diagnostics``. IMU samples are taken
 in batches every ``intake_period_s`` and run through the filter as chunks (bit-identical
 to one by one); ``imu/data`` carries the newest sample of each chunk: every sample at
@@ -41,6 +43,8 @@ from nav_core.imu_cdr import stamps_from_s  # noqa: E402
 from nav_core.ros_node import (SENSOR_QOS, Diagnostics, ImuBatchSubscription, IntakeLoop,  # noqa: E402
                                PolledSubscription, declare_parameters, publish_imu_batch, run_node, stamp_from_s,
                                stamp_to_s)
+from nav_core.tf_ros import TfBroadcaster  # noqa: E402
+from nav_core.tf_tree import OdomChain, Pose, static_mounts  # noqa: E402
 from nav_core.units import DEG  # noqa: E402
 from ins_gps_kf import config as kfconfig  # noqa: E402
 from ins_gps_kf import error_model as em  # noqa: E402
@@ -56,7 +60,15 @@ INTAKE = Param("intake_period_s", 0.01, "IMU and GPS messages are taken in batch
                0.0005, 1.0)
 QUEUE = Param("input_queue_depth", 20000, "messages each input subscription holds until taken: a node held up "
               "(a busy CPU) catches up instead of losing input; 20,000 = 39 s of 64-Hz IMU at 8x", 100, 1000000)
-NODE_PARAMS = (INTAKE, QUEUE)
+TF_PARAMS = (  # REP-105 frames; the pose frame (map) and base_link are the core's frame_id / child_frame_id
+    Param("publish_tf", True, "publish map -> odom -> base_link on /tf at each filter epoch and the sensor mounts "
+          "(base_link -> imu_frame_id, base_link -> gps_frame_id at the lever arm) on /tf_static"),
+    Param("odom_frame_id", "odom", "continuous frame (REP-105): odom -> base_link follows the INS prediction and "
+          "never jumps; frame_id (map) -> odom carries the GPS corrections"),
+    Param("imu_frame_id", "imu_link", "IMU frame: identity transform from base_link (the IMU axes are the body axes)"),
+    Param("gps_frame_id", "gps_link", "GPS antenna frame: transform from base_link at the lever arm"),
+)
+NODE_PARAMS = (INTAKE, QUEUE, *TF_PARAMS)
 ERROR_LOG_PERIOD_S = 10.0  # a repeating processing error is logged at most this often
 
 
@@ -91,6 +103,12 @@ class InsGpsKfNode(Node):
         # deep: catching up after a hold-up publishes many epochs at once, and none may be overwritten
         self.odom_pub = self.create_publisher(Odometry, "odometry/filtered", 1000)
         self.imu_pub = self.create_publisher(Imu, "imu/data", SENSOR_QOS)
+        self.tf = TfBroadcaster(self) if self.params["publish_tf"] else None
+        self.odom_chain = OdomChain()
+        self._last_epoch_t = -math.inf
+        if self.tf:
+            self.tf.send_static(static_mounts(cfg.lever_arm_b, self.params["child_frame_id"],
+                                              self.params["imu_frame_id"], self.params["gps_frame_id"]))
         self.imu_out = []
         # IMU and fixes are taken together and merged by receive time: the order per-message callbacks
         # would have seen, so a fix is never overtaken by a batch of IMU samples that arrived after it
@@ -209,7 +227,7 @@ class InsGpsKfNode(Node):
                           orientation_xyzw=quat, orientation_cov=quat_cov)
 
     def publish_odometry(self, est: Estimate):
-        """Pose (ENU, odom) and twist (body) with covariances from the filter's P."""
+        """Pose (ENU, map) and twist (body) with covariances from the filter's P."""
         self.last_estimate = est
         if self.closing:
             return
@@ -227,9 +245,30 @@ class InsGpsKfNode(Node):
         msg.twist.twist.linear.x, msg.twist.twist.linear.y, msg.twist.twist.linear.z = (float(v) for v in v_b)
         twist_cov = np.zeros((6, 6))
         twist_cov[:3, :3] = mat_bn @ est.cov[em.DV, em.DV] @ mat_bn.T
-        twist_cov[3:, 3:] = np.diag(self.filter.noise.gyro_white ** 2 * self.filter.cfg.filter_rate_hz)
+        # the epoch's mean bias-corrected rate: white noise averaged over the epoch (one sample's worth when the
+        # epoch's span is unknown, after alignment or a reset) plus the bias uncertainty
+        f = self.filter
+        w_b = est.angular_rate_b if est.angular_rate_b is not None else np.zeros(3)
+        msg.twist.twist.angular.x, msg.twist.twist.angular.y, msg.twist.twist.angular.z = (float(v) for v in w_b)
+        span_s = est.t - self._last_epoch_t if 0.0 < est.t - self._last_epoch_t <= 1.5 / f.cfg.filter_rate_hz \
+            else 1.0 / f.cfg.imu_rate_hz
+        self._last_epoch_t = est.t
+        twist_cov[3:, 3:] = np.diag(f.noise.gyro_white ** 2 / span_s) + est.cov[em.BG, em.BG]
         msg.twist.covariance = twist_cov.flatten().tolist()
         self.odom_pub.publish(msg)
+        self.publish_tf(est)
+
+    def publish_tf(self, est: Estimate):
+        """map -> odom -> base_link at the epoch's stamp (the split is :class:`nav_core.tf_tree.OdomChain`'s)."""
+        if self.tf is None:
+            return
+        predicted = (None if est.predicted_position_n is None
+                     else Pose.from_xyzw(est.predicted_position_n, est.predicted_quat_xyzw))
+        tf = self.odom_chain.update(est.t, Pose.from_xyzw(est.position_n, est.quat_xyzw), predicted,
+                                    segment=self.filter.counters.resets)
+        p = self.params
+        self.tf.send(est.t, [(p["frame_id"], p["odom_frame_id"], tf.map_odom),
+                             (p["odom_frame_id"], p["child_frame_id"], tf.odom_base)])
 
     def publish_diagnostics(self):
         """State, NIS, rejected fixes, GPS age, alignment status, resets."""
