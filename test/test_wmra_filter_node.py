@@ -98,6 +98,9 @@ def test_node_denoises_preserves_stamps_matches_core_and_restarts_on_gap(running
         _, gyro, accel = imu_to_arrays(msg)
         np.testing.assert_allclose(np.concatenate([gyro, accel]), expected[stamp], rtol=0, atol=1e-12)
         assert msg.header.frame_id == "imu_link"
+        sigma = model_sample_sigma(model, cfg.sample_rate_hz)  # covariances carried, not "unknown" zeros
+        np.testing.assert_allclose(np.diag(np.reshape(msg.angular_velocity_covariance, (3, 3))), sigma[:3] ** 2)
+        np.testing.assert_allclose(np.diag(np.reshape(msg.linear_acceleration_covariance, (3, 3))), sigma[3:] ** 2)
 
     def restart_reported(p):
         for _, arr in p.received["/diagnostics"]:

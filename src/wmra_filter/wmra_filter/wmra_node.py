@@ -94,6 +94,9 @@ class WmraNode(Node):
             raise ConfigError(f"{values['sensor_model_path']}: white_noise must be > 0 on every axis for "
                               "noise_source 'model' (or set noise_source: mad)")
         self.stream = StreamingWmra(self.cfg, 6, sample_sigma=sigma)
+        # published covariance: the model's per-sample white-noise variance, an upper bound (denoising removes
+        # part of it); 0 ("unknown") only where the model has no white noise
+        self.sample_var = sigma ** 2
         self.policy = StreamPolicy(self.stream, self.cfg.sample_rate_hz, values["gap_factor"],
                                    values["fill_gap_samples"])
         self.calibrate = Calibrator(self.model)
@@ -134,7 +137,8 @@ class WmraNode(Node):
         for frame_id in dict.fromkeys(frames):  # one run per frame_id, normally a single one
             rows = np.flatnonzero(frames == frame_id)
             self.stats["published"] += publish_imu_batch(self.pub, np.array(sec)[rows], np.array(nanosec)[rows],
-                                                         values[rows, :3], values[rows, 3:], str(frame_id))
+                                                         values[rows, :3], values[rows, 3:], str(frame_id),
+                                                         gyro_var=self.sample_var[:3], accel_var=self.sample_var[3:])
 
     def _publish_diagnostics_locked(self) -> None:
         with self.lock:  # the intake thread changes what the diagnostics read
