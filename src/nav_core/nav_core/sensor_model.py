@@ -37,7 +37,13 @@ from pathlib import Path
 import numpy as np
 import yaml
 
+from nav_core.params import unknown_keys_error
+
 SCHEMA_VERSION = 1
+TOP_KEYS = ("sensor_model_version", "sample_rate_hz", "provenance", "gyro", "accel", "physics")
+MAX_SAMPLE_RATE_HZ = 1e5
+ENTRY_KEYS = {"value", "interval_95", "identifiable"}
+"""Keys of one term's entry (``identifiable``: see above)."""
 
 VECTOR_TERMS = ("bias", "scale_factor", "quantization", "white_noise", "bias_instability",
                 "bias_correlation_time", "rate_random_walk", "rate_ramp")
@@ -213,7 +219,7 @@ def _triad_from_dict(name: str, data, where: str) -> TriadModel:
     known = set(VECTOR_TERMS) | {"misalignment", "units", "info"}
     unknown = set(data) - known
     if unknown:
-        raise SensorModelError(f"{where}.{name}: unknown field(s) {sorted(unknown)}")
+        raise SensorModelError(unknown_keys_error(f"{where}.{name}", unknown, known))
     for term in VECTOR_TERMS + ("misalignment",):
         shape = (3, 3) if term == "misalignment" else (3,)
         entry = data.get(term)
@@ -221,6 +227,8 @@ def _triad_from_dict(name: str, data, where: str) -> TriadModel:
             continue
         if not isinstance(entry, dict) or "value" not in entry:
             raise SensorModelError(f"{where}.{name}.{term}: expected a mapping with 'value'")
+        if set(entry) - ENTRY_KEYS:
+            raise SensorModelError(unknown_keys_error(f"{where}.{name}.{term}", set(entry) - ENTRY_KEYS, ENTRY_KEYS))
         if entry["value"] is None:
             continue
         setattr(tri, term, _array(entry["value"], shape, f"{where}.{name}.{term}.value"))
@@ -238,6 +246,9 @@ def _triad_from_dict(name: str, data, where: str) -> TriadModel:
 
 
 def _check_nonnegative(tri: TriadModel, name: str, where: str) -> None:
+    if np.any(tri.scale_factor <= -1.0):  # the model matrix would flip or vanish on that axis
+        raise SensorModelError(f"{where}.{name}.scale_factor.value: must be > -1 on every axis, "
+                               f"got {tri.scale_factor}")
     for term in ("quantization", "white_noise", "bias_instability", "bias_correlation_time",
                  "rate_random_walk", "rate_ramp"):
         if np.any(getattr(tri, term) < 0):
@@ -248,13 +259,19 @@ def from_dict(data, where: str = "<sensor model>") -> SensorModel:
     """Validate and build a :class:`SensorModel`; errors name ``where`` and the field."""
     if not isinstance(data, dict):
         raise SensorModelError(f"{where}: expected a mapping at the top level")
+    if set(data) - set(TOP_KEYS):
+        raise SensorModelError(unknown_keys_error(where, set(data) - set(TOP_KEYS), TOP_KEYS))
     version = data.get("sensor_model_version", SCHEMA_VERSION)
     if version != SCHEMA_VERSION:
         raise SensorModelError(f"{where}: sensor_model_version {version!r} is not supported "
                                f"(this code reads {SCHEMA_VERSION})")
     rate = data.get("sample_rate_hz", 64.0)
-    if not isinstance(rate, (int, float)) or not rate > 0:
-        raise SensorModelError(f"{where}.sample_rate_hz: expected a positive number, got {rate!r}")
+    if isinstance(rate, bool) or not isinstance(rate, (int, float)) or not 0 < rate <= MAX_SAMPLE_RATE_HZ:
+        raise SensorModelError(f"{where}.sample_rate_hz: expected a number in (0, {MAX_SAMPLE_RATE_HZ:g}] Hz, "
+                               f"got {rate!r}")
+    for section in ("provenance",):
+        if data.get(section) is not None and not isinstance(data[section], dict):
+            raise SensorModelError(f"{where}.{section}: expected a mapping, got {data[section]!r}")
     physics = data.get("physics", None)
     if "physics" in data:
         physics = validate_physics(physics, where)
@@ -289,25 +306,23 @@ def load(path) -> SensorModel:
         data = yaml.safe_load(path.read_text())
     except FileNotFoundError:
         raise SensorModelError(f"{path}: sensor-model file not found") from None
-    except yaml.YAMLError as err:
-        raise SensorModelError(f"{path}: not valid YAML: {err}") from err
+    except (yaml.YAMLError, UnicodeDecodeError) as err:
+        raise SensorModelError(f"{path}: not valid YAML: {' '.join(str(err).split())}") from None
+    except IsADirectoryError:
+        raise SensorModelError(f"{path}: is a folder, expected a sensor-model YAML file") from None
     return from_dict(data, where=str(path))
 
 
 def save(model: SensorModel, path) -> Path:
     """Write ``model`` as YAML to ``path`` (parent folders created)."""
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    path.write_text(yaml.safe_dump(model.to_dict(), sort_keys=False, width=100))
-    return path
+    from nav_core.outputs import atomic_write_text  # never a half-written model
+    return atomic_write_text(path, yaml.safe_dump(model.to_dict(), sort_keys=False, width=100))
 
 
 def save_kalibr(model: SensorModel, path, rostopic: str = "/imu/data_raw") -> Path:
     """Write Kalibr's ``imu.yaml`` for ``model``."""
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    path.write_text(yaml.safe_dump(model.to_kalibr(rostopic), sort_keys=False))
-    return path
+    from nav_core.outputs import atomic_write_text
+    return atomic_write_text(path, yaml.safe_dump(model.to_kalibr(rostopic), sort_keys=False))
 
 
 def stamp_provenance(model: SensorModel, tool: str, source: str, **extra) -> None:
