@@ -5,7 +5,12 @@ runner that pip-only installs use (``nav-demo``, ``nav_bringup.graph``).
 
     ros2 launch nav_bringup navigation.launch.py sim_dir:=/tmp/drive rate:=4.0
     ros2 launch nav_bringup navigation.launch.py recording:=/path/to/bag
-    ros2 launch nav_bringup navigation.launch.py port:=/dev/ttyUSB0 use_sim_time:=false   # real hardware
+    ros2 launch nav_bringup navigation.launch.py port:=/dev/ttyUSB0          # real hardware
+
+``use_sim_time`` defaults to ``auto``: true when a simulation or a recording is played (the players
+publish ``/clock``), false on real hardware, where no ``/clock`` exists. The fusion node publishes
+``map -> odom -> base_link`` on ``/tf`` and the sensor mounts on ``/tf_static`` (REP-105); the
+recorder records them with the rest.
 """
 import os
 
@@ -23,7 +28,9 @@ def generate_launch_description():
     params = os.path.join(share, "config", "navigation.yaml")
     model = os.path.join(share, "config", "sensor_models", "bp3010.yaml")
     arg = LaunchConfiguration
-    sim = {"use_sim_time": arg("use_sim_time")}
+    played = ["('", arg("recording"), "' != '' or '", arg("sim_dir"), "' != '')"]
+    sim = {"use_sim_time": PythonExpression(["'", arg("use_sim_time"), "' == 'true' or ('", arg("use_sim_time"),
+                                             "' == 'auto' and ", *played, ")"])}
     live = PythonExpression(["'", arg("recording"), "' == ''"])
     simulated = PythonExpression(["'", arg("recording"), "' == '' and '", arg("sim_dir"), "' != ''"])
     return LaunchDescription([
@@ -31,7 +38,8 @@ def generate_launch_description():
         DeclareLaunchArgument("recording", default_value="", description="rosbag2 bag to replay instead"),
         DeclareLaunchArgument("rate", default_value="1.0", description="playback speed"),
         DeclareLaunchArgument("port", default_value="/tmp/bp3010", description="serial port of the BP3010"),
-        DeclareLaunchArgument("use_sim_time", default_value="true"),
+        DeclareLaunchArgument("use_sim_time", default_value="auto",
+                              description="true, false, or auto: true when sim_dir or recording is played"),
         DeclareLaunchArgument("sensor_model", default_value=model),
         DeclareLaunchArgument("bag_out", default_value="navigation_bag"),
         Node(package="nav_bringup", executable="scenario_player", parameters=[
