@@ -22,7 +22,8 @@ from pathlib import Path  # noqa: E402
 import yaml  # noqa: E402
 
 from nav_core import recording  # noqa: E402
-from nav_core import sensor_model as sm  # noqa: E402
+from nav_core.cli import add_common, run_cli  # noqa: E402
+from nav_core.outputs import check_out_file, staged_file  # noqa: E402
 from ins_gps_kf import config as kfconfig  # noqa: E402
 from ins_gps_kf.filter import InsGpsFilter  # noqa: E402
 from ins_gps_kf.offline import load_model, plot_north_east, run, to_trajectory  # noqa: E402
@@ -44,7 +45,8 @@ def replay_files(recording_path, gnss_path, model_path, out_path, params: dict |
     traj = to_trajectory(estimates, filt.frame)
     recording.write_trajectory_csv(out_path, traj)
     if plot and len(traj):
-        plot_north_east(Path(out_path).with_suffix(".png"), traj, gnss, filt.frame)
+        with staged_file(Path(out_path).with_suffix(".png"), force=True) as tmp:  # checked by the caller
+            plot_north_east(tmp, traj, gnss, filt.frame)
     return traj, filt
 
 
@@ -79,12 +81,14 @@ def _summary(filt: InsGpsFilter) -> dict:
 def main(argv=None) -> int:
     """``ins-gps-kf replay ...`` (see module doc); exit 2 on bad input or config."""
     parser = argparse.ArgumentParser(prog="ins-gps-kf", description=__doc__.splitlines()[0])
+    add_common(parser)
     sub = parser.add_subparsers(dest="command", required=True)
     rp = sub.add_parser("replay", help="run the filter over a recording and write the trajectory CSV")
+    add_common(rp, force=True, sub=True)
     rp.add_argument("--recording", required=True, help="rosbag2 bag (folder, .db3, .mcap) or IMU CSV")
     rp.add_argument("--gnss", help="GNSS CSV or bag (default: the recording itself)")
     rp.add_argument("--model", required=True, help="sensor-model YAML, or 'default' for the hand-tuned model")
-    rp.add_argument("--out", required=True, help="output trajectory CSV")
+    rp.add_argument("--out", required=True, help="output trajectory CSV (new; --force overwrites it and its PNG)")
     rp.add_argument("--params", help="ROS 2 params file (ins_gps_kf_node: ros__parameters:)")
     rp.add_argument("--param", action="append", metavar="NAME=VALUE", help="override one parameter")
     rp.add_argument("--imu-topic", help="IMU topic in a bag (default: the imu_topic parameter)")
@@ -94,20 +98,18 @@ def main(argv=None) -> int:
     rp.add_argument("--json", action="store_true", help="print the run's counts (events, rejected input) as JSON")
     _plugins(sub)
     args = parser.parse_args(argv)
-    if args.command != "replay":
-        try:
-            return args.run(args)
-        except recording.RecordingError as err:
-            print(f"ins-gps-kf: error: {err}", file=sys.stderr)
-            return 2
-    try:
-        params = kfconfig.load_params_yaml(args.params) if args.params else {}
-        params.update(_parse_overrides(args.param))
-        traj, filt = replay_files(args.recording, args.gnss, args.model, args.out, params, args.imu_topic,
-                                  args.gps_topic, plot=not args.no_plot, progress=not args.quiet)
-    except (kfconfig.FilterConfigError, recording.RecordingError, sm.SensorModelError) as err:
-        print(f"ins-gps-kf: error: {err}", file=sys.stderr)
-        return 2
+    return run_cli("ins-gps-kf", _replay if args.command == "replay" else args.run, args)
+
+
+def _replay(args) -> int:
+    """The ``replay`` subcommand: outputs checked before the run, written whole."""
+    check_out_file(args.out, args.force)
+    if not args.no_plot:
+        check_out_file(Path(args.out).with_suffix(".png"), args.force)
+    params = kfconfig.load_params_yaml(args.params) if args.params else {}
+    params.update(_parse_overrides(args.param))
+    traj, filt = replay_files(args.recording, args.gnss, args.model, args.out, params, args.imu_topic,
+                              args.gps_topic, plot=not args.no_plot, progress=not args.quiet)
     if args.json:
         print(json.dumps(_summary(filt), indent=1))
         return 0

@@ -216,11 +216,21 @@ def _csv_damage(path: Path, bad: list, good: int, max_bad_fraction: float):
 
 
 def _write_csv(path: Path, columns: dict) -> Path:
+    import os
+    import tempfile
+
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
     names = list(columns)
     data = np.column_stack([np.asarray(columns[n], dtype=float) for n in names])
-    np.savetxt(path, data, delimiter=",", header=",".join(names), comments="", fmt="%.15g")  # 15 digits: sub-mm in degrees
+    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.partial-", dir=path.parent)  # never a half-written file
+    try:
+        with os.fdopen(fd, "w") as fh:
+            np.savetxt(fh, data, delimiter=",", header=",".join(names), comments="", fmt="%.15g")  # 15 digits: sub-mm
+        os.replace(tmp, path)
+    except BaseException:
+        Path(tmp).unlink(missing_ok=True)
+        raise
     return path
 
 
