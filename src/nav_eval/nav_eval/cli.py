@@ -22,13 +22,16 @@ def add_parser(subparsers) -> None:
                     "config/scenarios/paper_drive.yaml, found from $MEMS_NAV_ROOT or the current folder up)")
     ev.add_argument("--claims", action="store_true", help="WMRA on/off x Allan-derived/hand-tuned noise model "
                     "table (paper-sim, katwijk)")
+    ev.add_argument("--force", action="store_true", help="write into an existing non-empty --out")
     ev.set_defaults(run=evaluate)
 
 
 def evaluate(args) -> int:
     """Run the chosen evaluation and print its figures as JSON; RecordingError for a bad dataset choice."""
+    from nav_core.outputs import check_out_dir
     from nav_eval import claims, datasets, paper_sim
 
+    check_out_dir(args.out, getattr(args, "force", False))  # before the work, not after it
     if args.claims:
         if args.dataset not in ("paper-sim", "katwijk"):
             raise RecordingError(f"--claims: only paper-sim and katwijk, not {args.dataset}")
