@@ -170,19 +170,29 @@ def test_conflicting_duplicate_stamps_are_counted_and_neither_position_is_used()
 
 
 @pytest.mark.parametrize("burst", [True, False])
-def test_fix_stamps_going_back_100_s_are_dropped_and_counted(burst):
+def test_fix_stamps_stepping_back_100_s_are_dropped_then_put_back_on_the_imu_clock(burst):
     imu, gnss = _inputs()
-    back = slice(100, 110) if burst else slice(100, None)
-    gnss.t[back] -= 100.0
+    back = slice(100, 112) if burst else slice(100, None)
+    gnss.t[back] -= 100.0  # a GNSS clock stepping back 100 s (and, for the burst, forward again)
     filt, est = _run(imu, gnss)
-    n_back = len(gnss.t[back])
-    assert filt.input_counters["fixes_out_of_order"] == n_back
+    counts = filt.input_counters
+    n_confirm = config.from_params({}).max_rejected_fixes
+    assert counts["fixes_out_of_order"] == n_confirm - 1  # dropped until the step is confirmed
+    assert counts["gnss_clock_steps"] == (2 if burst else 1)
     assert filt.counters.gps_resets == 0 and filt.counters.fixes_rejected == 0
     t, err, _ = _errors(filt, est)
-    horizon = 111.0 if burst else 106.0  # a permanent step: no usable GPS afterwards, the INS drifts
-    assert err[(t > 40) & (t < horizon)].max() < 5.0
-    if not burst:
-        assert not any(e.gps_used for e in est if e.t > 100.5)
+    assert err[t > 40].max() < 5.0
+    assert any(e.gps_used for e in est if e.t > 150.0)
+
+
+def test_a_single_fix_stamped_far_ahead_is_dropped_and_the_rest_is_used():
+    imu, gnss = _inputs()
+    _, clean = _run(imu, gnss)
+    gnss.t[80] = 1e9
+    filt, est = _run(imu, gnss)
+    assert filt.input_counters["fixes_out_of_order"] == 1
+    t, err, _ = _errors(filt, est)
+    assert len(est) == len(clean) and err[t > 40].max() < 5.0
 
 
 # ---------------------------------------------------------------------------------------------- GNSS glitches

@@ -6,10 +6,8 @@ before an IMU sample with the same stamp); every filter epoch (multiples of
 ``1 / filter_rate_hz`` s) yields an :class:`Estimate`. Chunking does not change
 the numbers: the kernel runs the same per-sample arithmetic either way.
 
-Bad input never raises and never reaches the state (:mod:`ins_gps_kf.input_checks`): impossible
-IMU samples and unusable fixes are dropped, doubtful ones (jumps, unknown stds) judged, and each
-counted in ``input_counters`` (a dict of ints and ``last_rejection``, for diagnostics); a
-non-finite or over-speed state resets and re-aligns instead of being output.
+Bad input never raises nor reaches the state (:mod:`ins_gps_kf.input_checks`, counted in
+``input_counters``, a dict for diagnostics); a non-finite or over-speed state resets instead.
 """
 from __future__ import annotations
 
@@ -49,6 +47,7 @@ class InsGpsFilter:
         self.frame = LocalFrame(*cfg.datum) if cfg.datum is not None else None
         self.counters = Counters()
         self.input = input_checks.InputCounters()
+        self.gnss_clock = input_checks.GnssClock(cfg.max_rejected_fixes, cfg.time_jump, self.input)
         self.last_fix_t = -math.inf
         self.last_nis = math.nan
         self._start_over()
@@ -105,6 +104,7 @@ class InsGpsFilter:
     def process_gps(self, t, lat_rad, lon_rad, h_m, std_enu, status=0) -> bool:
         """Queue one fix (s, rad, rad, m, std ENU m, NavSatStatus); False if it is dropped (counted)."""
         cfg = self.cfg
+        t = self.gnss_clock.restamp(float(t), self.t_last) if math.isfinite(float(t)) else t
         why = input_checks.check_fix(t, lat_rad, lon_rad, h_m, status, self._last_fix_in, self.t_last,
                                      cfg.time_jump, cfg.max_bridged_gap + cfg.time_jump)
         if why is not None:

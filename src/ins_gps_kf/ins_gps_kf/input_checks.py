@@ -17,6 +17,10 @@ in ``/diagnostics``, the replay in its summary. Every rejected input is counted 
   (the pending one is withdrawn when it was not fused yet);
 * ``fixes_out_of_order`` - a stamp before the fix before (time going back), more than ``time_jump_s``
   before the IMU time, or more than ``max_bridged_gap_s + time_jump_s`` after it; dropped;
+* ``gnss_clock_steps`` - the fix stamps' offset from the IMU clock changed: ``max_rejected_fixes``
+  fixes in a row arrived more than ``time_jump_s`` behind the IMU time by the same amount (a GNSS
+  clock stepped back; those fixes are dropped as out of order), so the later ones are re-stamped by
+  it; or the stamps fit the IMU clock again and the offset goes back to zero;
 * ``gps_jumps`` - a fix whose track from the fix before needs a speed beyond ``max_speed_mps`` or an
   acceleration beyond ``max_accel_mps2`` (beyond the fixes' noise); the innovation gate decides
   whether it is used;
@@ -49,6 +53,7 @@ class InputCounters:
     fixes_duplicate: int = 0
     fixes_conflicting: int = 0
     fixes_out_of_order: int = 0
+    gnss_clock_steps: int = 0
     gps_jumps: int = 0
     gps_resets_refused: int = 0
     state_resets: int = 0
@@ -203,3 +208,39 @@ class FixHistory:
         self.counters.gps_resets_refused += 1  # the rejected fixes jumped away: a glitch, keep the INS
         self.counters.last_rejection = f"fix at t={fix.t:.3f} s: no GPS reset, the rejected fixes jumped"
         return False
+
+
+class GnssClock:
+    """The offset (s) of the fix stamps from the IMU clock, zero until a GNSS clock step is confirmed.
+
+    A fix arriving (at IMU time ``t_imu``) more than ``stale_s`` after its stamp is stale; when
+    ``n_confirm`` stale fixes in a row lag by the same amount (within ``stale_s``), the GNSS clock
+    stepped back by that much and later fixes are re-stamped onto the IMU clock. A fix whose own
+    stamp fits the IMU time again ends the offset. Both are counted as ``gnss_clock_steps``.
+    """
+
+    def __init__(self, n_confirm: int, stale_s: float, counters: InputCounters):
+        self.n_confirm, self.stale_s, self.counters = n_confirm, stale_s, counters
+        self.offset = 0.0
+        self.lags: list[float] = []
+
+    def restamp(self, t: float, t_imu: float | None) -> float:
+        """The stamp ``t`` (s, finite) on the IMU clock; a stale result is the caller's to drop."""
+        if t_imu is None:
+            return t + self.offset
+        if self.offset and abs(t - t_imu) <= self.stale_s:
+            self._set(0.0, t)  # the GNSS clock is back on the IMU clock
+        if t_imu - (t + self.offset) <= self.stale_s:
+            self.lags = []
+            return t + self.offset
+        self.lags = (self.lags + [t_imu - t])[-self.n_confirm:]
+        if len(self.lags) == self.n_confirm and max(self.lags) - min(self.lags) <= self.stale_s:
+            self._set(float(np.median(self.lags)), t)
+            self.lags = []
+        return t + self.offset
+
+    def _set(self, offset: float, t: float) -> None:
+        self.counters.gnss_clock_steps += 1
+        self.counters.last_rejection = (f"fix stamps from t={t:.3f} s moved by {offset - self.offset:+.3f} s "
+                                        f"onto the IMU clock (GNSS clock step)")
+        self.offset = offset

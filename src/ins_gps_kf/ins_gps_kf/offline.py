@@ -18,16 +18,27 @@ from ins_gps_kf.error_model import default_mems_model
 from ins_gps_kf.filter import STATUS_CODES, Estimate, InsGpsFilter
 
 
-def _feed_limits(t_fix: np.ndarray) -> np.ndarray:
-    """For each fix, the stamp up to which IMU samples go before it: its own, or the next fix's if smaller.
+def _arrivals(t_fix: np.ndarray) -> np.ndarray:
+    """When each fix of a recording reaches the filter (s, IMU clock): IMU samples up to then go first.
 
-    Equal to the stamps for a time-ordered recording. A fix stamped far ahead of the next one (or
-    NaN) must not pull the IMU in before the fixes that follow it: the filter then judges it against
-    the IMU time, as the node would. A NaN limit feeds nothing.
+    A file keeps only the order, so: a fix arrives at its stamp, never before the fix ahead of it;
+    a stamp going back arrives one fix spacing after the previous one (the receiver kept its rate,
+    its clock stepped: the filter then sees the lag, as the node would); a stamp beyond the next
+    one while the next follows the previous (an outlier), or NaN, arrives with the previous fix.
+    Equal to the stamps for a time-ordered recording.
     """
-    t_next = np.append(t_fix[1:], np.nan)
-    limits = np.fmin(t_fix, t_next)
-    return np.where(np.isnan(limits), -np.inf, limits)
+    out = np.full(len(t_fix), -np.inf)
+    prev_arrival, prev_t, spacing = -np.inf, np.nan, 0.0
+    for k, t in enumerate(t_fix):
+        before = t_fix[k - 1] if k else -np.inf
+        after = t_fix[k + 1] if k + 1 < len(t_fix) else np.inf
+        if not np.isfinite(t) or (t > after >= before):
+            out[k] = prev_arrival
+            continue
+        spacing = t - prev_t if t > prev_t else spacing  # the receiver's rate: the last forward step
+        prev_arrival = t if t >= prev_arrival else prev_arrival + spacing
+        out[k], prev_t = prev_arrival, t
+    return out
 
 
 def run(filt: InsGpsFilter, imu: ImuRecording, gnss: GnssRecording | None, progress: bool = False) -> list[Estimate]:
@@ -39,7 +50,7 @@ def run(filt: InsGpsFilter, imu: ImuRecording, gnss: GnssRecording | None, progr
         from tqdm import tqdm
         bar = tqdm(total=len(imu), unit="epoch", mininterval=0.5, desc="replay")
     start = 0
-    limits = _feed_limits(gnss.t) if gnss is not None else []
+    limits = _arrivals(gnss.t) if gnss is not None else []
     for k, limit in enumerate(limits):
         stop = int(np.searchsorted(imu.t, limit, side="left"))
         if stop > start:
