@@ -21,8 +21,9 @@ import numpy as np
 
 from imu_calib import model_io, multi_position, rate_table, two_position
 from nav_core import datasets
-from imu_calib.allan import AllanError
 from nav_core import sensor_model
+from nav_core.cli import add_common, run_cli
+from nav_core.outputs import check_out_dir, check_out_file, rebase, staged_dir
 from nav_core.recording import IMU_TOPIC, RecordingError, read_imu
 from nav_core.units import DEG
 
@@ -37,7 +38,10 @@ def load_recording(path, topic: str = IMU_TOPIC, fmt: str = "auto", gyro_file=No
         if gyro_file is None:
             raise RecordingError("--format imutk needs --gyro-file (REC is the accelerometer file)")
         return datasets.load_imutk(path, gyro_file)
-    return read_imu(path, topic=topic)
+    rec = read_imu(path, topic=topic)
+    if rec.damage:  # read on past the damage: say what was lost (rec.damage, rec.skipped_rows)
+        print(f"imu-calib: warning: {rec.damage}", file=sys.stderr)
+    return rec
 
 
 def _add_format(p) -> None:
@@ -54,11 +58,13 @@ def _add_site(p, required: bool = True) -> None:
 def build_parser() -> argparse.ArgumentParser:
     """The argument parser with its four subcommands."""
     parser = argparse.ArgumentParser(prog="imu-calib", description=__doc__.split("\n")[0])
+    add_common(parser)
     sub = parser.add_subparsers(dest="command", required=True)
 
     p = sub.add_parser("allan", help="Allan deviation, 5-term noise fit -> sensor_model.yaml, imu.yaml, allan.png")
     p.add_argument("recording", help="rosbag2 bag or recording CSV of a static IMU")
-    p.add_argument("--out", required=True, help="output folder")
+    p.add_argument("--out", required=True, help="output folder (new or empty; --force replaces it)")
+    add_common(p, force=True, sub=True)
     p.add_argument("--per-decade", type=int, default=0,
                    help="log-spaced cluster times per decade (default 0: octave grid)")
     p.add_argument("--base-model", help="sensor model whose deterministic terms are kept")
@@ -71,6 +77,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--down", required=True, help="recording with the axis pointing down")
     p.add_argument("--axis", required=True, choices=("x", "y", "z"))
     p.add_argument("--out", required=True, help="sensor-model YAML to create or update")
+    add_common(p, sub=True)
     _add_site(p)
     _add_format(p)
     p.set_defaults(func=cmd_two_position)
@@ -80,6 +87,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--rate1-dps", type=float, required=True, help="table rate of rec1, deg/s")
     p.add_argument("--rec2", required=True)
     p.add_argument("--rate2-dps", type=float, required=True, help="table rate of rec2, deg/s")
+    add_common(p, sub=True)
     p.add_argument("--axis", required=True, choices=("x", "y", "z"))
     p.add_argument("--direction", default="up", choices=sorted(rate_table.DIRECTIONS),
                    help="direction (ENU) the gyro axis points along on the table")
@@ -91,7 +99,8 @@ def build_parser() -> argparse.ArgumentParser:
     p = sub.add_parser("multi-position", help="accel bias, scale, misalignment, gyro bias, scale and misalignment "
                                               "from many orientations")
     p.add_argument("recording")
-    p.add_argument("--out", required=True)
+    p.add_argument("--out", required=True, help="sensor-model YAML to create or update")
+    add_common(p, sub=True)
     p.add_argument("--gyro-file", help="gyro file for --format imutk")
     p.add_argument("--gravity", type=float, help="gravity magnitude in the data's units (default: WGS-84 at site)")
     p.add_argument("--init-static-s", type=float, default=30.0, help="initial static interval, s")
@@ -112,6 +121,7 @@ def cmd_allan(args) -> int:
 
     from imu_calib.characterise import characterise, write_outputs
 
+    check_out_dir(args.out, args.force)  # before the work: a bad --out fails now, not after it
     rec = load_recording(args.recording, args.topic, args.format)
     base = sensor_model.load(args.base_model) if args.base_model else None
     print(f"{args.recording}: {len(rec)} samples, {len(rec) / rec.rate_hz:.1f} s at {rec.rate_hz:.3g} Hz", flush=True)
@@ -123,7 +133,8 @@ def cmd_allan(args) -> int:
 
     result = characterise(rec, per_decade=args.per_decade or None, progress=progress, base_model=base)
     bar.close()
-    paths = write_outputs(result, args.out, rostopic="/" + args.topic.lstrip("/"))
+    with staged_dir(args.out, args.force) as tmp:  # the three files appear together, or none
+        paths = rebase(write_outputs(result, tmp, rostopic="/" + args.topic.lstrip("/")), tmp, args.out)
     _print_noise(result)
     for path in paths.values():
         print(f"wrote {path}")
@@ -141,6 +152,7 @@ def _print_noise(result) -> None:
 
 def cmd_two_position(args) -> int:
     """Eqs. 1-4 for one axis; update the model."""
+    check_out_file(args.out, update=True)
     up = load_recording(args.up, args.topic, args.format)
     down = load_recording(args.down, args.topic, args.format)
     res = two_position.two_position_from_recordings(up, down, args.axis, args.lat_deg * DEG, args.height_m)
@@ -162,6 +174,7 @@ def cmd_two_position(args) -> int:
 def cmd_rate_table(args) -> int:
     """Eqs. 5-7 for one axis; update the model."""
     i = two_position.axis_index(args.axis)
+    check_out_file(args.out, update=True)
     rec1 = load_recording(args.rec1, args.topic, args.format)
     rec2 = load_recording(args.rec2, args.topic, args.format)
     res = rate_table.rate_table(rec1.gyro[:, i], args.rate1_dps * DEG, rec2.gyro[:, i], args.rate2_dps * DEG,
@@ -181,6 +194,7 @@ def cmd_rate_table(args) -> int:
 
 def cmd_multi_position(args) -> int:
     """Static detection, least-squares accel fit, gyro scale/misalignment from the moves; update the model."""
+    check_out_file(args.out, update=True)
     rec = load_recording(args.recording, args.topic, args.format, args.gyro_file)
     lat = None if args.lat_deg is None else args.lat_deg * DEG
     res = multi_position.multi_position(rec, lat, args.height_m, args.gravity, init_static_s=args.init_static_s,
@@ -210,11 +224,7 @@ def cmd_multi_position(args) -> int:
 def main(argv=None) -> int:
     """Console-script entry point."""
     args = build_parser().parse_args(argv)
-    try:
-        return args.func(args)
-    except (AllanError, RecordingError, sensor_model.SensorModelError, ValueError) as err:
-        print(f"imu-calib {args.command}: error: {err}", file=sys.stderr)
-        return 2
+    return run_cli(f"imu-calib {args.command}", args.func, args)  # AllanError etc. are ValueErrors: exit 2
 
 
 if __name__ == "__main__":
