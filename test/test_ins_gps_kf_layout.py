@@ -64,3 +64,13 @@ def test_ins_gps_kf_evaluate_is_offered_by_the_nav_eval_plugin(tmp_path, capsys)
     from ins_gps_kf.replay import main
     assert main(["evaluate", "--dataset", "canada", "--claims", "--out", str(tmp_path)]) == 2
     assert "--claims: only paper-sim and katwijk" in capsys.readouterr().err
+
+
+def test_every_node_only_parameter_is_known_to_the_core_so_the_shared_params_file_replays():
+    import re
+    from ins_gps_kf import config
+    node = (SRC / "ins_gps_kf/ins_gps_kf/ins_gps_kf_node.py").read_text()
+    declared = set(re.findall(r'Param\(\s*"(\w+)"', node))
+    assert declared and declared <= config.NODE_ONLY, sorted(declared - config.NODE_ONLY)
+    params = config.load_params_yaml(SRC.parent / "config" / "navigation.yaml")
+    assert not set(params) & config.NODE_ONLY

@@ -95,6 +95,10 @@ PARAMETERS = (
     Param("child_frame_id", "base_link", "odometry twist / body frame"),
 )
 SPEC_BY_NAME = {s.name: s for s in PARAMETERS}
+NODE_ONLY = frozenset({"use_sim_time", "intake_period_s", "input_queue_depth", "publish_tf", "odom_frame_id",
+                       "imu_frame_id", "gps_frame_id"})
+"""Parameters of the node's ROS side (declared in ins_gps_kf_node) that the shared params file may hold:
+the core and the offline replay skip them."""
 
 
 @dataclass(frozen=True)
@@ -216,9 +220,9 @@ def load_params_yaml(path) -> dict:
     section = (data.get(NODE_NAME) or data.get("/**") or {}).get("ros__parameters")
     if not isinstance(section, dict):
         raise FilterConfigError(f"{path}: expected '{NODE_NAME}: ros__parameters:' mapping")
-    unknown = set(section) - set(SPEC_BY_NAME) - {"use_sim_time"}
+    unknown = set(section) - set(SPEC_BY_NAME) - NODE_ONLY
     if unknown:
         raise FilterConfigError(f"{path}: unknown parameter(s) {sorted(unknown)}")
-    section.pop("use_sim_time", None)
+    section = {k: v for k, v in section.items() if k not in NODE_ONLY}
     return {k: (float(v) if isinstance(SPEC_BY_NAME[k].default, float) and isinstance(v, int)
                 and not isinstance(v, bool) else v) for k, v in section.items()}
