@@ -21,6 +21,8 @@ import yaml
 
 from nav_eval import datasets as kf_datasets
 from nav_core import datasets, recording, sensor_model
+from nav_core.cli import add_common, run_cli
+from nav_core.outputs import check_out_dir, staged_dir
 from nav_core.recording import ImuRecording
 from nav_bringup.graph import PARAMS_FILE, REPO
 
@@ -123,12 +125,15 @@ def main(argv=None) -> int:
     p.add_argument("source", choices=sorted(KF_OVERRIDES))
     p.add_argument("--out", type=Path, required=True)
     p.add_argument("--csv", type=Path, default=None, help="balzer: which car CSV")
-    args = p.parse_args(argv)
-    try:
-        summary = convert(args.source, args.out, args.csv)
-    except (recording.RecordingError, OSError, ValueError) as err:
-        print(f"nav-convert: {err}", file=sys.stderr)
-        return 2
+    add_common(p, force=True)
+    return run_cli("nav-convert", _run, p.parse_args(argv))
+
+
+def _run(args) -> int:
+    """Check --out, convert into a temporary folder, rename it into place."""
+    check_out_dir(args.out, args.force)  # before reading the source: a bad --out fails at once
+    with staged_dir(args.out, args.force) as tmp:
+        summary = convert(args.source, tmp, args.csv)
     print(f"nav-convert {args.source}: {summary}; wrote {args.out}")
     return 0
 

@@ -23,6 +23,8 @@ from pathlib import Path
 import yaml
 
 from nav_bringup.graph import PARAMS_FILE, REPO, Graph, GraphError, NodeSpec
+from nav_core.cli import USER_ERRORS, add_common, debug_wanted, number, one_line
+from nav_core.outputs import check_out_dir
 
 DEFAULT_SCENARIO = REPO / "config" / "scenarios" / "paper_drive.yaml"
 DEFAULT_MODEL = REPO / "config" / "sensor_models" / "bp3010.yaml"
@@ -33,16 +35,19 @@ def parse_args(argv=None):
     """Command-line options."""
     p = argparse.ArgumentParser(prog="nav-demo", description=__doc__,
                                 formatter_class=argparse.RawDescriptionHelpFormatter)
-    p.add_argument("--rate", type=float, default=1.0, help="speed: 4 runs four times faster than real time")
-    p.add_argument("--duration", type=float, default=0.0, help="stop after this much simulated time, s (0: all)")
+    p.add_argument("--rate", type=number(0.0, 100.0, low_open=True), default=1.0,
+                   help="speed in (0, 100]: 4 runs four times faster than real time")
+    p.add_argument("--duration", type=number(0.0, None), default=0.0,
+                   help="stop after this much simulated time, s (0: all)")
     p.add_argument("--scenario", type=Path, default=DEFAULT_SCENARIO, help="simulator scenario YAML")
     p.add_argument("--model", type=Path, default=DEFAULT_MODEL, help="sensor-model YAML (simulation and nodes)")
-    p.add_argument("--seed", type=int, default=1)
+    p.add_argument("--seed", type=number(0, 2**63 - 1, integer=True), default=1)
     p.add_argument("--recording", type=Path, default=None,
                    help="replay this rosbag2 bag, or a folder written by nav-convert, instead of simulating")
     p.add_argument("--truth", type=Path, default=None, help="truth CSV for --recording (else compared with GPS)")
     p.add_argument("--out", type=Path, default=DEFAULT_OUT, help="folder for the simulation, bag, logs, report")
     p.add_argument("--params", type=Path, default=PARAMS_FILE, help="the graph's params file")
+    add_common(p)
     return p.parse_args(argv)
 
 
@@ -166,9 +171,12 @@ def main(argv=None) -> int:
     env.setdefault("ROS_AUTOMATIC_DISCOVERY_RANGE", "LOCALHOST")
     os.environ.update({k: env[k] for k in ("ROS_DOMAIN_ID", "ROS_AUTOMATIC_DISCOVERY_RANGE")})
     try:
+        check_out_dir(args.out, allow_existing=True)  # a file or an unwritable --out fails before any work
         sim_dir = None if args.recording else simulate_once(args.scenario, args.model, args.seed, args.out)
-    except DemoError as err:
-        print(f"nav-demo: error: {err}", file=sys.stderr)
+    except (DemoError,) + USER_ERRORS as err:
+        if debug_wanted(args):
+            raise
+        print(f"nav-demo: error: {one_line(err)}", file=sys.stderr)
         return 2
     run_dir = args.out / time.strftime("run_%Y%m%d_%H%M%S")
     run_dir.mkdir(parents=True)
