@@ -1,4 +1,5 @@
-"""bag_record subscribes with the QoS its publishers offer and writes that QoS into the bag's metadata."""
+"""bag_record subscribes with the QoS its publishers offer and writes that QoS into the bag's metadata;
+bag_play offers it again (a latched topic stays latched)."""
 import time
 
 import pytest
@@ -42,6 +43,26 @@ def test_bag_record_takes_the_offered_qos_and_records_it(tmp_path, rclpy_context
         time.sleep(1.5)
     finally:
         assert recorder.stop() == 0, recorder.output
+    node.destroy_publisher(latched)  # from now on only bag_play can deliver it
+    player = NodeProcess("bag_play", env=rclpy_context, ros_args={
+        "bag": str(tmp_path / "bag"), "start_delay_s": 0.0, "exit_when_done": False, "publish_clock": False})
+    try:
+        assert player.wait_for_line("ready", 20), player.output
+        deadline = time.monotonic() + 20
+        while time.monotonic() < deadline and len(node.get_publishers_info_by_topic("/reliable")) < 2:
+            rclpy.spin_once(node, timeout_sec=0.1)
+        infos = node.get_publishers_info_by_topic("/reliable")
+        played = [i.qos_profile for i in infos if i.node_name != "qos_publisher"]
+        assert played and played[0].reliability == ReliabilityPolicy.RELIABLE, [(i.node_name, i.qos_profile) for i in infos]
+        time.sleep(2.0)  # played out: a subscriber that comes now still gets the latched message
+        late = []
+        node.create_subscription(String, "/latched", late.append, LATCHED)
+        deadline = time.monotonic() + 10
+        while time.monotonic() < deadline and not [m for m in late if "before the recorder" in m.data]:
+            rclpy.spin_once(node, timeout_sec=0.1)
+        assert any(m.data == "sent before the recorder started" for m in late)
+    finally:
+        player.stop()
         node.destroy_node()
     with Reader(tmp_path / "bag") as reader:
         conns = {c.topic: c for c in reader.connections}

@@ -1,8 +1,11 @@
 """``bag_play``: publish a rosbag2 bag's messages with their original timing and ``/clock`` (for use_sim_time).
 
 Plays every topic whose type is importable here (sensor_msgs, nav_msgs, ...)
-or the ones named in ``topics``. Sensor topics use the sensor-data QoS. A
-damaged bag plays up to the damage and the error names the file and position.
+or the ones named in ``topics``. Each topic is offered with the QoS recorded in the bag
+(``offered_qos_profiles``, as ``ros2 bag play`` does: reliable and transient local only when
+every recorded publisher was, so ``/tf_static`` stays latched); a bag without them plays sensor
+topics with the sensor-data QoS and the rest reliable. A damaged bag plays up to the damage and
+the error names the file and position.
 """
 from __future__ import annotations
 
@@ -12,7 +15,7 @@ import time
 
 import rclpy
 from rclpy.node import Node
-from rclpy.qos import QoSProfile
+from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
 from rosgraph_msgs.msg import Clock
 
 from nav_core import bagio
@@ -68,6 +71,7 @@ class BagPlayer(Node):
 
     def _make_publishers(self, wanted) -> dict:
         pubs = {}
+        recorded_qos = bagio.offered_qos(self.p["bag"])
         for topic, msgtype in bagio.topics(self.p["bag"]).items():
             if wanted and topic not in {bagio.norm_topic(t) for t in wanted}:
                 continue
@@ -75,7 +79,8 @@ class BagPlayer(Node):
             if cls is None:
                 self.get_logger().warning(f"skipping {topic}: type {msgtype} is not installed")
                 continue
-            qos = SENSOR_QOS if msgtype in SENSOR_TYPES else QoSProfile(depth=100)
+            qos = playback_qos(recorded_qos.get(topic)) or (SENSOR_QOS if msgtype in SENSOR_TYPES
+                                                            else QoSProfile(depth=100))
             pubs[topic] = (cls, self.create_publisher(cls, "/" + topic, qos))
         if not pubs:
             raise ConfigError(f"bag {self.p['bag']}: no playable topics")
@@ -152,6 +157,17 @@ class BagPlayer(Node):
         """Stop the playback thread."""
         self._stop.set()
         self._thread.join(timeout=2.0)
+
+
+def playback_qos(offered) -> QoSProfile | None:
+    """The QoS to offer a topic again from its recorded publishers' (rosbags ``Qos`` list); None if unknown."""
+    if not offered:
+        return None
+    reliable = all(q.reliability.name == "RELIABLE" for q in offered)
+    latched = all(q.durability.name == "TRANSIENT_LOCAL" for q in offered)
+    return QoSProfile(depth=100,
+                      reliability=ReliabilityPolicy.RELIABLE if reliable else ReliabilityPolicy.BEST_EFFORT,
+                      durability=DurabilityPolicy.TRANSIENT_LOCAL if latched else DurabilityPolicy.VOLATILE)
 
 
 def main(args=None) -> int:

@@ -68,6 +68,16 @@ def topics(path) -> dict:
         return found or _metadata_topics(Path(path))
 
 
+def offered_qos(path) -> dict:
+    """Topic name (no slash) -> the QoS its publishers offered when recorded (rosbags ``Qos`` list; empty when
+    the bag does not say, or its metadata cannot be read)."""
+    try:
+        with Reader(Path(path)) as reader:
+            return {norm_topic(c.topic): list(c.ext.offered_qos_profiles) for c in reader.connections}
+    except Exception:  # a damaged bag plays with the default QoS
+        return {}
+
+
 def _metadata_topics(path: Path) -> dict:
     """Topic -> type as listed in a bag folder's metadata.yaml (empty when there is none or it is unreadable)."""
     import yaml
