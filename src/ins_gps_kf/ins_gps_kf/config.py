@@ -10,7 +10,7 @@ from pathlib import Path
 
 import yaml
 
-from nav_core.params import Param
+from nav_core.params import ConfigError, Param, did_you_mean, unknown_keys_error
 from nav_core.units import DEG, MG, DEG_PER_H
 
 NODE_NAME = "ins_gps_kf_node"
@@ -159,12 +159,12 @@ def check(name: str, value) -> None:
     """Raise FilterConfigError if ``value`` is out of range for parameter ``name``."""
     spec = SPEC_BY_NAME.get(name)
     if spec is None:
-        raise FilterConfigError(f"unknown parameter {name!r}; known: {sorted(SPEC_BY_NAME)}")
-    if spec.choices and value not in spec.choices:
-        raise FilterConfigError(f"parameter '{name}': {value!r} is not one of {list(spec.choices)}")
-    if isinstance(value, (int, float)) and not isinstance(value, bool) and not math.isnan(value):
-        if (spec.low is not None and value < spec.low) or (spec.high is not None and value > spec.high):
-            raise FilterConfigError(f"parameter '{name}': {value!r} outside [{spec.low}, {spec.high}]")
+        raise FilterConfigError(f"unknown parameter {name!r}{did_you_mean(name, SPEC_BY_NAME)}; "
+                                f"known: {sorted(SPEC_BY_NAME)}")
+    try:  # one rule for node, params file and CLI: type, range, and NaN only where NaN means unset
+        spec.check(value)
+    except ConfigError as err:
+        raise FilterConfigError(str(err)) from None
 
 
 def from_params(params: dict) -> FilterConfig:
@@ -215,14 +215,23 @@ def load_params_yaml(path) -> dict:
         data = yaml.safe_load(path.read_text()) or {}
     except FileNotFoundError:
         raise FilterConfigError(f"{path}: params file not found") from None
-    except yaml.YAMLError as err:
-        raise FilterConfigError(f"{path}: not valid YAML: {err}") from err
+    except (yaml.YAMLError, UnicodeDecodeError) as err:
+        raise FilterConfigError(f"{path}: not valid YAML: {' '.join(str(err).split())}") from None
+    if not isinstance(data, dict):
+        raise FilterConfigError(f"{path}: expected a mapping with '{NODE_NAME}: ros__parameters:'")
     section = (data.get(NODE_NAME) or data.get("/**") or {}).get("ros__parameters")
     if not isinstance(section, dict):
         raise FilterConfigError(f"{path}: expected '{NODE_NAME}: ros__parameters:' mapping")
     unknown = set(section) - set(SPEC_BY_NAME) - NODE_ONLY
     if unknown:
-        raise FilterConfigError(f"{path}: unknown parameter(s) {sorted(unknown)}")
+        raise FilterConfigError(unknown_keys_error(f"{path}: {NODE_NAME}.ros__parameters", unknown,
+                                                   set(SPEC_BY_NAME) | NODE_ONLY))
     section = {k: v for k, v in section.items() if k not in NODE_ONLY}
-    return {k: (float(v) if isinstance(SPEC_BY_NAME[k].default, float) and isinstance(v, int)
-                and not isinstance(v, bool) else v) for k, v in section.items()}
+    out = {k: (float(v) if isinstance(SPEC_BY_NAME[k].default, float) and isinstance(v, int)
+               and not isinstance(v, bool) else v) for k, v in section.items()}
+    for name, value in out.items():  # each value judged at load, the error naming the file
+        try:
+            check(name, value)
+        except FilterConfigError as err:
+            raise FilterConfigError(f"{path}: {err}") from None
+    return out
