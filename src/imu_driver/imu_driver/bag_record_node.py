@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import time
 
+from rclpy.clock import Clock, ClockType
 from rclpy.node import Node
 from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
 from rosbags.interfaces import Qos, QosDurability, QosHistory, QosLiveliness, QosReliability, QosTime
@@ -49,7 +50,9 @@ class BagRecorder(Node):
         self.counts = {}
         self._subs = {}
         self._last_log_ns = 0
-        self.create_timer(self.p["discovery_period_s"], self._discover)
+        # steady clock: under use_sim_time no /clock ticks before the player starts, and the recorder
+        # must be subscribed by then (a sim-time timer only fired once playing had begun: the start was lost)
+        self.create_timer(self.p["discovery_period_s"], self._discover, clock=Clock(clock_type=ClockType.STEADY_TIME))
         self._discover()
         self.get_logger().info(f"ready: recording {sorted(self.wanted)} to {self.p['output']}")
 
