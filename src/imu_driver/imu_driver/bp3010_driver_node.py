@@ -251,7 +251,9 @@ class Bp3010Driver(Node):
                   "duplicates": stats.duplicates, "reconnects": self.reconnects,
                   "clock_reanchors": clock.reanchors, "clock_gaps_bridged": clock.gaps_bridged,
                   "stamp_read_delay_s": clock.delay_s, "stamp_ahead_s": clock.ahead_s,
-                  "stamp_slewed_frames": clock.slewed_frames, "frames_before_clock": self.frames_before_clock,
+                  "stamp_slewed_frames": clock.slewed_frames, "stamp_drift_ppm": clock.drift * 1e6,
+                  "sim_clock_rate": self._sim.rate if self._sim else 0.0,
+                  "frames_before_clock": self.frames_before_clock,
                   "last_error": self.last_error}
         if self.port_state != "connected":
             level, msg = "ERROR", f"port {self.port_state}"

@@ -17,6 +17,10 @@ def hull_slope(u, y) -> float:
     """
     hull = []
     for p in zip(u, y):
+        if hull and p[0] == hull[-1][0]:  # same u: only the lower point can be on the lower hull
+            if p[1] >= hull[-1][1]:
+                continue
+            hull.pop()
         while len(hull) >= 2 and ((hull[-1][0] - hull[-2][0]) * (p[1] - hull[-2][1])
                                   - (hull[-1][1] - hull[-2][1]) * (p[0] - hull[-2][0])) <= 0:
             hull.pop()
@@ -183,8 +187,11 @@ class ClockFollower:
     delivery does not make the time early and the time runs on between messages.
     """
 
-    def __init__(self, window_s: float = 1.0, max_extrapolation_s: float = 1.0, refit_every: int = 20):
+    def __init__(self, window_s: float = 1.0, max_extrapolation_s: float = 1.0, refit_every: int = 20,
+                 min_span_s: float = 0.1):
         self.window_s, self.max_extrapolation_s, self.refit_every = window_s, max_extrapolation_s, refit_every
+        self.min_span_s = min_span_s
+        """A clock that moves gives no time until its rate is measured over this much wall time (s)."""
         self._sim = deque()
         self._recv = deque()
         self.rate = 0.0
@@ -199,6 +206,10 @@ class ClockFollower:
             self._sim.clear()
             self._recv.clear()
             self.jumps += 1
+        elif len(self._sim) >= 2 and self._sim[-1] == self._sim[-2] != sim_s - self._ref[0]:
+            # moving again after a pause: the paused messages are not on the new line
+            self._sim.clear()
+            self._recv.clear()
         if not self._sim:
             self._ref = (sim_s, received_s)
             self.rate, self._count = 0.0, 0
@@ -209,15 +220,17 @@ class ClockFollower:
             self._recv.popleft()
         self._count += 1
         sim, recv = np.array(self._sim), np.array(self._recv)
-        if self._count % self.refit_every == 1 or self.rate == 0.0:
-            span = recv[-1] - recv[0]
-            self.rate = max(0.0, -hull_slope(recv, -sim)) if span > 0.25 * self.window_s else 0.0
+        if self._count % self.refit_every == 1 or len(sim) < 2 * self.refit_every:
+            self.rate = max(0.0, -hull_slope(recv, -sim)) if recv[-1] > recv[0] else 0.0
         self._best = float(np.max(sim - self.rate * recv))
 
     def now(self, wall_s: float):
-        """Simulated time at ``wall_s`` (s), or None before the first message."""
+        """Simulated time at ``wall_s`` (s); None before the first message or the clock's rate is known."""
         if self._best is None:
             return None
+        paused = len(self._sim) >= 2 and self._sim[-1] == self._sim[0]
+        if not paused and self._recv[-1] - self._recv[0] < self.min_span_s:
+            return None  # moving (or not known to stand still) at a rate not yet measured
         wall = min(wall_s - self._ref[1], self._recv[-1] + self.max_extrapolation_s)
         return self._ref[0] + max(self._best + self.rate * wall, self._sim[-1])
 
