@@ -35,8 +35,8 @@ class IntakeCounters:
 
     imu_samples: int = 0       # IMU samples handed in
     fixes: int = 0             # fixes handed in
-    late_imu: int = 0          # IMU samples older than the last processed stamp: dropped
-    late_fixes: int = 0        # fixes at or before the last processed IMU stamp: dropped
+    late_imu: int = 0          # IMU samples older than the last processed message: dropped
+    late_fixes: int = 0        # fixes older than the last processed message (or an IMU sample of their stamp)
     bad_stamps: int = 0        # non-finite stamps: rejected
     restarts: int = 0          # backward time jumps that reset the filter
     imu_missing: int = 0       # IMU samples missing in forward gaps of the released stream (estimate)
