@@ -6,6 +6,8 @@ import numpy as np
 import pytest
 import rclpy
 from diagnostic_msgs.msg import DiagnosticArray
+from rcl_interfaces.srv import SetParameters
+from rclpy.parameter import Parameter
 from sensor_msgs.msg import Imu
 
 from imu_driver.bp3010_codec import DEFAULT_FORMAT, to_counts
@@ -94,6 +96,10 @@ def test_driver_survives_unplug_and_corrupt_bytes_and_reports_them(tmp_path, rcl
     assert int(last["lost_frames"]) > 0
     assert int(last["reconnects"]) >= 1
     assert last["port_state"] == "connected"
+    assert int(last["duplicates"]) == 0  # flips and garbage are not repeats
+    # across flips, garbage and the reconnect the stamps only go forward (re-anchored forward after the gap)
+    stamps = np.array([m.header.stamp.sec * 10**9 + m.header.stamp.nanosec for _, m in probe.received["imu/data_raw"]])
+    assert np.all(np.diff(stamps) > 0)
     assert "disconnected" in drv.output or "waiting for port" in drv.output
 
 
@@ -112,3 +118,53 @@ def test_driver_waits_for_a_missing_port_without_exiting(ros_env):
         assert drv.proc.poll() is None
     finally:
         assert drv.stop() == 0
+
+
+def test_driver_with_an_out_of_range_baud_exits_2_with_one_line_naming_the_range(ros_env):
+    drv = NodeProcess("bp3010_driver", env=ros_env, ros_args={"baud": 0, "port": "/nonexistent"})
+    assert drv.proc.wait(timeout=30) == 2
+    drv.stop()
+    errors = [line for line in drv.lines if "baud" in line]
+    assert len(errors) == 1 and "[1200, 4000000]" in errors[0], drv.output
+    assert "Traceback" not in drv.output
+
+
+def _set(probe, **values):
+    """Call bp3010_driver's set_parameters; returns the results (successful, reason) by name."""
+    client = probe.create_client(SetParameters, "/bp3010_driver/set_parameters")
+    assert client.wait_for_service(timeout_sec=10)
+    request = SetParameters.Request(parameters=[Parameter(name, value=v).to_parameter_msg()
+                                                for name, v in values.items()])
+    future = client.call_async(request)
+    assert probe.spin_until(lambda p: future.done(), 10)
+    probe.destroy_client(client)
+    return dict(zip(values, future.result().results))
+
+
+def test_runtime_parameter_changes_are_applied_or_refused(tmp_path, rclpy_context):
+    emu, drv = _start(tmp_path, rclpy_context, ["--source", "still", "--seconds", "60"])
+    other = NodeProcess("bp3010_emulator", ["--link", tmp_path / "other", "--source", "still", "--seconds", "60"],
+                        env=rclpy_context)
+    probe = Probe({"imu/data_raw": Imu})
+    try:
+        assert other.wait_for_line("PORT", 10)
+        assert probe.spin_until(lambda p: len(p.received["imu/data_raw"]) >= 64, 20), drv.output
+        refused = _set(probe, **{"frame.sync": 0x55})
+        assert not refused["frame.sync"].successful and "read-only" in refused["frame.sync"].reason
+        assert not _set(probe, rate_hz=50)["rate_hz"].successful  # out of its choices
+        assert _set(probe, rate_hz=32)["rate_hz"].successful
+        assert emu.wait_for_line("RATE 32", 10), emu.output  # the port was reopened and the rate command sent
+        n = len(probe.received["imu/data_raw"])
+        assert probe.spin_until(lambda p: len(p.received["imu/data_raw"]) >= n + 64, 10)
+        stamps = np.array([m.header.stamp.sec + 1e-9 * m.header.stamp.nanosec
+                           for _, m in probe.received["imu/data_raw"][-32:]])
+        assert np.median(np.diff(stamps)) == pytest.approx(1 / 32, rel=1e-3)
+        assert _set(probe, port=str(tmp_path / "other"))["port"].successful
+        assert other.wait_for_line("RATE 32", 10), other.output  # the new port, opened with the new rate
+        n = len(probe.received["imu/data_raw"])
+        assert probe.spin_until(lambda p: len(p.received["imu/data_raw"]) >= n + 32, 10)
+    finally:
+        probe.destroy_node()
+        assert drv.stop() == 0, drv.output
+        emu.stop()
+        other.stop()

@@ -63,7 +63,7 @@ PARAMS = (
 
 APPLIED_AT_RUNTIME = ("port", "baud", "rate_hz", "frame_id", "angular_velocity_stddev", "linear_acceleration_stddev",
                       "reconnect_period_s", "min_read_interval_s", "diagnostics_period_s")
-"""Parameters a running driver applies; ``set_parameters`` on any other one is refused (restart the node)."""
+"""Parameters a running driver applies; the others are read-only (``set_parameters`` refuses them)."""
 _CLOCK_CDR = struct.Struct("<iI")  # builtin_interfaces/Time after the 4-byte CDR header
 
 
@@ -72,7 +72,7 @@ class Bp3010Driver(Node):
 
     def __init__(self, **kwargs):
         super().__init__("bp3010_driver", **kwargs)
-        self.p = declare_parameters(self, PARAMS)
+        self.p = declare_parameters(self, PARAMS, dynamic=APPLIED_AT_RUNTIME)  # the others are read-only
         try:
             fmt = FrameFormat(sync=self.p["frame.sync"], checksum=self.p["frame.checksum"],
                               byteorder=self.p["frame.byteorder"], field_order=tuple(self.p["frame.field_order"]),
@@ -128,12 +128,10 @@ class Bp3010Driver(Node):
         self._accel_var = self.p["linear_acceleration_stddev"] ** 2
 
     def _refuse_fixed(self, changes) -> SetParametersResult:
-        fixed = [c.name for c in changes if c.name in self.p and c.name not in APPLIED_AT_RUNTIME]
-        if self._noise_density is not None:
-            fixed += [c.name for c in changes if c.name.endswith("_stddev")]  # the sensor model sets them
+        fixed = [c.name for c in changes if c.name.endswith("_stddev")] if self._noise_density is not None else []
         if fixed:
-            return SetParametersResult(successful=False, reason=f"{', '.join(fixed)}: read at start only; restart "
-                                       f"the node to change (applied at runtime: {', '.join(APPLIED_AT_RUNTIME)})")
+            return SetParametersResult(successful=False, reason=f"{', '.join(fixed)}: set from sensor_model_path "
+                                       f"{self.p['sensor_model_path']!r}")
         return SetParametersResult(successful=True)
 
     def _apply(self, changes) -> None:
