@@ -6,7 +6,9 @@ simulated time ``t`` is ``(wall - start) x rate``; ``/clock`` carries
 driver's emulator, so it is the same byte stream a real port would carry);
 fix k of ``gnss.csv`` is published at its own ``t`` with stamp ``epoch_s + t``.
 Nodes run with ``use_sim_time``. GPS faults (outage, a fix far off, a NaN fix)
-can be injected for the fault tests.
+can be injected for the fault tests. The simulation's truth goes out on ``truth/odometry``
+(``truth_rate_hz``; pose in ``map`` = ENU at the scenario's datum, which is the filter's datum
+in nav-demo), so a bag of the run holds the reference its errors are measured against.
 """
 from __future__ import annotations
 
@@ -20,11 +22,13 @@ import numpy as np
 import rclpy
 from rclpy.node import Node
 from rclpy.qos import QoSProfile
+from nav_msgs.msg import Odometry
 from rosgraph_msgs.msg import Clock
 from sensor_msgs.msg import NavSatFix, NavSatStatus
 
 from imu_driver.emulator import Emulator, FaultPlan, PtyPort, counts_from_source
-from nav_core import recording
+from nav_bringup.truth import TruthTrack
+from nav_core import frames, recording
 from nav_core.params import ConfigError, Param
 from nav_core.ros_node import SENSOR_QOS, Diagnostics, declare_parameters, run_node, stamp_from_s
 
@@ -48,6 +52,8 @@ PARAMS = (
     Param("garbage_every_s", 0.0, "insert a burst of garbage bytes every this many simulated s; 0 = none",
           0.0, 1e6),
     Param("exit_when_done", True, "shut down when the run is over"),
+    Param("truth_rate_hz", 10.0, "publish the simulation's truth (sim_dir/truth.csv) on truth/odometry at this "
+          "rate, Hz; 0 = none", 0.0, 1000.0),
 )
 
 
@@ -68,6 +74,9 @@ class ScenarioPlayer(Node):
         self.gnss = recording.read_gnss(sim_dir / "gnss.csv")
         self.clock_pub = self.create_publisher(Clock, "/clock", QoSProfile(depth=10))
         self.gps_pub = self.create_publisher(NavSatFix, "gps/fix", SENSOR_QOS)
+        self.truth = self._load_truth(sim_dir, self.p["truth_rate_hz"])
+        self.truth_pub = self.create_publisher(Odometry, "truth/odometry", 10) if self.truth else None
+        self.next_truth = 0
         self.diag = Diagnostics(self, "scenario")
         rate = self.p["rate"]
         disconnects = tuple(t for t in self.p["disconnect_at_s"] if t >= 0)
@@ -124,6 +133,9 @@ class ScenarioPlayer(Node):
                 while self.next_fix < len(self.gnss) and self.gnss.t[self.next_fix] <= t:
                     self._publish_fix(self.next_fix)
                     self.next_fix += 1
+                while self.truth and self.next_truth < len(self.truth[0]) and self.truth[0][self.next_truth] <= t:
+                    self._publish_truth(self.next_truth)
+                    self.next_truth += 1
                 self._stop.wait(period)
 
     @contextlib.contextmanager
@@ -160,6 +172,27 @@ class ScenarioPlayer(Node):
         msg.position_covariance_type = NavSatFix.COVARIANCE_TYPE_DIAGONAL_KNOWN
         self.gps_pub.publish(msg)
         self.fixes_sent += 1
+
+    @staticmethod
+    def _load_truth(sim_dir: Path, rate_hz: float):
+        """(t s from the run's start, ENU (n, 3) m, quaternion xyzw (n, 4)) at ``rate_hz``; None without truth."""
+        if rate_hz <= 0 or not (sim_dir / "truth.csv").exists() or not (sim_dir / "sim_info.yaml").exists():
+            return None
+        track = TruthTrack.from_sim_dir(sim_dir)
+        t = track.t - track.epoch_s
+        keep = np.flatnonzero(np.diff(np.floor(t * rate_hz), prepend=-1.0) > 0)  # first sample of each period
+        quat = frames.quat_xyzw_from_euler(track.rpy[keep, 0], track.rpy[keep, 1], track.rpy[keep, 2])
+        return t[keep], track.enu[keep], np.atleast_2d(quat)
+
+    def _publish_truth(self, i: int) -> None:
+        t, enu, quat = (a[i] for a in self.truth)
+        msg = Odometry()
+        msg.header.stamp = stamp_from_s(self.p["epoch_s"] + float(t))
+        msg.header.frame_id, msg.child_frame_id = "map", "truth"
+        pose = msg.pose.pose
+        pose.position.x, pose.position.y, pose.position.z = (float(v) for v in enu)
+        pose.orientation.x, pose.orientation.y, pose.orientation.z, pose.orientation.w = (float(v) for v in quat)
+        self.truth_pub.publish(msg)
 
     def _publish_diagnostics(self) -> None:
         stats = self.emulator.stats
