@@ -91,24 +91,22 @@ def _simulate(args) -> int:
     scenario = load_scenario(args.scenario)  # a bad file fails before the progress bar starts
     steps = tqdm(total=3, desc="imu-sim", unit="step", file=sys.stderr)
     start = time.perf_counter()
-    steps.set_postfix_str("simulating")
     try:
+        steps.set_postfix_str("simulating")
         res = simulate(scenario, args.model, seed=args.seed, rate_hz=args.rate_hz)
+        steps.update()
+        print(f"simulated {res.info['duration_s']:.1f} s at {res.rate_hz:g} Hz ({len(res.imu)} IMU samples, "
+              f"{0 if res.gnss is None else len(res.gnss)} GPS fixes) in {time.perf_counter() - start:.1f} s")
+        steps.set_postfix_str("writing recording")
+        with staged_dir(args.out, args.force) as tmp:  # all outputs appear together, or none
+            paths = write_outputs(res, tmp, args.format, args.storage)
+            steps.update()
+            steps.set_postfix_str("plotting")
+            paths["overview_png"] = overview_png(res, tmp / "overview.png")
+        paths = rebase(paths, tmp, args.out)
+        steps.update()
     finally:
         steps.close()
-    steps = tqdm(total=3, initial=1, desc="imu-sim", unit="step", file=sys.stderr)
-    steps.update()
-    print(f"simulated {res.info['duration_s']:.1f} s at {res.rate_hz:g} Hz ({len(res.imu)} IMU samples, "
-          f"{0 if res.gnss is None else len(res.gnss)} GPS fixes) in {time.perf_counter() - start:.1f} s")
-    steps.set_postfix_str("writing recording")
-    with staged_dir(args.out, args.force) as tmp:  # all outputs appear together, or none
-        paths = write_outputs(res, tmp, args.format, args.storage)
-        steps.update()
-        steps.set_postfix_str("plotting")
-        paths["overview_png"] = overview_png(res, tmp / "overview.png")
-    paths = rebase(paths, tmp, args.out)
-    steps.update()
-    steps.close()
     for name, path in paths.items():
         print(f"  {name}: {path}")
     if res.bp3010 is None:
