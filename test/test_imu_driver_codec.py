@@ -240,7 +240,7 @@ def test_duplicated_frames_are_skipped_and_counted_not_lost(n, seed, chunk, dups
 @given(n=st.integers(1, 80), seed=st.integers(0, 2**32 - 1), ops=damage_ops, chunk=st.integers(1, 64))
 def test_lost_frames_are_exactly_the_frames_missing_between_published_ones(n, seed, ops, chunk):
     # Noise, flips and drops: whenever every published frame is a real one, lost_frames counts the real frames
-    # between the first and the last published that did not come out, nothing more.
+    # missing between published ones (gaps the counter can measure), nothing more: noise adds nothing.
     counts, data = _frames(n, seed)
     stream = bytearray(data)
     for kind, where, garbage, xor in ops:
@@ -258,9 +258,10 @@ def test_lost_frames_are_exactly_the_frames_missing_between_published_ones(n, se
     rows = [(int(c), tuple(np.rint(th / 2.5e-6).astype(int)) + tuple(np.rint(v / 5e-5).astype(int)))
             for p in parts for c, th, v in zip(p.counter, p.dtheta, p.dv)]
     if rows and all(r in real for r in rows) and len({c for c, _ in rows}) == len(rows):
-        ids = [c for c, _ in rows]
-        assert ids == sorted(ids)
-        assert dec.stats.lost_frames == ids[-1] - ids[0] + 1 - len(ids)
+        gaps = np.diff([c for c, _ in rows]) - 1
+        assert np.all(gaps >= 0)
+        short = gaps < dec.max_plausible_gap  # a jump the 8-bit counter cannot measure is counted apart
+        assert dec.stats.lost_frames == gaps[short].sum() and dec.stats.counter_jumps == np.sum(~short)
 
 
 def test_a_frame_after_garbage_or_a_lost_frame_is_published_as_soon_as_its_bytes_are_in():

@@ -209,6 +209,7 @@ class DecoderStats:
     checksum_errors: int = 0
     resyncs: int = 0
     lost_frames: int = 0
+    counter_jumps: int = 0
     duplicates: int = 0
     bytes_discarded: int = 0
 
@@ -232,7 +233,9 @@ class StreamDecoder:
     (:meth:`flush` decides with what is there). A lone window that nothing
     confirms is taken for line noise, unless it opens a clean stream (nothing
     discarded before it, no counter to check). Lost frames are counted from
-    counter gaps of accepted frames; duplicates and noise are not lost frames.
+    counter gaps shorter than ``max_plausible_gap``; a longer jump, which the
+    8-bit counter cannot measure, is counted in ``counter_jumps``; duplicates
+    and noise are not lost frames.
 
     With ``lookahead`` a locked frame is also held until the next frame's sync
     byte arrives. That catches the one damage an 8-bit checksum cannot: a
@@ -317,8 +320,13 @@ class StreamDecoder:
         """Take the n good frames at ``pos``."""
         L, cb = self.fmt.length, self.fmt.counter_byte
         gap = self._gap(self._buf[pos + cb])
-        # A counter a few steps behind the last: the last frame was not what it seemed (noise), nothing was lost.
-        self.stats.lost_frames += gap if gap < self.fmt.counter_modulo - 1 - self.max_plausible_gap else 0
+        if gap < self.max_plausible_gap:
+            self.stats.lost_frames += gap
+        elif gap < self.fmt.counter_modulo - 1 - self.max_plausible_gap:
+            # a jump the 8-bit counter cannot measure (a long dropout, a reset of the unit, or the last
+            # frame was noise): counted as a jump, not as a number of lost frames
+            self.stats.counter_jumps += 1
+        # (a counter a few steps behind the last: the last frame was noise; nothing was lost)
         self._last_counter = self._buf[pos + (n - 1) * L + cb]
         self.stats.frames += n
         accepted.append(bytes(self._buf[pos:pos + n * L]))

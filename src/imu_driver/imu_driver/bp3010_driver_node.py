@@ -246,7 +246,7 @@ class Bp3010Driver(Node):
                   "resyncs": stats.resyncs, "lost_frames": stats.lost_frames,
                   "bytes_discarded": stats.bytes_discarded, "actual_rate_hz": rate,
                   "nominal_rate_hz": self.p["rate_hz"], "port": self.p["port"], "port_state": self.port_state,
-                  "duplicates": stats.duplicates, "reconnects": self.reconnects,
+                  "counter_jumps": stats.counter_jumps, "duplicates": stats.duplicates, "reconnects": self.reconnects,
                   "clock_reanchors": clock.reanchors, "clock_gaps_bridged": clock.gaps_bridged,
                   "stamp_read_delay_s": clock.delay_s, "stamp_ahead_s": clock.ahead_s,
                   "stamp_slewed_frames": clock.slewed_frames, "stamp_drift_ppm": clock.drift * 1e6,
