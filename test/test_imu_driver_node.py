@@ -168,3 +168,27 @@ def test_runtime_parameter_changes_are_applied_or_refused(tmp_path, rclpy_contex
         assert drv.stop() == 0, drv.output
         emu.stop()
         other.stop()
+
+
+def test_noise_sigmas_come_from_the_sensor_model_at_the_selected_rate(tmp_path, rclpy_context):
+    path = Path(__file__).parents[1] / "config/sensor_models/bp3010.yaml"
+    emu, drv = _start(tmp_path, rclpy_context, ["--source", "still", "--seconds", "30"],
+                      {"sensor_model_path": str(path), "rate_hz": 16})
+    probe = Probe({"imu/data_raw": Imu})
+    try:
+        assert probe.spin_until(lambda p: len(p.received["imu/data_raw"]) >= 2, 20), drv.output
+    finally:
+        probe.destroy_node()
+        assert drv.stop() == 0, drv.output
+        emu.stop()
+    model = sensor_model.load(path)
+    msg = probe.received["imu/data_raw"][-1][1]
+    assert msg.angular_velocity_covariance[0] == pytest.approx(np.max(model.gyro.white_noise) ** 2 * 16)
+    assert msg.linear_acceleration_covariance[0] == pytest.approx(np.max(model.accel.white_noise) ** 2 * 16)
+
+
+def test_driver_with_a_missing_sensor_model_exits_2_naming_the_parameter(ros_env, tmp_path):
+    drv = NodeProcess("bp3010_driver", env=ros_env, ros_args={"sensor_model_path": str(tmp_path / "none.yaml")})
+    assert drv.proc.wait(timeout=30) == 2
+    drv.stop()
+    assert "sensor_model_path" in drv.output and "Traceback" not in drv.output
