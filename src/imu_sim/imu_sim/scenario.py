@@ -32,7 +32,8 @@ STATIC_KEYS = ("t0", "t1", "roll_deg", "pitch_deg", "yaw_deg", "rate_dps", "axis
 GPS_KEYS = ("rate_hz", "sigma_m", "status", "outages", "outage_mode", "enabled")
 MAX_RATE_HZ = 10_000.0
 """Highest IMU rate simulated, Hz (MEMS IMUs output at most a few kHz)."""
-MAX_DURATION_S = 7 * 86400.0
+MAX_DURATION_S = 86400.0
+"""Longest scenario, s (a road drive is built on a 0.01 s grid first)."""
 MAX_SAMPLES = 50_000_000
 """Most IMU samples one simulation makes (about 10 GB of working memory)."""
 
@@ -69,9 +70,9 @@ def _num(data, key, where, default=None, positive=False, low=None, high=None, pr
 
     ``prefix`` is the path of ``data`` in the file (``gps.``, ``segments[2].``).
     """
-    value = data.get(key, default)
-    if value is None:
-        return None
+    value = data.get(key)
+    if value is None:  # absent or null: the default
+        return None if default is None else float(default)
     rng = f" in [{'-inf' if low is None else f'{low:g}'}, {'inf' if high is None else f'{high:g}'}]"
     want = ("a number > 0" if positive else "a number") + (rng if low is not None or high is not None else "")
     if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
@@ -138,7 +139,7 @@ def _segments(spec, where):
         pre = f"segments[{i}]."
         at = f"{where}: segments[{i}]"
         kind = seg.get("type")
-        if kind not in SEGMENT_KEYS:
+        if not isinstance(kind, str) or kind not in SEGMENT_KEYS:
             raise ScenarioError(f"{at}.type: expected one of {list(SEGMENT_KEYS)}, got {kind!r}"
                                 f"{did_you_mean(kind, SEGMENT_KEYS)}")
         known = ("type", "duration_s") + SEGMENT_KEYS[kind]
@@ -150,10 +151,13 @@ def _segments(spec, where):
                     else did_you_mean(name, known))
             raise ScenarioError(f"{at} ({kind}): unknown key {name!r}{hint}; {kind} segments take {list(known)}")
         _num(seg, "duration_s", where, None, positive=True, high=MAX_DURATION_S, prefix=pre)
-        if "duration_s" not in seg:
+        if seg.get("duration_s") is None:
             raise ScenarioError(f"{at}.duration_s: required (a number > 0, s)")
         _num(seg, "speed_mps", where, None, low=0.0, high=350.0, prefix=pre)
         _num(seg, "angle_deg", where, None, low=-3600.0, high=3600.0, prefix=pre)
+    total = sum(float(seg["duration_s"]) for seg in spec)
+    if total > MAX_DURATION_S:
+        raise ScenarioError(f"{where}: segments: {total:g} s in all; at most {MAX_DURATION_S:g} s")
 
 
 def _static_segments(spec, where):
@@ -161,7 +165,7 @@ def _static_segments(spec, where):
         pre = f"static_segments[{i}]."
         _check_keys(seg, STATIC_KEYS, f"{where}: static_segments[{i}]")
         for key in ("t0", "t1"):
-            if key not in seg:
+            if seg.get(key) is None:
                 raise ScenarioError(f"{where}: {pre}{key}: required (a number, s)")
             _num(seg, key, where, low=0.0, high=MAX_DURATION_S, prefix=pre)
         for key in ("roll_deg", "pitch_deg", "yaw_deg"):

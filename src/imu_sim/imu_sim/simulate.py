@@ -125,6 +125,10 @@ def simulate(scenario, model=None, seed: int | None = None, rate_hz: float | Non
     if not 0 < rate <= MAX_RATE_HZ:  # also NaN
         raise ScenarioError(f"rate_hz: expected a number in (0, {MAX_RATE_HZ:g}] Hz, got {rate_hz}")
     terms = tuple(terms) if terms is not None else sc.error_terms
+    span = _planned_duration_s(sc)
+    if span is not None and span * rate > MAX_SAMPLES:  # before building anything that large
+        raise ScenarioError(f"{sc.where}: {span:.6g} s at rate_hz {rate:g} is {span * rate:.3g} IMU samples; "
+                            f"at most {MAX_SAMPLES:.3g} (lower rate_hz or duration_s)")
     base = _resolve_model(sc, model)
     base.physics = merge_physics(base.physics, sc.physics)
     try:
@@ -134,6 +138,18 @@ def simulate(scenario, model=None, seed: int | None = None, rate_hz: float | Non
     except effects.EffectError as err:  # name the files the physics came from
         source = f"{sc.where}" + (f" or {model}" if isinstance(model, (str, Path)) else "")
         raise ScenarioError(f"{source}: {err}") from None
+
+
+def _planned_duration_s(sc: Scenario) -> float | None:
+    """The scenario's length (s) known before its trajectory is built, None when only the trajectory knows."""
+    spans = []
+    if sc.source == "segments":
+        spans.append(sum(float(seg.get("duration_s", 0.0)) for seg in sc.spec))
+    elif sc.source == "static_segments":
+        spans.append(max(float(seg["t1"]) for seg in sc.spec))
+    if sc.duration_s is not None:
+        spans.append(sc.duration_s)
+    return min(spans) if spans else None
 
 
 def _simulate(sc, mdl, traj, seed, rate, terms, with_bytes, temp_c) -> SimResult:

@@ -236,11 +236,16 @@ def _triad_from_dict(name: str, data, where: str) -> TriadModel:
             tri.intervals[term] = _array(entry["interval_95"], shape + (2,),
                                          f"{where}.{name}.{term}.interval_95")
     _check_nonnegative(tri, name, where)
-    if term_units := data.get("units"):
+    term_units = data.get("units")
+    if term_units is not None and not isinstance(term_units, dict):
+        raise SensorModelError(f"{where}.{name}.units: expected a mapping of term -> unit, got {term_units!r}")
+    if term_units:
         for key, unit in term_units.items():
             if UNITS[name].get(key) not in (None, unit):
                 raise SensorModelError(f"{where}.{name}.units.{key}: file says {unit!r}, "
                                        f"this schema uses {UNITS[name][key]!r}")
+    if data.get("info") is not None and not isinstance(data["info"], dict):
+        raise SensorModelError(f"{where}.{name}.info: expected a mapping, got {data['info']!r}")
     tri.info = dict(data.get("info") or {})
     return tri
 
