@@ -49,7 +49,7 @@ def test_odom_moves_only_by_the_prediction_and_map_odom_takes_the_corrections():
     odom_prev = Pose.identity()
     for k in range(1, len(truth)):
         predicted = filtered.compose(truth[k - 1].between(truth[k]))  # the INS carries the true motion on
-        jump = Pose(rng.normal(0, 0.3, 3) if k != 20 else np.array([40.0, -25.0, 0.0]),
+        jump = Pose(np.r_[rng.normal(0, 0.3, 2), 0.0] if k != 20 else np.array([40.0, -25.0, 0.0]),
                     Rotation.from_euler("z", rng.normal(0, 0.01) if k != 20 else 0.8))
         filtered = jump.compose(predicted)  # the update moves the pose, at k = 20 by 47 m and 46 deg
         out = chain.update(0.5 * k, filtered, predicted)
@@ -86,3 +86,19 @@ def test_static_mounts_put_the_gps_antenna_at_the_lever_arm():
     assert _close(mounts["imu_link"][1], Pose.identity())
     body = Pose(np.array([10.0, 20.0, 0.0]), Rotation.from_euler("z", np.pi / 2))  # heading north
     assert np.allclose(body.compose(gps).position, [10.2, 20.5, 1.1])  # antenna: 0.5 m north, 0.2 m east
+
+
+def test_odom_is_gravity_aligned_so_map_odom_is_a_planar_transform():
+    """Height, roll and pitch of odom -> base_link are the filter's: map -> odom has no z, roll or pitch."""
+    rng = np.random.default_rng(5)
+    chain = OdomChain()
+    pose = Pose(np.zeros(3), Rotation.identity())
+    for k in range(30):
+        tilt = Rotation.from_euler("ZYX", [0.1 * k, rng.normal(0, 0.05), rng.normal(0, 0.05)])
+        predicted = Pose(pose.position + [5.0, 1.0, rng.normal(0, 0.5)], tilt)
+        pose = Pose(predicted.position + rng.normal(0, 0.5, 3), tilt * Rotation.from_rotvec(rng.normal(0, 0.02, 3)))
+        out = chain.update(0.5 * k, pose, predicted if k else None)
+        assert abs(out.map_odom.position[2]) < 1e-9 and out.odom_base.position[2] == pose.position[2]
+        roll, pitch, _ = out.map_odom.rotation.as_euler("ZYX")[::-1]
+        assert abs(roll) < 1e-9 and abs(pitch) < 1e-9
+        assert _close(out.map_odom.compose(out.odom_base), pose)
