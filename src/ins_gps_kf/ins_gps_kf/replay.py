@@ -37,6 +37,8 @@ def replay_files(recording_path, gnss_path, model_path, out_path, params: dict |
     imu = recording.read_imu(recording_path, topic=imu_topic or p["imu_topic"])
     gnss_src = gnss_path or recording_path
     gnss = recording.read_gnss(gnss_src, topic=gps_topic or p["gps_topic"])
+    for damage in dict.fromkeys(r.damage for r in (imu, gnss) if r.damage):  # read past it: say what was lost
+        print(f"ins-gps-kf: warning: {damage}", file=sys.stderr)
     cfg = kfconfig.from_params(p)
     filt = InsGpsFilter(cfg, load_model(model_path))
     estimates = run(filt, imu, gnss, progress=progress)
