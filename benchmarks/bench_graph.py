@@ -254,7 +254,7 @@ def run_demo(out: Path, rate: float, duration_s: float, env: dict, busy: bool) -
             proc.kill()
             proc.wait()
     runs = sorted(out.glob("run_*"), key=lambda p: p.stat().st_mtime)
-    if done.returncode or not runs or not (runs[-1] / "summary.json").exists():
+    if not runs or not (runs[-1] / "summary.json").exists():  # a node's exit code is reported, not fatal
         raise RuntimeError(f"nav-demo failed (exit {done.returncode}):\n{done.stdout[-3000:]}\n{done.stderr[-2000:]}")
     summary = json.loads((runs[-1] / "summary.json").read_text())
     summary["wall_s"] = time.monotonic() - start
@@ -278,7 +278,9 @@ def bench_busy_cpu(env, rates, duration_s: float) -> None:
                   f"{off['only live']}, only offline {off['only offline']}); stamps going back: odometry "
                   f"{off['live stamps going back']}, raw {st.get('imu/data_raw stamps going back')}, denoised "
                   f"{st.get('imu/data_corrected stamps going back')}; filter dropped "
-                  f"{st.get('messages the filter dropped')}, missing {st.get('IMU samples missing in the filter' + chr(39) + 's input')}")
+                  f"{st.get('messages the filter dropped')}, missing {st.get('IMU samples missing in the filter' + chr(39) + 's input')}"
+                  f" (raw stream: {st.get('imu/data_raw samples missing')}); exit codes other than 0: "
+                  f"{ {k: v for k, v in s['exit_codes'].items() if v} or 'none'}")
         q, b = quiet["rms"]["horizontal position (m)"], busy["rms"]["horizontal position (m)"]
         print(f"  RATE={rate:g} busy RMS / quiet RMS = {b / q:.3f} (target within 10 %)")
 

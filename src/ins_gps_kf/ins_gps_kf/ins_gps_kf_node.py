@@ -25,6 +25,7 @@ import os
 os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")  # 15x15 matrices: BLAS threads only cost time
 
 import dataclasses  # noqa: E402
+import faulthandler  # noqa: E402
 import math  # noqa: E402
 import threading  # noqa: E402
 import time  # noqa: E402
@@ -194,6 +195,8 @@ class InsGpsKfNode(Node):
 
     def close(self):
         """Run what is still buffered through the filter without publishing (called by run_node on shutdown)."""
+        # a shutdown that hangs is killed after 10 s by the runners: leave the stacks in the log first
+        faulthandler.dump_traceback_later(8.0, exit=False)
         self.intake_loop.stop()
         self.closing = True
         try:
