@@ -13,8 +13,9 @@ Conventions, stated once for every package:
 * Randomness enters as an ``rng`` argument (``np.random.default_rng``).
 
 Modules: :mod:`units`, :mod:`frames`, :mod:`earth`, :mod:`sensor_model`,
-:mod:`recording` (with :mod:`bagio`), :mod:`datasets` (external formats),
-:mod:`params`, :mod:`imu_cdr` (Imu wire format for whole batches), :mod:`processes`.
+:mod:`recording` (with :mod:`bagio`, :mod:`mcap_scan` and :mod:`timestamps`), :mod:`datasets`
+(external formats), :mod:`params` (ROS glue in :mod:`params_ros`), :mod:`cli` and :mod:`outputs` (what
+every command-line tool shares), :mod:`imu_cdr` (Imu wire format for whole batches), :mod:`processes`.
 Only :mod:`nav_core.ros_node` imports rclpy; IMU nodes take and publish Imu
 through its ``ImuBatchSubscription`` / ``publish_imu_batch`` (raw CDR batches),
 because at 1 kHz one rclpy callback and message object per sample cost more
