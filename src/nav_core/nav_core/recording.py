@@ -22,7 +22,8 @@ from pathlib import Path
 
 import numpy as np
 
-from nav_core.timestamps import TimeCheck, check_timestamps  # noqa: F401  (part of this module's API)
+from nav_core import timestamps
+from nav_core.timestamps import TimeCheck  # noqa: F401  (part of this module's API)
 from nav_core.units import DEG
 
 LOG = logging.getLogger(__name__)
@@ -38,6 +39,13 @@ VELOCITY_COLUMNS = ("ve", "vn", "vu")
 
 class RecordingError(ValueError):
     """A recording cannot be read; the message names the file and the position."""
+
+
+def check_timestamps(t, source: str = "recording", max_gap_s: float | None = None,
+                     gap_factor: float = timestamps.DEFAULT_GAP_FACTOR) -> TimeCheck:
+    """Time going backwards, duplicate stamps, gaps (> ``max_gap_s`` s, default ``gap_factor`` x the median
+    interval) and non-finite times of ``t`` (s), each named; ``raise_if`` raises :class:`RecordingError`."""
+    return timestamps.check_timestamps(t, source, max_gap_s, gap_factor, error=RecordingError)
 
 
 @dataclass

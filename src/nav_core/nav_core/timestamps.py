@@ -1,10 +1,9 @@
 """Timestamp checks of a recording: time going backwards, duplicate stamps, gaps; reusable by every tool.
 
-``check_timestamps(t, source)`` returns a :class:`TimeCheck` that names each problem
-(source, sample index, time); ``raise_if(...)`` turns the chosen kinds into a
-:class:`~nav_core.recording.RecordingError`, ``runs()`` gives the clean stretches
-between problems for tools that can work per segment. Also available as
-``nav_core.recording.check_timestamps``.
+Use it as ``nav_core.recording.check_timestamps(t, source)``: a :class:`TimeCheck` that names
+each problem (source, sample index, time); ``raise_if(...)`` turns the chosen kinds into a
+:class:`~nav_core.recording.RecordingError`, ``runs()`` gives the clean stretches between
+problems for tools that can work per segment. (A leaf module: it imports nothing of nav_core.)
 """
 from __future__ import annotations
 
@@ -30,6 +29,8 @@ class TimeCheck:
     """Indices of samples whose time is NaN or infinite."""
     nominal_dt_s: float
     max_gap_s: float
+    error: type = ValueError
+    """The exception :meth:`raise_if` raises (``RecordingError`` through ``nav_core.recording``)."""
 
     @property
     def ok(self) -> bool:
@@ -59,10 +60,9 @@ class TimeCheck:
 
     def raise_if(self, kinds=KINDS) -> TimeCheck:
         """Raise RecordingError naming the problems of the given kinds; returns self when there are none."""
-        from nav_core.recording import RecordingError
         text = self.summary(kinds)
         if text:
-            raise RecordingError(text)
+            raise self.error(text)
         return self
 
     def runs(self, kinds=("backwards", "duplicates", "gaps", "non_finite")) -> list:
@@ -79,7 +79,7 @@ class TimeCheck:
 
 
 def check_timestamps(t, source: str = "recording", max_gap_s: float | None = None,
-                     gap_factor: float = DEFAULT_GAP_FACTOR) -> TimeCheck:
+                     gap_factor: float = DEFAULT_GAP_FACTOR, error: type = ValueError) -> TimeCheck:
     """Check sample times ``t`` (s): backwards steps, duplicates, gaps over ``max_gap_s``
     (default ``gap_factor`` x the median interval), non-finite values."""
     t = np.asarray(t, dtype=float).reshape(-1)
@@ -95,4 +95,4 @@ def check_timestamps(t, source: str = "recording", max_gap_s: float | None = Non
         backwards = np.flatnonzero(good & (dt < 0)) + 1
         duplicates = np.flatnonzero(good & (dt == 0)) + 1
         gaps = np.flatnonzero(good & (dt > max_gap_s)) + 1
-    return TimeCheck(source, t, backwards, duplicates, gaps, non_finite, nominal, float(max_gap_s))
+    return TimeCheck(source, t, backwards, duplicates, gaps, non_finite, nominal, float(max_gap_s), error)
