@@ -61,6 +61,7 @@ TRUE = {
     "warmup_drift": {"time_constant_s": 60.0, **{f"gyro_amplitude_rad_per_s[{a}]": v
                                                  for a, v in zip("xyz", [4e-4, -3e-4, 5e-4])}},
     "vibration": {"frequency_hz": 17.3},
+    "gravity_model": {"gravity_mps2": float(gen.normal_gravity(np.radians(SITE[0]), SITE[2]))},
     "quantization": {f"gyro_lsb_rad[{a}]": 1e-5 for a in "xyz"},
     "scale_factor_table": {"gyro[z]": 7e-4},
     "misalignment_table": {"gyro[xz]": MIS_XZ},
@@ -83,7 +84,7 @@ def motion_of(kind: str):
         return gen.FigureEight(1200.0), 50.0, 100.0
     if kind == "updown":
         return None, 64.0, None
-    return gen.Poses([(0, 0, 0)], 3600.0, 1.0), 10.0, None
+    return gen.Poses([(0, 0, 0)], 7200.0, 1.0), 5.0, None
 
 
 def generate(name: str, seed: int, folder: Path) -> dict:

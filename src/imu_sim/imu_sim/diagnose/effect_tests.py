@@ -20,6 +20,39 @@ FILE_LATTICE = 0.01
 """A lattice step below this fraction of the per-sample noise std is the file's, not the sensor's."""
 
 
+def drifting_channels(model) -> list:
+    """Channels whose model noise has a rate random walk or a rate ramp: each carries one end-to-end drift of
+    unknown slope (a walk's record is a ramp plus stationary wander in the DFT), a nuisance for regressions."""
+    mdl = effective_model(model)
+    return [c for c in range(6) if mdl.triad(("gyro", "accel")[c // 3]).rate_random_walk[c % 3] > 0
+            or mdl.triad(("gyro", "accel")[c // 3]).rate_ramp[c % 3] != 0]
+
+
+def fit(ctx: Context, columns: dict, k: int):
+    """GLS of the residual on ``columns`` (k parameters) with a free ramp per drifting channel as nuisance.
+
+    The likelihood ratio is the increment over the ramps alone; theta and cov are those of the k parameters."""
+    drift = drifting_channels(ctx.model)
+    if not drift:
+        return gls(ctx.wh, ctx.resid_f, columns, k)
+    ramp = ctx.case.t - ctx.case.t[0]
+    n, nr = ctx.case.n, len(drift)
+    both, ramps = {}, {}
+    for c in set(columns) | set(drift):
+        r = np.zeros((n, nr))
+        if c in drift:
+            r[:, drift.index(c)] = ramp
+        ramps[c] = r
+        both[c] = np.hstack([columns.get(c, np.zeros((n, k))), r])
+    full = gls(ctx.wh, ctx.resid_f, both, k + nr)
+    if not full.identifiable:
+        return gls(ctx.wh, ctx.resid_f, columns, k)
+    base = gls(ctx.wh, ctx.resid_f, ramps, nr)
+    full.theta, full.cov = full.theta[:k], full.cov[:k, :k]
+    full.lr, full.dof = full.lr - base.lr, k
+    return full
+
+
 def _names_values(names, theta, ci):
     return ({n: float(v) for n, v in zip(names, theta)}, {n: [float(a), float(b)] for n, (a, b) in zip(names, ci)})
 
@@ -44,6 +77,8 @@ def regression(ctx: Context, design, statistic: str = "GLS likelihood ratio") ->
         dropped = [design.names[j] for j in res.dropped]
         design = design.without(res.dropped)
         res = gls(ctx.wh, ctx.resid_f, design.columns, design.k)
+    if res.identifiable:
+        res = fit(ctx, design.columns, design.k)
     thr = threshold(design.k, ctx.m_tests, 1, ctx.factor(design.effect))
     cand = Candidate(design.effect, res.lr, thr, statistic, res.identifiable, res.why, columns=design.columns)
     if dropped:
@@ -65,9 +100,9 @@ def regression(ctx: Context, design, statistic: str = "GLS likelihood ratio") ->
 
 def warmup(ctx: Context) -> Candidate:
     """Warm-up exponential on every channel, its time constant profiled on a log grid."""
-    case, model, wh, resid_f = ctx.case, ctx.model, ctx.wh, ctx.resid_f
+    case, model = ctx.case, ctx.model
     taus = regressors.warmup_taus(case.t[-1] - case.t[0], case.dt)
-    fits = [(tau, gls(wh, resid_f, regressors.design_warmup(case, model, tau).columns, 6)) for tau in taus]
+    fits = [(tau, fit(ctx, regressors.design_warmup(case, model, tau).columns, 6)) for tau in taus]
     lrs = np.array([f.lr for _, f in fits])
     best = int(np.argmax(lrs))
     design = regressors.design_warmup(case, model, taus[best])
@@ -76,7 +111,7 @@ def warmup(ctx: Context) -> Candidate:
     cand.params["time_constant_s"] = float(taus[best])
     cand.intervals["time_constant_s"] = profile_interval(np.log(taus), lrs, best)
     if cand.identifiable:
-        _carry_tau_uncertainty(case, wh, resid_f, design, cand, taus[best])
+        _carry_tau_uncertainty(ctx, design, cand, taus[best])
     cand.block_s = min(1.0, float(taus[best]) / 5)
     return cand
 
@@ -97,13 +132,13 @@ def profile_interval(x: np.ndarray, lr: np.ndarray, best: int) -> list:
     return [float(np.exp(min(ends))), float(np.exp(max(ends)))]
 
 
-def _carry_tau_uncertainty(case, wh, resid_f, design, cand, tau) -> None:
+def _carry_tau_uncertainty(ctx: Context, design, cand, tau) -> None:
     """Amplitude intervals from the Jacobian covariance of amplitudes and time constant together."""
     amps = np.array([cand.params[n] for n in design.names])
-    dt_rel = case.t - case.t[0]
+    dt_rel = ctx.case.t - ctx.case.t[0]
     slope = dt_rel / tau**2 * np.exp(-dt_rel / tau)
     cols = {c: np.hstack([x, (amps[c] * slope)[:, None]]) for c, x in design.columns.items()}
-    res = gls(wh, resid_f, cols, design.k + 1)
+    res = fit(ctx, cols, design.k + 1)
     if not res.identifiable:
         return
     sd = np.sqrt(np.clip(np.diag(res.cov)[:design.k], 0, None))

@@ -13,19 +13,28 @@ from __future__ import annotations
 import numpy as np
 from scipy.ndimage import median_filter
 
+from imu_sim.scenario import build_trajectory
+
 F_MECH_HZ = 1.0
 """Lowest frequency (Hz) searched for a vibration line: below it no mechanical source of a sensor mount."""
 REF_CUTOFF_HZ = 0.2
 """On a moving truth file the accelerometer residual below this (Hz) is the reference's error (a nuisance)."""
 FILE_SOURCES = ("trajectory", "gnss_track")
+MOVING_MPS = 0.05
+"""A truth whose speed exceeds this (m/s) somewhere translates: its spline's position error reaches the accelerometers."""
 HARMONIC_RATIO = 100.0
 """A bin where the truth's rate/specific force has 100x its local median power is a harmonic of the motion."""
 
 
 def moving_file_truth(case) -> bool:
-    """True when the truth comes from a file and the IMU moves (its specific force varies)."""
-    return (getattr(case.scenario, "source", None) in FILE_SOURCES
-            and float(np.max(np.std(case.accel_true, axis=0))) > 1e-3)
+    """True when the truth comes from a file and the IMU translates (a tumble or a rate table does not)."""
+    if getattr(case.scenario, "source", None) not in FILE_SOURCES:
+        return False
+    if "moving_file_truth" not in case.cache:
+        traj = case.cache.setdefault("traj", build_trajectory(case.scenario))
+        speed = np.linalg.norm(traj.position.enu(case.sim_t_abs, 1), axis=1)
+        case.cache["moving_file_truth"] = bool(np.max(speed) > MOVING_MPS)
+    return case.cache["moving_file_truth"]
 
 
 def clean(case, resid: np.ndarray) -> np.ndarray:

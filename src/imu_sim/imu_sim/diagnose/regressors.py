@@ -19,6 +19,7 @@ from nav_core.sensor_model import SensorModel
 from nav_core.units import G0
 
 from imu_sim.diagnose.case import Case, effective_model, kinematic_difference
+from imu_sim.scenario import build_trajectory
 
 AXES = "xyz"
 TAU_GRID_PER_DECADE = 8
@@ -181,7 +182,10 @@ def physical_value(effect: str, theta: np.ndarray, ci: np.ndarray, case: Case) -
         return {"earth_rate_rad_per_s": float(theta[0] * EARTH_RATE)}, {
             "earth_rate_rad_per_s": (ci[0] * EARTH_RATE).tolist()}
     if effect == "gravity_model":
-        dg = float(normal_gravity(np.radians(case.scenario.latitude_deg or 0.0), case.scenario.height_m) - G0)
+        # the site from the trajectory itself: a truth CSV's scenario has no latitude_deg / height_m of its own
+        traj = case.cache.setdefault("traj", build_trajectory(case.scenario))
+        lat, _, h = traj.geodetic(np.array([case.sim_t_abs[0]]))
+        dg = float(normal_gravity(float(lat[0]), float(h[0])) - G0)
         return ({"gravity_mps2": G0 + float(theta[0]) * dg},
                 {"gravity_mps2": sorted((G0 + ci[0] * dg).tolist())})
     return {"coriolis_scale": float(theta[0])}, {"coriolis_scale": ci[0].tolist()}
