@@ -47,8 +47,9 @@ PARAMS = (
     Param("diagnostics_period_s", 1.0, "period of /diagnostics, s", 0.05, 60.0),
     Param("min_read_interval_s", 0.002, "the reader waits at least this long between reads, s: at 1 kHz a read "
           "per frame costs more than the frame (adds at most this much latency; 0 = read every frame)", 0.0, 0.1),
-    Param("max_clock_drift_ppm", 200.0, "largest rate difference between the unit's and the host's clock, ppm "
-          "(the stamps' offset may grow this fast between prompt reads)", 0.0, 10000.0),
+    Param("max_clock_drift_ppm", 200.0, "largest rate difference between the unit's and the host's clock, ppm: "
+          "the fitted drift is clipped to it (0 under use_sim_time: a simulated unit runs on the simulated clock)",
+          0.0, 10000.0),
     Param("stamp_window_s", 10.0, "stamps follow the smallest read delay seen over this much time, s", 0.1, 3600.0),
     Param("stamp_slew", 0.5, "when stamps are ahead of the counter model, each frame advances at least "
           "(1 - stamp_slew) periods until they meet it (never a step back)", 0.01, 0.99),
@@ -80,8 +81,11 @@ class Bp3010Driver(Node):
         except ValueError as err:
             raise ConfigError(f"frame layout: {err}") from err
         self._noise_density = self._load_noise_density()
-        self.core = DriverCore(self.p["rate_hz"], fmt, max_drift=self.p["max_clock_drift_ppm"] * 1e-6,
-                               window_s=self.p["stamp_window_s"], slew=self.p["stamp_slew"])
+        sim_time = self.get_parameter("use_sim_time").value
+        # Under simulated time the unit is simulated on the clock's own time base: no drift to estimate.
+        max_drift = 0.0 if sim_time else self.p["max_clock_drift_ppm"] * 1e-6
+        self.core = DriverCore(self.p["rate_hz"], fmt, max_drift=max_drift, window_s=self.p["stamp_window_s"],
+                               slew=self.p["stamp_slew"])
         self.pub = self.create_publisher(Imu, "imu/data_raw", SENSOR_QOS)
         self.diag = Diagnostics(self, "BP3010", hardware_id=self.p["port"])
         self.port_state = "connecting"
@@ -96,7 +100,7 @@ class Bp3010Driver(Node):
         self._set_noise()
         # Under simulated time the node's clock stands still between /clock deliveries: read /clock's receive times.
         self._sim = None
-        if self.get_parameter("use_sim_time").value:
+        if sim_time:
             self._sim = ClockFollower()
             self._clock_sub = PolledSubscription(self, Clock, "/clock", None, None)
         self.add_on_set_parameters_callback(self._refuse_fixed)
