@@ -40,7 +40,8 @@ def test_did_you_mean_suggests_the_closest_known_name():
 def test_params_module_imports_no_ros():
     import subprocess
     import sys
-    code = "import sys, nav_core.params; sys.exit(any(m.split('.')[0] in ('rclpy', 'rcl_interfaces') for m in sys.modules))"
+    code = ("import sys, nav_core.params; "
+            "sys.exit(any(m.split('.')[0] in ('rclpy', 'rcl_interfaces') for m in sys.modules))")
     assert subprocess.run([sys.executable, "-c", code]).returncode == 0
 
 
@@ -58,7 +59,8 @@ def _declare(ctx, params, overrides):
     from rclpy.parameter import Parameter
 
     from nav_core.params_ros import declare_parameters
-    node = Node("bad_param_probe", context=ctx, parameter_overrides=[Parameter(k, value=v) for k, v in overrides.items()])
+    node = Node("bad_param_probe", context=ctx,
+                parameter_overrides=[Parameter(k, value=v) for k, v in overrides.items()])
     try:
         return declare_parameters(node, params)
     finally:

@@ -234,7 +234,7 @@ def _recover_sqlite(storage: Path, wanted):
 
 
 def _scan_mcap(storage: Path, wanted, problems: list):
-    """Intact messages of one MCAP file (:mod:`nav_core.mcap_scan`); adds a description of any damage to ``problems``."""
+    """Intact messages of one MCAP file (:mod:`nav_core.mcap_scan`); any damage is described in ``problems``."""
     from nav_core.mcap_scan import MAGIC, Scanner
 
     data = storage.read_bytes()
