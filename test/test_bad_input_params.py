@@ -89,3 +89,17 @@ def test_node_parameter_of_the_wrong_type_is_a_config_error(rclpy_ctx):
     with pytest.raises(ConfigError, match="parameter 'baud'.*wrong type"):
         _declare(rclpy_ctx, [baud], {"baud": "fast"})
     assert _declare(rclpy_ctx, [baud], {"baud": 115200}) == {"baud": 115200}
+
+
+def test_a_value_for_a_parameter_the_node_does_not_have_is_named_in_a_warning(rclpy_ctx):
+    from rclpy.node import Node
+    from rclpy.parameter import Parameter
+
+    from nav_core.params_ros import declare_parameters
+    node = Node("unknown_param_probe", context=rclpy_ctx, parameter_overrides=[Parameter("hopp", value=3)])
+    try:
+        declare_parameters(node, [Param("hop", 8, "samples", 1, 65536)])
+        from nav_core.params_ros import warn_unknown_overrides
+        assert warn_unknown_overrides(node, ["hop"]) == ["hopp"]
+    finally:
+        node.destroy_node()

@@ -145,8 +145,7 @@ def graph_specs(args, run_dir: Path, sim_dir: Path | None) -> list:
     if sim_dir is None:
         return specs + [NodeSpec("bag_play", {"bag": str(args.recording.resolve()), "rate": args.rate})]
     link = run_dir / "bp3010_port"
-    # Under simulated time the serial read jitter grows with the rate: widen the stamp tolerance with it.
-    driver = dict(sim, port=str(link), reconnect_period_s=0.2, max_stamp_offset_s=0.1 * max(1.0, args.rate))
+    driver = dict(sim, port=str(link), reconnect_period_s=0.2)  # (max_stamp_offset_s is gone: load-proof stamps)
     return ([NodeSpec("bp3010_driver", driver)] + specs +
             [NodeSpec("scenario_player", {"sim_dir": str(sim_dir), "link": str(link), "rate": args.rate,
                                           "duration_s": args.duration,

@@ -10,7 +10,7 @@ from rcl_interfaces.msg import FloatingPointRange, IntegerRange, ParameterDescri
 from rclpy.exceptions import (InvalidParameterTypeException, InvalidParameterValueException,
                               ParameterException, ParameterUninitializedException)
 
-from nav_core.params import ConfigError, Param
+from nav_core.params import ConfigError, Param, did_you_mean
 
 
 def descriptor(p: Param, read_only: bool = False) -> ParameterDescriptor:
@@ -62,6 +62,7 @@ def declare_parameters(node, params, dynamic=()) -> dict:
     if unknown:
         raise ValueError(f"dynamic parameters {sorted(unknown)} are not declared")
     values = {p.name: declare_one(node, p, read_only=p.name not in dynamic) for p in params}
+    warn_unknown_overrides(node, by_name)
 
     def on_set(changes):
         for change in changes:
@@ -74,3 +75,18 @@ def declare_parameters(node, params, dynamic=()) -> dict:
 
     node.add_on_set_parameters_callback(on_set)
     return values
+
+
+def warn_unknown_overrides(node, known) -> list:
+    """Log one warning per value given (``-p`` or params file) for a parameter the node does not have.
+
+    rclpy ignores such values silently (a typo, or a parameter that was removed). A warning, not an
+    error: launch files and params files shared by several versions may carry extra keys.
+    """
+    declared = set(getattr(node, "_parameters", {}))
+    unknown = sorted(name for name in getattr(node, "_parameter_overrides", {})
+                     if name not in declared and not name.startswith("qos_overrides."))
+    for name in unknown:
+        node.get_logger().warning(f"parameter '{name}' is not a parameter of {node.get_name()}, ignored"
+                                  f"{did_you_mean(name, known)}")
+    return unknown
