@@ -88,7 +88,7 @@ def test_4_kb_overwritten_in_the_middle_of_an_mcap_loses_only_what_was_there(tmp
         rec_io.read_imu(damaged, strict=True)
 
 
-@settings(max_examples=40, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
+@settings(max_examples=25, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
 @given(where=st.floats(0.0, 1.0), size=st.integers(1, 6000), zeros=st.booleans(), seed=st.integers(0, 2**16))
 def test_any_overwritten_span_keeps_every_intact_imu_message(tmp_path, mcap_bag, where, size, zeros, seed):
     _, name, data, spans = mcap_bag
@@ -149,7 +149,7 @@ def test_topics_of_a_damaged_mcap_are_listed(tmp_path, mcap_bag):
 # -- CSV -----------------------------------------------------------------------------------------------
 
 
-@settings(max_examples=40, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
+@settings(max_examples=25, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
 @given(bad=st.lists(st.integers(2, 1001), min_size=0, max_size=10, unique=True),
        junk=st.sampled_from(["1.0,2.0,oops,4,5,6,7", "1,2,3", "", "nan,0,0,0,0,0,0", "\x00\xff,1,2,3,4,5,6",
                              "1,2,3,4,5,6,7,8,9", "inf,0,0,0,0,0,0"]))
