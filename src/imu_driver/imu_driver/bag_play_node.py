@@ -4,8 +4,8 @@ Plays every topic whose type is importable here (sensor_msgs, nav_msgs, ...)
 or the ones named in ``topics``. Each topic is offered with the QoS recorded in the bag
 (``offered_qos_profiles``, as ``ros2 bag play`` does: reliable and transient local only when
 every recorded publisher was, so ``/tf_static`` stays latched); a bag without them plays sensor
-topics with the sensor-data QoS and the rest reliable. A damaged bag plays up to the damage and
-the error names the file and position.
+topics with the sensor-data QoS and the rest reliable. A damaged bag plays every intact message
+(MCAP is read past the damage, a cut sqlite file up to it) and the error names the file and position.
 """
 from __future__ import annotations
 

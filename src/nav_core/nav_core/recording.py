@@ -4,13 +4,14 @@ The one reader and writer every tool uses. Arrays are SI: time in s, angular
 rate in rad/s, specific force in m/s^2, latitude/longitude in rad inside (the
 CSV files and ``NavSatFix`` carry degrees; conversion happens here).
 
-A bag or CSV that is truncated or corrupt is read up to the damage: the good
-part is returned and ``damage`` names the file and position of the problem.
-Pass ``strict=True`` to raise :class:`RecordingError` instead. MCAP files are read
-past the damage (every intact message; see :mod:`nav_core.mcap_scan`). A malformed
-CSV row is skipped and counted (``skipped_rows``, ``damage``); a file with more than
-:data:`MAX_BAD_ROW_FRACTION` of its rows bad is refused. :func:`check_timestamps`
-finds time going backwards, duplicate stamps and gaps for any tool to act on.
+A damaged bag or CSV loses only what was damaged: the good part is returned and
+``damage`` names the file, the position (byte range, row) and what was lost; pass
+``strict=True`` to raise :class:`RecordingError` instead. MCAP files are read past
+the damage (every intact message; see :mod:`nav_core.mcap_scan`), a cut sqlite file
+up to it. A malformed CSV row is skipped and counted (``skipped_rows``, ``damage``);
+a file with more than :data:`MAX_BAD_ROW_FRACTION` of its rows bad is refused.
+:func:`check_timestamps` finds time going backwards, duplicate stamps and gaps for
+any tool to act on.
 """
 from __future__ import annotations
 
