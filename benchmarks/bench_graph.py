@@ -258,8 +258,22 @@ def run_demo(out: Path, rate: float, duration_s: float, env: dict, busy: bool) -
         raise RuntimeError(f"nav-demo failed (exit {done.returncode}):\n{done.stdout[-3000:]}\n{done.stderr[-2000:]}")
     summary = json.loads((runs[-1] / "summary.json").read_text())
     summary["wall_s"] = time.monotonic() - start
+    summary["stamp_lag_s"] = raw_stamp_lag(runs[-1] / "bag")
     summary["run_dir"] = str(runs[-1])
     return summary
+
+
+def raw_stamp_lag(bag: Path, rate_hz: float = 64.0) -> float:
+    """Median of (driver stamp - frame time) over imu/data_raw, s: frame ``n`` is sent at simulated n / rate.
+
+    The simulation starts at the bag epoch, so this is how late the driver's stamps are; a few frames
+    lost at start-up shift it by a period each (it is a figure for comparing runs, not an absolute).
+    """
+    from imu_sim.simulate import BAG_EPOCH_S
+    from nav_core import recording
+
+    t = recording.read_imu(bag, topic="imu/data_raw").t - BAG_EPOCH_S
+    return float(np.median(t - np.arange(len(t)) / rate_hz))
 
 
 def bench_busy_cpu(env, rates, duration_s: float) -> None:
@@ -278,7 +292,8 @@ def bench_busy_cpu(env, rates, duration_s: float) -> None:
                   f"{off['only live']}, only offline {off['only offline']}); stamps going back: odometry "
                   f"{off['live stamps going back']}, raw {st.get('imu/data_raw stamps going back')}, denoised "
                   f"{st.get('imu/data_corrected stamps going back')}; filter dropped "
-                  f"{st.get('messages the filter dropped')}, missing {st.get('IMU samples missing in the filter' + chr(39) + 's input')}"
+                  f"{st.get('messages the filter dropped')}; driver stamp lag p50 {s['stamp_lag_s'] * 1e3:.0f} ms"
+                  f", missing {st.get('IMU samples missing in the filter' + chr(39) + 's input')}"
                   f" (raw stream: {st.get('imu/data_raw samples missing')}); exit codes other than 0: "
                   f"{ {k: v for k, v in s['exit_codes'].items() if v} or 'none'}")
         q, b = quiet["rms"]["horizontal position (m)"], busy["rms"]["horizontal position (m)"]
