@@ -103,3 +103,16 @@ def test_a_value_for_a_parameter_the_node_does_not_have_is_named_in_a_warning(rc
         assert warn_unknown_overrides(node, ["hop"]) == ["hopp"]
     finally:
         node.destroy_node()
+
+
+def test_an_unparsable_params_file_is_one_configuration_line_and_exit_2(tmp_path, ros_env, capsys):
+    from nav_core.ros_node import run_node
+    bad = tmp_path / "params.yaml"
+    bad.write_text("wmra_node:\n  ros__parameters:\n    hop: [1, 2\n")
+    built = []
+    for path in (bad, tmp_path / "missing.yaml"):
+        assert run_node(lambda: built.append(1), args=["node", "--ros-args", "--params-file", str(path)]) == 2
+        out = capsys.readouterr().out
+        lines = [ln for ln in out.splitlines() if "configuration" in ln]
+        assert len(lines) == 1 and path.name in lines[0] and "/project/src" not in lines[0], out
+    assert not built  # the node is never built

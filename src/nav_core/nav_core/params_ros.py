@@ -90,3 +90,11 @@ def warn_unknown_overrides(node, known) -> list:
         node.get_logger().warning(f"parameter '{name}' is not a parameter of {node.get_name()}, ignored"
                                   f"{did_you_mean(name, known)}")
     return unknown
+
+
+def init_error_line(err: Exception) -> str:
+    """rcl's error for bad ``--ros-args`` (an unreadable params file...) on one line, without C source places."""
+    import re
+
+    text = re.sub(r",? at /\S+:\d+", "", " ".join(str(err).split()))
+    return text or type(err).__name__

@@ -20,7 +20,7 @@ from sensor_msgs.msg import Imu
 
 from nav_core.imu_cdr import ImuBatch, ImuCdrError, decode_imu, encode_imu
 from nav_core.params import ConfigError
-from nav_core.params_ros import declare_parameters  # noqa: F401  (re-exported for the nodes)
+from nav_core.params_ros import declare_parameters, init_error_line  # noqa: F401  (re-exported)
 
 SENSOR_QOS = qos_profile_sensor_data
 """Best-effort QoS of sensor topics: a reliable subscriber will not connect to them."""
@@ -35,7 +35,11 @@ DIAG_LEVELS = {"OK": DiagnosticStatus.OK, "WARN": DiagnosticStatus.WARN,
 
 def run_node(node_factory, args=None) -> int:
     """The ros2/demos main: init, build, spin, shut down cleanly; a ConfigError exits with status 2."""
-    rclpy.init(args=args)
+    try:
+        rclpy.init(args=args)
+    except Exception as err:  # rcl refuses a params file it cannot read or parse, or bad --ros-args
+        print(f"[ERROR] configuration: {init_error_line(err)}", flush=True)
+        return 2
     node = None
     status = 0
     try:
