@@ -66,3 +66,17 @@ def test_files_are_refused_when_present_and_written_atomically(tmp_path):
     assert path.read_text() == "new"
     atomic_write_text(tmp_path / "m.yaml", "a: 1\n")
     assert (tmp_path / "m.yaml").read_text() == "a: 1\n"
+
+
+def test_force_never_replaces_a_folder_holding_an_input_or_the_current_folder(tmp_path, monkeypatch):
+    out = tmp_path / "out"
+    out.mkdir()
+    (out / "scenario.yaml").write_text("mine")
+    with pytest.raises(OutputError, match="holds"):
+        check_out_dir(out, force=True, inputs=[out / "scenario.yaml"])
+    monkeypatch.chdir(out)
+    with pytest.raises(OutputError, match="current folder"):
+        check_out_dir(out, force=True)
+    monkeypatch.chdir(tmp_path)
+    assert check_out_dir(out, force=True, inputs=[tmp_path / "elsewhere.yaml"]) == out
+    assert (out / "scenario.yaml").read_text() == "mine"

@@ -121,7 +121,8 @@ def cmd_allan(args) -> int:
 
     from imu_calib.characterise import characterise, write_outputs
 
-    check_out_dir(args.out, args.force)  # before the work: a bad --out fails now, not after it
+    inputs = (args.recording, args.base_model)
+    check_out_dir(args.out, args.force, inputs=inputs)  # before the work: a bad --out fails now, not after it
     rec = load_recording(args.recording, args.topic, args.format)
     base = sensor_model.load(args.base_model) if args.base_model else None
     print(f"{args.recording}: {len(rec)} samples, {len(rec) / rec.rate_hz:.1f} s at {rec.rate_hz:.3g} Hz", flush=True)
@@ -133,7 +134,7 @@ def cmd_allan(args) -> int:
 
     result = characterise(rec, per_decade=args.per_decade or None, progress=progress, base_model=base)
     bar.close()
-    with staged_dir(args.out, args.force) as tmp:  # the three files appear together, or none
+    with staged_dir(args.out, args.force, inputs) as tmp:  # the three files appear together, or none
         paths = rebase(write_outputs(result, tmp, rostopic="/" + args.topic.lstrip("/")), tmp, args.out)
     _print_noise(result)
     for path in paths.values():

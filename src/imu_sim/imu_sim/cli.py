@@ -54,12 +54,13 @@ def _diagnose(args) -> int:
     from imu_sim.diagnose.case import load_case
     from imu_sim.diagnose.engine import diagnose
     from imu_sim.diagnose.report import write_all
-    check_out_dir(args.out, args.force)
+    inputs = (args.recording, args.scenario, args.model, args.gnss)
+    check_out_dir(args.out, args.force, inputs=inputs)
     case = load_case(args.recording, args.scenario, args.model, args.gnss)
     steps = tqdm(desc="imu-sim diagnose", unit="pass", file=sys.stderr)
     diag = diagnose(case, max_effects=args.max_effects, progress=steps)
     steps.close()
-    with staged_dir(args.out, args.force) as tmp:
+    with staged_dir(args.out, args.force, inputs) as tmp:
         paths = write_all(diag, tmp, {"recording": args.recording, "scenario": args.scenario, "model": args.model})
     paths = rebase(paths, tmp, args.out)
     res = diag.result
@@ -75,7 +76,7 @@ def _diagnose(args) -> int:
 def _prepare_real(args) -> int:
     from imu_sim.diagnose import real
     data = Path(args.data_dir)
-    with staged_dir(args.out, args.force) as tmp:
+    with staged_dir(args.out, args.force, inputs=(data,)) as tmp:
         if args.dataset == "adis16405":
             paths = real.prepare_adis(data / f"{args.run}.npz", tmp, args.duration_s)
         else:
@@ -87,7 +88,8 @@ def _prepare_real(args) -> int:
 
 
 def _simulate(args) -> int:
-    check_out_dir(args.out, args.force)  # before the work: a bad --out fails now, not after it
+    inputs = (args.scenario, args.model)
+    check_out_dir(args.out, args.force, inputs=inputs)  # before the work: a bad --out fails now, not after it
     scenario = load_scenario(args.scenario)  # a bad file fails before the progress bar starts
     steps = tqdm(total=3, desc="imu-sim", unit="step", file=sys.stderr)
     start = time.perf_counter()
@@ -98,7 +100,7 @@ def _simulate(args) -> int:
         print(f"simulated {res.info['duration_s']:.1f} s at {res.rate_hz:g} Hz ({len(res.imu)} IMU samples, "
               f"{0 if res.gnss is None else len(res.gnss)} GPS fixes) in {time.perf_counter() - start:.1f} s")
         steps.set_postfix_str("writing recording")
-        with staged_dir(args.out, args.force) as tmp:  # all outputs appear together, or none
+        with staged_dir(args.out, args.force, inputs) as tmp:  # all outputs appear together, or none
             paths = write_outputs(res, tmp, args.format, args.storage)
             steps.update()
             steps.set_postfix_str("plotting")

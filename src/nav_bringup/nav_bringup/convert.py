@@ -131,8 +131,8 @@ def main(argv=None) -> int:
 
 def _run(args) -> int:
     """Check --out, convert into a temporary folder, rename it into place."""
-    check_out_dir(args.out, args.force)  # before reading the source: a bad --out fails at once
-    with staged_dir(args.out, args.force) as tmp:
+    check_out_dir(args.out, args.force, inputs=(args.csv,))  # before reading the source: a bad --out fails at once
+    with staged_dir(args.out, args.force, inputs=(args.csv,)) as tmp:
         summary = convert(args.source, tmp, args.csv)
     print(f"nav-convert {args.source}: {summary}; wrote {args.out}")
     return 0

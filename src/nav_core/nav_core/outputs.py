@@ -47,17 +47,32 @@ def check_writable(folder) -> Path:
     return folder
 
 
-def check_out_dir(path, force: bool = False, allow_existing: bool = False) -> Path:
+def check_out_dir(path, force: bool = False, allow_existing: bool = False, inputs=()) -> Path:
     """Check an output folder before computing: not a file, writable, and new or empty unless ``force``.
 
     ``allow_existing`` accepts a non-empty folder that the tool adds new entries to (a run cache).
+    ``force`` replaces the whole folder, so it is refused for a folder holding the current directory,
+    the home folder or one of ``inputs`` (paths the command reads).
     """
     path = Path(path)
     if path.exists() and not path.is_dir():
         raise OutputError(f"{path}: exists and is not a folder; give a folder for --out")
     if path.is_dir() and not (force or allow_existing) and any(path.iterdir()):
         raise OutputError(f"{path}: folder exists and is not empty; choose a new --out or pass --force to replace it")
+    if force and path.is_dir() and not allow_existing:
+        _check_replaceable(path, inputs)
     return check_writable(path)
+
+
+def _check_replaceable(path: Path, inputs) -> None:
+    """Refuse to replace a folder that holds what must not go with it."""
+    target = path.resolve()
+    protected = [(Path.cwd(), "the current folder"), (Path.home(), "the home folder")]
+    protected += [(Path(p), str(p)) for p in inputs if p is not None]
+    for other, name in protected:
+        other = Path(other).resolve()
+        if other == target or target in other.parents:
+            raise OutputError(f"{path}: --force would replace this folder, which holds {name}; choose another --out")
 
 
 def check_out_file(path, force: bool = False, update: bool = False) -> Path:
@@ -74,13 +89,13 @@ def check_out_file(path, force: bool = False, update: bool = False) -> Path:
 
 
 @contextmanager
-def staged_dir(path, force: bool = False):
+def staged_dir(path, force: bool = False, inputs=()):
     """Yield a temporary folder next to ``path``; on success it replaces ``path`` (renamed into place).
 
     On an exception the temporary folder is removed and ``path`` is left as it was.
     """
     path = Path(path)
-    check_out_dir(path, force)
+    check_out_dir(path, force, inputs=inputs)
     path.parent.mkdir(parents=True, exist_ok=True)
     tmp = Path(tempfile.mkdtemp(prefix=f".{path.name}.partial-", dir=path.parent))
     try:

@@ -128,9 +128,9 @@ def main(argv=None) -> int:
 
 def _report(args) -> int:
     """Check --out first, then write every file into a temporary folder renamed into place at the end."""
-    check_out_dir(args.out, args.force)
+    check_out_dir(args.out, args.force, inputs=(args.balzer,))
     final = args.out
-    with staged_dir(final, args.force) as tmp:
+    with staged_dir(final, args.force, inputs=(args.balzer,)) as tmp:
         args.out = tmp
         _write_report(args, final)
     print(f"wrote {final / 'report.md'} and {len(list(final.glob('*.png')))} PNG plots in {final}")
