@@ -1,4 +1,5 @@
 """allan_node wiring: live subscribe-for-duration then characterise, offline recording, bad config."""
+import os
 import time
 
 import numpy as np
@@ -21,7 +22,7 @@ MODEL = sensor_model.SensorModel(gyro=sensor_model.TriadModel(white_noise=np.ful
 def _result(probe):
     for _, arr in probe.received["/diagnostics"]:
         for st in arr.status:
-            if "allan_node" in st.name and st.message != "collecting":
+            if "allan_node" in st.name and st.message not in ("collecting", "characterising"):
                 return st
     return None
 
@@ -76,3 +77,42 @@ def test_node_stops_with_a_message_when_out_dir_is_missing(ros_env):
     finally:
         node.stop()
     assert "out_dir" in node.output
+
+
+@pytest.mark.slow
+def test_the_fit_runs_in_a_niced_worker_while_the_node_keeps_publishing_diagnostics(tmp_path, ros_env, rclpy_context):
+    # 2 h at 10 Hz: several seconds of fitting, done by a child process at nice +10 (issue 15)
+    rec = synthetic.static_recording(sensor_model.SensorModel(
+        gyro=sensor_model.TriadModel(white_noise=np.full(3, 3.5e-4), rate_random_walk=np.full(3, 2.2e-6)),
+        accel=sensor_model.TriadModel(white_noise=np.full(3, 1e-3)), sample_rate_hz=10.0), 7200.0,
+        np.random.default_rng(3))
+    csv = write_imu_csv(tmp_path / "rec.csv", rec)
+    node = NodeProcess("allan_node", env=ros_env, ros_args={"recording": str(csv), "out_dir": str(tmp_path / "o"),
+                                                            "diagnostics_period_s": 0.2, "worker_nice": 10})
+    arrivals, niceness = [], []
+
+    def on_diag(arr):
+        for st in arr.status:
+            if "allan_node" in st.name:
+                arrivals.append((time.monotonic(), st.message))
+                values = {kv.key: kv.value for kv in st.values}
+                if st.message == "characterising" and not niceness:
+                    pid = int(values["worker_pid"])
+                    try:
+                        niceness.append(os.getpriority(os.PRIO_PROCESS, pid) - os.getpriority(os.PRIO_PROCESS, 0))
+                    except ProcessLookupError:
+                        pass
+    try:
+        probe = Probe({"/diagnostics": DiagnosticArray})
+        probe.create_subscription(DiagnosticArray, "/diagnostics", on_diag, 50)
+        assert probe.spin_until(lambda p: any(m not in ("characterising", "collecting") for _, m in arrivals),
+                                300), node.output
+        probe.destroy_node()
+    finally:
+        node.stop()
+    working = [t for t, m in arrivals if m == "characterising"]
+    assert len(working) >= 5, arrivals[:3]
+    # the node answered all along: no silence of more than 10 periods while its worker was busy
+    assert np.max(np.diff(working)) < 2.0, np.max(np.diff(working))
+    assert niceness and niceness[0] >= 10, niceness
+    assert arrivals[-1][1].startswith("wrote"), arrivals[-1]

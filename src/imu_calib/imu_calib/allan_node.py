@@ -11,17 +11,24 @@ Two modes, same core (:mod:`imu_calib.characterise`):
 Writes ``out_dir/sensor_model.yaml``, ``out_dir/imu.yaml`` (Kalibr keys) and
 ``out_dir/allan.png``; publishes a ``/diagnostics`` status while collecting and
 the result (OK with the white noise per axis, or ERROR with the reason) when done.
+
+The characterisation (reading a recording, the Allan fit, the plot) runs in a
+separate process niced by ``worker_nice``, so on a small machine it takes only
+the CPU the driver, the denoiser and the filter leave, and this node keeps
+spinning: its diagnostics say ``characterising`` with the worker's pid meanwhile.
 """
 from __future__ import annotations
+
+import multiprocessing
+import os
 
 import numpy as np
 import rclpy
 from rclpy.node import Node
 from sensor_msgs.msg import Imu
 
-from imu_calib.allan import AllanError
-from imu_calib.characterise import characterise, write_outputs
-from nav_core.recording import IMU_TOPIC, ImuRecording, RecordingError, read_imu
+from imu_calib import characterise
+from nav_core.recording import IMU_TOPIC, ImuRecording
 from nav_core.params import ConfigError, Param
 from nav_core.ros_node import (SENSOR_QOS_IN, Diagnostics, declare_parameters,
                                imu_to_arrays, run_node)
@@ -34,6 +41,9 @@ PARAMS = (
     Param("per_decade", 0, "cluster times per decade; 0 = octave grid", 0, 100),
     Param("exit_when_done", False, "shut the node down after publishing the result"),
     Param("diagnostics_period_s", 1.0, "period of the /diagnostics status, s", 0.05, 60.0),
+    Param("worker_nice", 10, "niceness added to the characterisation process (0 = same priority)", 0, 19),
+    Param("split_at_gaps", True, "analyse the longest unbroken segment when stamps go back or have a gap "
+                                 "(what was skipped is in the YAML); false = report an ERROR"),
 )
 
 
@@ -50,15 +60,18 @@ class AllanNode(Node):
         self.final = None
         self.ticks_after_done = 0
         self.sub = None
+        self.proc = None
+        self.conn = None
+        self.n_collected = 0
         if self.values["recording"]:
-            self.create_timer(0.1, self._run_offline_once)
+            self._start_worker(self.values["recording"])
         else:
             self.sub = self.create_subscription(Imu, self.values["topic"], self._on_imu, SENSOR_QOS_IN)
             self.get_logger().info(f"collecting {self.values['duration_s']} s of {self.values['topic']}")
         self.create_timer(self.values["diagnostics_period_s"], self._on_diag_timer)
 
     def _on_imu(self, msg: Imu) -> None:
-        if self.final is not None:
+        if self.final is not None or self.proc is not None:
             return
         self.samples.append(imu_to_arrays(msg))
         if self.samples[-1][0] - self.samples[0][0] >= self.values["duration_s"]:
@@ -69,29 +82,53 @@ class AllanNode(Node):
                                source=f"live {self.values['topic']} ({len(t)} samples)")
             self._characterise(rec)
 
-    def _run_offline_once(self) -> None:
-        if self.final is not None:
-            return
-        try:
-            rec = read_imu(self.values["recording"], topic=self.values["topic"])
-        except RecordingError as err:
-            self._finish("ERROR", str(err), {})
-            return
-        self._characterise(rec)
-
     def _characterise(self, rec: ImuRecording) -> None:
-        try:
-            result = characterise(rec, per_decade=self.values["per_decade"] or None)
-            paths = write_outputs(result, self.values["out_dir"], rostopic="/" + self.values["topic"].lstrip("/"))
-        except (AllanError, ValueError) as err:
-            self._finish("ERROR", str(err), {"samples": len(rec)})
+        self.n_collected = len(rec)
+        self._start_worker(rec)
+
+    def _start_worker(self, source) -> None:
+        """Run the characterisation in a niced child process (spawned: no copy of this node's threads)."""
+        ctx = multiprocessing.get_context("spawn")
+        self.conn, child = ctx.Pipe(duplex=False)
+        v = self.values
+        go = ctx.Event()
+        self.proc = ctx.Process(target=characterise.worker, name="allan_worker", daemon=True,
+                                args=(child, go, source, v["out_dir"], v["topic"], v["per_decade"] or None,
+                                      v["split_at_gaps"]))
+        self.proc.start()
+        child.close()
+        # lower the child's priority from here before it does anything (its imports included), then let it go
+        os.setpriority(os.PRIO_PROCESS, self.proc.pid, os.getpriority(os.PRIO_PROCESS, 0) + v["worker_nice"])
+        go.set()
+        self._go = go  # the child unpickles it later: the semaphore must outlive this call
+        self.get_logger().info(f"characterising in process {self.proc.pid} (nice +{v['worker_nice']})")
+
+    def _poll_worker(self) -> None:
+        """Take the worker's result once it is there (or its death without one)."""
+        if self.conn is None:
             return
-        values = {"samples": len(rec), "duration_s": float(len(rec) / result.model.sample_rate_hz),
-                  **{f"{k}_path": str(v) for k, v in paths.items()}}
-        for triad in ("gyro", "accel"):
-            for i, n in enumerate(result.model.triad(triad).white_noise):
-                values[f"{triad}_{'xyz'[i]}_white_noise"] = float(n)
-        self._finish("OK", f"wrote {paths['sensor_model']}", values)
+        if self.conn.poll():
+            try:
+                level, payload = self.conn.recv()
+            except EOFError:
+                level, payload = "ERROR", "the characterisation process ended without a result"
+        elif not self.proc.is_alive():
+            level, payload = "ERROR", f"the characterisation process died (exit code {self.proc.exitcode})"
+        else:
+            return
+        self.conn.close()
+        self.conn = None
+        self.proc.join(timeout=5.0)
+        if level == "OK":
+            self._finish("OK", f"wrote {payload['sensor_model_path']}", payload)
+        else:
+            self._finish("ERROR", payload, {"samples": self.n_collected})
+
+    def close(self) -> None:
+        """Stop a running worker (shutdown before the result)."""
+        if self.proc is not None and self.proc.is_alive():
+            self.proc.terminate()
+            self.proc.join(timeout=5.0)
 
     def _finish(self, level: str, message: str, values: dict) -> None:
         self.final = (level, message, values)
@@ -100,6 +137,11 @@ class AllanNode(Node):
         self.diag.publish(level, message, values)
 
     def _on_diag_timer(self) -> None:
+        self._poll_worker()
+        if self.final is None and self.proc is not None:
+            self.diag.publish("OK", "characterising", {"samples": self.n_collected, "worker_pid": self.proc.pid,
+                                                       "worker_nice": self.values["worker_nice"]})
+            return
         if self.final is None:
             collected = (self.samples[-1][0] - self.samples[0][0]) if len(self.samples) > 1 else 0.0
             self.diag.publish("OK", "collecting", {"samples": len(self.samples), "collected_s": collected})

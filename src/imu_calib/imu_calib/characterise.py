@@ -12,7 +12,9 @@ from pathlib import Path
 import numpy as np
 
 from imu_calib.allan import AllanDeviation, AllanError, log_taus, octave_taus, overlapping_adev, psd
+from imu_calib import model_io
 from imu_calib.noise_fit import SCHEMA_NAMES, TERMS, fit_noise
+from imu_calib.timeline import timeline
 from nav_core import sensor_model
 from nav_core.recording import ImuRecording
 
@@ -32,6 +34,8 @@ class Characterisation:
     model: sensor_model.SensorModel
     white_psd: dict
     """Triad -> (3,) white-noise level from the Welch PSD (unit*sqrt(s))."""
+    timeline: dict | None = None
+    """What was skipped when the recording was split at its breaks (None: the whole record was used)."""
 
 
 def grid(n_samples: int, rate_hz: float, per_decade: int | None = None) -> np.ndarray:
@@ -45,29 +49,43 @@ def grid(n_samples: int, rate_hz: float, per_decade: int | None = None) -> np.nd
 
 
 def check_uniform(rec: ImuRecording, tolerance: float = 0.05) -> float:
-    """Sample rate (Hz) of ``rec``; AllanError naming the source if samples are missing or irregular."""
-    if len(rec) < 2:
-        raise AllanError(f"{rec.source or 'recording'}: {len(rec)} samples, nothing to analyse")
-    dt = np.diff(rec.t)
-    median = np.median(dt)
-    if not median > 0:
-        raise AllanError(f"{rec.source}: time stamps do not increase")
-    bad = np.abs(dt / median - 1.0) > 0.5
-    if bad.mean() > tolerance:
-        raise AllanError(f"{rec.source}: {bad.mean():.1%} of sample intervals differ from the median "
-                         f"{median:.4g} s by more than half; Allan variance needs uniform sampling")
-    # stamps in s carry float noise: 1e-6 Hz resolution is plenty for any IMU rate
-    return float(np.round(1.0 / median, 6))
+    """Sample rate (Hz) of ``rec``; AllanError naming the source if it is irregular, goes back or has a gap."""
+    line = timeline(rec)
+    if line.broken:
+        raise AllanError(line.describe(rec.source or "recording") + SPLIT_HINT)
+    return line.rate_hz
+
+
+SPLIT_HINT = ("; the Allan variance needs one unbroken record: fix the stamps, or analyse the longest unbroken "
+              "segment with --split-at-gaps (allan_node: split_at_gaps)")
+
+
+def unbroken(rec: ImuRecording, split: bool = False) -> tuple:
+    """(recording, rate Hz, time-line report or None): ``rec`` itself if its time line is unbroken; with
+    ``split`` its longest unbroken segment and what was skipped; else AllanError naming the first breaks."""
+    line = timeline(rec)
+    if not line.broken:
+        return rec, line.rate_hz, None
+    if not split:
+        raise AllanError(line.describe(rec.source or "recording") + SPLIT_HINT)
+    used = line.longest()
+    report = line.report(used, rec.t)
+    report["warning"] = line.describe(rec.source or "recording") + \
+        f"; analysed the longest unbroken segment only ({used[1] - used[0]} of {len(rec)} samples)"
+    return rec.select(slice(*used)), line.rate_hz, report
 
 
 def characterise(rec: ImuRecording, per_decade: int | None = None, taus=None, progress=None,
-                 base_model: sensor_model.SensorModel | None = None) -> Characterisation:
+                 base_model: sensor_model.SensorModel | None = None, split: bool = False) -> Characterisation:
     """Allan deviation (overlapping) and five-term fit of the six axes of a static recording.
 
     ``progress`` is called with a short label after each of the six axes (for tqdm).
     ``base_model`` keeps its deterministic terms (bias, scale, misalignment).
+    A stamp going back or a gap is an AllanError; with ``split`` the longest unbroken segment is analysed
+    and the provenance's ``timeline`` records what was skipped (``Characterisation.timeline``).
     """
-    rate = check_uniform(rec)
+    n_total = len(rec)
+    rec, rate, line = unbroken(rec, split)
     taus = grid(len(rec), rate, per_decade) if taus is None else np.asarray(taus, float)
     model = base_model.copy() if base_model is not None else sensor_model.SensorModel()
     model.sample_rate_hz = rate
@@ -83,11 +101,12 @@ def characterise(rec: ImuRecording, per_decade: int | None = None, taus=None, pr
         fits[triad] = [fit_noise(a, samples=data[:, i]) for i, a in enumerate(per_axis)]
         white[triad] = psd(data, rate).white_noise
         _write_fits(model.triad(triad), fits[triad], white[triad])
+    extra = {} if line is None else {"timeline": line, "n_samples_in_file": n_total}
     sensor_model.stamp_provenance(model, "imu_calib allan", rec.source or "<memory>",
-                                  n_samples=len(rec), duration_s=float(len(rec) / rate),
+                                  n_samples=len(rec), duration_s=float(len(rec) / rate), **extra,
                                   estimator="overlapping Allan variance, 5-term IRLS WLS fit and term selection, "
                                             "Whittle likelihood refinement where the model fits")
-    return Characterisation(adevs, fits, model, white)
+    return Characterisation(adevs, fits, model, white, line)
 
 
 def _stack(per_axis) -> AllanDeviation:
@@ -98,14 +117,20 @@ def _stack(per_axis) -> AllanDeviation:
 
 
 def _write_fits(triad, fits, white_psd) -> None:
-    """Copy fitted terms and intervals of three axes into a TriadModel."""
+    """Copy fitted terms and intervals of three axes into a TriadModel.
+
+    A term the record did not identify is written as its 95 % upper bound with ``identifiable: false``
+    (never a bare 0, which consumers such as Kalibr would read as "no such noise").
+    """
     for term in TERMS:
         name = SCHEMA_NAMES[term]
-        setattr(triad, name, np.array([f.values[term] for f in fits]))
+        setattr(triad, name, np.array([f.reported_value(term) for f in fits]))
         triad.intervals[name] = np.array([f.intervals[term] for f in fits])
+        triad.identifiable[name] = np.array([f.identifiable(term) for f in fits])
     triad.bias_correlation_time = np.array([f.bias_correlation_time for f in fits])
     triad.intervals.pop("bias_correlation_time", None)
     triad.info["noise_fit"] = {AXIS_NAMES[i]: f.summary() for i, f in enumerate(fits)}
+    triad.info["fit_quality"] = {AXIS_NAMES[i]: f.fit_quality.get("verdict", "good") for i, f in enumerate(fits)}
     triad.info["psd_white_noise"] = [float(v) for v in white_psd]
 
 
@@ -116,6 +141,56 @@ def write_outputs(result: Characterisation, out_dir, rostopic: str = "/imu/data_
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
     paths = {"sensor_model": sensor_model.save(result.model, out / "sensor_model.yaml"),
-             "kalibr": sensor_model.save_kalibr(result.model, out / "imu.yaml", rostopic),
+             "kalibr": model_io.save_kalibr(result.model, out / "imu.yaml", rostopic),
              "plot": plot_allan(result, out / "allan.png")}
     return paths
+
+
+def warnings_of(result: Characterisation) -> list:
+    """One line per axis whose fit is poor and per Kalibr key written as an upper bound."""
+    out = []
+    for triad in ("gyro", "accel"):
+        for i, fit in enumerate(result.fits[triad]):
+            if fit.fit_quality.get("verdict") == "poor":
+                out.append(f"{triad} {AXIS_NAMES[i]}: {fit.fit_quality['note']}")
+    out += model_io.kalibr_warnings(result.model)
+    if result.timeline is not None:
+        out.insert(0, result.timeline["warning"])
+    return out
+
+
+def characterise_to_dir(source, out_dir, topic: str = "imu/data_raw", per_decade: int | None = None,
+                        split: bool = True) -> dict:
+    """Read ``source`` (an ImuRecording, or a bag/CSV path read on ``topic``), characterise it, write
+    ``out_dir``; return the summary a node reports (samples, duration, paths, white noise, warnings)."""
+    from nav_core.recording import read_imu
+
+    rec = source if isinstance(source, ImuRecording) else read_imu(source, topic=topic)
+    result = characterise(rec, per_decade=per_decade, split=split)
+    paths = write_outputs(result, out_dir, rostopic="/" + topic.lstrip("/"))
+    prov = result.model.provenance
+    values = {"samples": prov["n_samples"], "duration_s": prov["duration_s"],
+              **{f"{k}_path": str(v) for k, v in paths.items()}}
+    if result.timeline is not None:
+        values["skipped_samples"] = result.timeline["skipped_samples"]
+    for triad in ("gyro", "accel"):
+        for i, n in enumerate(result.model.triad(triad).white_noise):
+            values[f"{triad}_{AXIS_NAMES[i]}_white_noise"] = float(n)
+    warnings = warnings_of(result)
+    if warnings:
+        values["warnings"] = " | ".join(warnings)
+    return values
+
+
+def worker(conn, go, source, out_dir, topic, per_decade, split) -> None:
+    """Process target: wait for ``go`` (the parent lowers this process's priority first), run
+    :func:`characterise_to_dir`, send ``("OK", values)`` or ``("ERROR", message)`` through ``conn``."""
+    go.wait(timeout=30.0)
+    try:
+        conn.send(("OK", characterise_to_dir(source, out_dir, topic, per_decade, split)))
+    except (AllanError, ValueError) as err:  # RecordingError, SensorModelError, KalibrError are ValueErrors
+        conn.send(("ERROR", str(err)))
+    except Exception as err:  # noqa: BLE001 - the node must hear about any failure, not wait for ever
+        conn.send(("ERROR", f"{type(err).__name__}: {err}"))
+    finally:
+        conn.close()

@@ -69,6 +69,9 @@ def build_parser() -> argparse.ArgumentParser:
                    help="log-spaced cluster times per decade (default 0: octave grid)")
     p.add_argument("--base-model", help="sensor model whose deterministic terms are kept")
     p.add_argument("--no-progress", action="store_true", help="no progress bar")
+    p.add_argument("--split-at-gaps", action="store_true",
+                   help="where the stamps go back or have a gap, analyse the longest unbroken segment (what was "
+                        "skipped is recorded in the YAML) instead of refusing the recording")
     _add_format(p)
     p.set_defaults(func=cmd_allan)
 
@@ -119,24 +122,31 @@ def cmd_allan(args) -> int:
     """Characterise a static recording and write the three outputs."""
     from tqdm import tqdm
 
-    from imu_calib.characterise import characterise, write_outputs
+    from imu_calib.characterise import characterise, warnings_of, write_outputs
 
     inputs = (args.recording, args.base_model)
     check_out_dir(args.out, args.force, inputs=inputs)  # before the work: a bad --out fails now, not after it
     rec = load_recording(args.recording, args.topic, args.format)
     base = sensor_model.load(args.base_model) if args.base_model else None
-    print(f"{args.recording}: {len(rec)} samples, {len(rec) / rec.rate_hz:.1f} s at {rec.rate_hz:.3g} Hz", flush=True)
+    span = float(rec.t[-1] - rec.t[0]) if len(rec) > 1 else 0.0
+    print(f"{args.recording}: {len(rec)} samples, stamps span {span:.1f} s, median rate {rec.rate_hz:.3g} Hz",
+          flush=True)
     bar = tqdm(total=6, desc="Allan deviation", unit="axis", disable=args.no_progress)
 
     def progress(label):
         bar.set_postfix_str(label)
         bar.update(1)
 
-    result = characterise(rec, per_decade=args.per_decade or None, progress=progress, base_model=base)
+    result = characterise(rec, per_decade=args.per_decade or None, progress=progress, base_model=base,
+                          split=args.split_at_gaps)
     bar.close()
+    prov = result.model.provenance
+    print(f"analysed {prov['n_samples']} samples, {prov['duration_s']:.1f} s", flush=True)
     with staged_dir(args.out, args.force, inputs) as tmp:  # the three files appear together, or none
         paths = rebase(write_outputs(result, tmp, rostopic="/" + args.topic.lstrip("/")), tmp, args.out)
     _print_noise(result)
+    for line in warnings_of(result):
+        print(f"imu-calib allan: warning: {line}", file=sys.stderr)
     for path in paths.values():
         print(f"wrote {path}")
     return 0
@@ -147,8 +157,12 @@ def _print_noise(result) -> None:
         for i, fit in enumerate(result.fits[triad]):
             terms = ", ".join(f"{t}={fit.values[t]:.3g} [{fit.intervals[t][0]:.3g}, {fit.intervals[t][1]:.3g}]"
                               for t in fit.kept)
+            bounds = ", ".join(f"{t}<={b:.3g}" for t, b in fit.upper_bounds.items() if b > 0)
+            bounds = f"; not identifiable from this record: {bounds}" if bounds else ""
             gm = f", GM tau_c={fit.bias_correlation_time:.3g} s" if fit.bias_correlation_time else ""
-            print(f"{triad} {'xyz'[i]}: {terms}{gm} (SI; reduced chi2 {fit.chi2_reduced:.2f})")
+            quality = fit.fit_quality
+            print(f"{triad} {'xyz'[i]}: {terms}{gm}{bounds} (SI; fit {quality.get('verdict', '?')}, "
+                  f"reduced chi2 {fit.chi2_reduced:.2f}, p = {quality.get('p_value', float('nan')):.2g})")
 
 
 def cmd_two_position(args) -> int:

@@ -9,7 +9,7 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
-from imu_calib.noise_fit import TERMS  # noqa: E402
+from imu_calib.noise_fit import _FACTORS, _POWERS, TERMS  # noqa: E402
 
 UNITS = {"gyro": "rad/s", "accel": "m/s$^2$"}
 TERM_LABELS = {"Q": "quantization", "N": "white noise", "B": "bias instability", "K": "rate random walk",
@@ -42,10 +42,16 @@ def _axis_panel(ax, adev, fit, title, unit) -> None:
         if fit.values[term] > 0:
             label = TERM_LABELS[term] + (" (Gauss-Markov)" if term == "B" and fit.bias_correlation_time else "")
             ax.plot(fine, np.sqrt(fit.term_avar(term, fine)), "--", lw=1, label=f"{term}: {label}")
+    for term, bound in getattr(fit, "upper_bounds", {}).items():
+        if bound > 0 and term in ("B", "K"):  # the long-tau terms a short record cannot pin down
+            i = TERMS.index(term)
+            curve = _FACTORS[i] * bound ** 2 * fine ** _POWERS[i]
+            ax.plot(fine, np.sqrt(curve), ":", color="0.5", lw=1, label=f"{term} <= {bound:.2g} (not identifiable)")
     ax.plot(fine, np.sqrt(fit.avar(fine)), "r-", lw=1.5, label="fit total")
     ax.set_xscale("log")
     ax.set_yscale("log")
-    ax.set_title(title)
+    quality = getattr(fit, "fit_quality", {}).get("verdict")
+    ax.set_title(title + (" - poor fit" if quality == "poor" else ""))
     ax.set_ylabel(f"$\\sigma(\\tau)$ ({unit})")
     ax.grid(True, which="both", alpha=0.3)
     ax.legend(fontsize=7, loc="best")

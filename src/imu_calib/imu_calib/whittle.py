@@ -43,6 +43,8 @@ class WhittleFit:
     cov: np.ndarray
     converged: bool
     n_bins: int
+    nll: float = float("nan")
+    """Negative log-likelihood at the estimate (up to a constant shared by fits of one record)."""
 
 
 def _acov_differenced(term: str, n: int, rate_hz: float, tau_c: float) -> np.ndarray:
@@ -119,37 +121,82 @@ def periodogram_of_differences(x, alpha: float = TAPER_ALPHA) -> np.ndarray:
     return np.abs(fft.rfft(d * taper(n, alpha))[1:(n - 1) // 2 + 1]) ** 2
 
 
+SINGLE_BINS = 512
+"""The lowest Fourier bins enter one by one; above them bins are pooled in groups of at most 1 % in frequency."""
+
+
+def _group_edges(n_bins: int, single: int = SINGLE_BINS, width: float = 0.01) -> np.ndarray:
+    """Start indices of the bin groups and the end: single bins up to ``single``, then groups of relative
+    width ``width``. Within a group every expected ordinate is nearly constant (all terms are smooth power
+    laws there), so the pooled likelihood ``m log s + sum I / s`` equals the sum over the bins."""
+    edges = list(range(min(single, n_bins)))
+    k = len(edges)
+    while k < n_bins:
+        edges.append(k)
+        k = max(k + 1, int(k * (1.0 + width)))
+    edges.append(n_bins)
+    return np.array(edges)
+
+
+class WhittleProblem:
+    """The periodogram of one record and the expected-periodogram column of each term, computed once, so that
+    fits of several term sets (for likelihood-ratio tests) share them."""
+
+    def __init__(self, x, rate_hz: float, tau_c: float = 0.0, alpha: float = TAPER_ALPHA):
+        x = np.asarray(x, dtype=float)
+        self.x = x[:fast_length_below(len(x) - 1) + 1]
+        self.rate_hz, self.tau_c, self.alpha = float(rate_hz), float(tau_c), alpha
+        pgram = periodogram_of_differences(self.x, alpha)
+        self.n_bins = len(pgram)
+        self.edges = _group_edges(len(pgram))
+        self.counts = np.diff(self.edges).astype(float)
+        self.pgram = np.add.reduceat(pgram, self.edges[:-1])
+        h = taper(len(self.x) - 1, alpha)
+        # tapered ordinates are slightly correlated: n sum h^4 is the variance inflation of their averages
+        self.inflation = float(len(h) * np.sum(h ** 4))
+        self._columns: dict = {}
+
+    def column(self, term: str) -> np.ndarray:
+        """Expected periodogram per unit squared coefficient of ``term`` (cached)."""
+        if term not in self._columns:
+            col = expected_periodogram((term,), len(self.x) - 1, self.rate_hz, self.tau_c, self.alpha)[:, 0]
+            col = np.add.reduceat(col, self.edges[:-1]) / self.counts
+            # round-off leaves ~1e-16 relative negatives where a term has a spectral zero (Q, N at f = 0)
+            self._columns[term] = np.maximum(col, 1e-12 * np.max(np.abs(col)))
+        return self._columns[term]
+
+    def fit(self, terms, theta0, max_iter: int = 200) -> WhittleFit:
+        """ML squared coefficients of ``terms`` (subset of WHITTLE_TERMS) from start ``theta0``."""
+        terms = tuple(terms)
+        if not terms or any(t not in WHITTLE_TERMS for t in terms):
+            raise ValueError(f"Whittle terms must be a non-empty subset of {WHITTLE_TERMS}, got {terms}")
+        P = np.column_stack([self.column(t) for t in terms])
+        pgram, counts = self.pgram, self.counts
+        # scale each column so the start point is u = 0 for every term: a well-conditioned problem
+        theta0 = np.maximum(np.asarray(theta0, dtype=float), 1e-30)
+        Ps = P * theta0
+
+        def nll(u):
+            w = np.exp(u)
+            s = Ps @ w
+            r = pgram / s
+            value = np.sum(counts * np.log(s) + r)
+            grad = (Ps.T @ ((counts - r) / s)) * w
+            return value, grad
+
+        res = optimize.minimize(nll, np.zeros(len(terms)), jac=True, method="L-BFGS-B",
+                                bounds=[(-30.0, 30.0)] * len(terms), options={"maxiter": max_iter})
+        theta = theta0 * np.exp(res.x)
+        A = P / (P @ theta)[:, None] * np.sqrt(counts)[:, None]
+        cov = np.linalg.pinv(A.T @ A) * self.inflation
+        ok = bool(res.success) and bool(np.isfinite(res.fun))
+        return WhittleFit(terms, theta, cov, ok, self.n_bins, float(res.fun))
+
+
 def fit_whittle(x, rate_hz: float, terms, theta0, tau_c: float = 0.0, max_iter: int = 200,
                 alpha: float = TAPER_ALPHA) -> WhittleFit:
     """ML squared coefficients of ``terms`` (subset of WHITTLE_TERMS) for rate samples ``x``, from start ``theta0``."""
-    terms = tuple(terms)
-    if not terms or any(t not in WHITTLE_TERMS for t in terms):
-        raise ValueError(f"Whittle terms must be a non-empty subset of {WHITTLE_TERMS}, got {terms}")
-    x = np.asarray(x, dtype=float)
-    x = x[:fast_length_below(len(x) - 1) + 1]
-    pgram = periodogram_of_differences(x, alpha)
-    P = expected_periodogram(terms, len(x) - 1, rate_hz, tau_c, alpha)
-    # scale each column so the start point is u = 0 for every term: a well-conditioned problem
-    theta0 = np.maximum(np.asarray(theta0, dtype=float), 1e-30)
-    Ps = P * theta0
-
-    def nll(u):
-        w = np.exp(u)
-        s = Ps @ w
-        r = pgram / s
-        value = np.sum(np.log(s) + r)
-        grad = (Ps.T @ ((1.0 - r) / s)) * w
-        return value, grad
-
-    res = optimize.minimize(nll, np.zeros(len(terms)), jac=True, method="L-BFGS-B",
-                            bounds=[(-30.0, 30.0)] * len(terms), options={"maxiter": max_iter})
-    theta = theta0 * np.exp(res.x)
-    s = P @ theta
-    A = P / s[:, None]
-    # tapered ordinates are slightly correlated: n sum h^4 is the variance inflation of their averages
-    h = taper(len(x) - 1, alpha)
-    cov = np.linalg.pinv(A.T @ A) * (len(h) * np.sum(h ** 4))
-    return WhittleFit(terms, theta, cov, bool(res.success), len(pgram))
+    return WhittleProblem(x, rate_hz, tau_c, alpha).fit(terms, theta0, max_iter)
 
 
 def cramer_rao_relative_sd(n: int, rate_hz: float, terms, coefficients, tau_c: float = 0.0) -> np.ndarray:

@@ -22,6 +22,9 @@ A value of 0 means the term is absent. ``bias_correlation_time`` > 0 makes the
 bias instability a first-order Gauss-Markov process with that correlation time
 (its steady-state sigma is ``bias_instability``); 0 means flicker (1/f) noise.
 Each term may carry a 95 % interval per axis (``interval_95``, shape (3, 2)).
+A stochastic term may carry ``identifiable`` per axis (3 booleans): ``false``
+means the record could not identify the term and ``value`` is the 95 % upper
+bound of its interval, not an estimate (written by ``imu_calib``).
 
 The ``physics`` section maps names of :data:`EFFECTS` to their parameters
 (a mapping, possibly empty for the physical default): the effects the
@@ -86,6 +89,8 @@ class TriadModel:
     rate_ramp: np.ndarray = field(default_factory=lambda: np.zeros(3))
     intervals: dict = field(default_factory=dict)
     """Term name -> 95 % interval array, shape (3, 2) ((3, 3, 2) for misalignment)."""
+    identifiable: dict = field(default_factory=dict)
+    """Term name -> (3,) bools; False: the value is the 95 % upper bound of a term the record did not identify."""
     info: dict = field(default_factory=dict)
     """Free-form fit information (goodness of fit, slope readings), written as is."""
 
@@ -192,6 +197,8 @@ def _triad_to_dict(name: str, tri: TriadModel) -> dict:
         entry = {"value": _to_builtin(getattr(tri, term))}
         if term in tri.intervals and tri.intervals[term] is not None:
             entry["interval_95"] = _to_builtin(tri.intervals[term])
+        if term in tri.identifiable:
+            entry["identifiable"] = [bool(v) for v in tri.identifiable[term]]
         out[term] = entry
     if tri.info:
         out["info"] = _to_builtin(tri.info)
@@ -235,6 +242,11 @@ def _triad_from_dict(name: str, data, where: str) -> TriadModel:
         if entry.get("interval_95") is not None:
             tri.intervals[term] = _array(entry["interval_95"], shape + (2,),
                                          f"{where}.{name}.{term}.interval_95")
+        if entry.get("identifiable") is not None:
+            flags = entry["identifiable"]
+            if not (isinstance(flags, list) and len(flags) == 3 and all(isinstance(v, bool) for v in flags)):
+                raise SensorModelError(f"{where}.{name}.{term}.identifiable: expected 3 booleans, got {flags!r}")
+            tri.identifiable[term] = np.array(flags)
     _check_nonnegative(tri, name, where)
     term_units = data.get("units")
     if term_units is not None and not isinstance(term_units, dict):
