@@ -135,9 +135,9 @@ def simulate(scenario, model=None, seed: int | None = None, rate_hz: float | Non
         mdl = effects.apply_model_overrides(base)
         traj = build_trajectory(sc)
         return _simulate(sc, mdl, traj, seed, rate, terms, with_bytes, temp_c)
-    except effects.EffectError as err:  # name the files the physics came from
+    except effects.EffectError as err:  # name the files the physics came from (same error type)
         source = f"{sc.where}" + (f" or {model}" if isinstance(model, (str, Path)) else "")
-        raise ScenarioError(f"{source}: {err}") from None
+        raise effects.EffectError(f"{source}: {err}") from None
 
 
 def _planned_duration_s(sc: Scenario) -> float | None:
