@@ -38,28 +38,6 @@ def test_the_node_loads_its_model_without_the_cli_and_offline_needs_no_progress_
     assert not any(n.split(".")[0] in ("tqdm", "matplotlib") for n in top)
 
 
-def test_no_import_cycles_in_the_filter_and_its_evaluation():
-    modules = {**_modules("ins_gps_kf"), **_modules("nav_eval")}
-
-    def resolve(name):  # the module an imported name lands in: itself, or its parent for an attribute
-        return name if name in modules else name.rsplit(".", 1)[0] if name.rsplit(".", 1)[0] in modules else None
-
-    graph = {m: {resolve(n) for n in _imports(p)} - {None, m} for m, p in modules.items()}
-    state = {}
-
-    def visit(m, stack):
-        state[m] = "open"
-        for d in graph[m]:
-            assert state.get(d) != "open", "import cycle: " + " -> ".join(stack + [m, d])
-            if d not in state:
-                visit(d, stack + [m])
-        state[m] = "done"
-
-    for m in modules:
-        if m not in state:
-            visit(m, [])
-
-
 def test_ins_gps_kf_evaluate_is_offered_by_the_nav_eval_plugin(tmp_path, capsys):
     from ins_gps_kf.replay import main
     assert main(["evaluate", "--dataset", "canada", "--claims", "--out", str(tmp_path)]) == 2
