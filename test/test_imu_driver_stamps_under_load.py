@@ -108,7 +108,8 @@ def test_simulated_time_stamps_never_go_back_with_the_cpu_busy(tmp_path, rclpy_c
     stamps, index = _stamps_and_index(probe)
     made = (np.arange(int(seconds * 64)) + 1) / 64.0  # scenario_player writes frame k at simulated (k + 1) / 64
     residual = _check(stamps, index, made, settle_s=2.0 * rate, spread_s=0.004 * rate)
-    # and against the simulated clock itself (the emulator starts its own timer a moment after the player's)
+    # and against the simulated clock itself: within 50 ms of wall time, which includes the player's own
+    # skew (its emulator thread starts its timer a moment after the simulated clock starts, more under load)
     error = stamps[-1] * 1e-9 - (EPOCH_S + made[index[-1]])
-    assert abs(error) < 0.02 * rate, f"last stamp {error:+.4f} s off the frame's simulated time"
+    assert abs(error) < 0.05 * rate, f"last stamp {error:+.4f} s off the frame's simulated time"
     assert np.ptp(residual) < 0.6 * rate

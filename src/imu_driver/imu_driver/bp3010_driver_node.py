@@ -11,6 +11,7 @@ from __future__ import annotations
 import struct
 import threading
 import time
+from collections import deque
 
 import numpy as np
 import serial
@@ -100,6 +101,7 @@ class Bp3010Driver(Node):
         self._set_noise()
         # Under simulated time the node's clock stands still between /clock deliveries: read /clock's receive times.
         self._sim = None
+        self._pending = deque()  # (wall time, frames) read before the simulated clock's rate was known
         if sim_time:
             self._sim = ClockFollower()
             self._clock_sub = PolledSubscription(self, Clock, "/clock", None, None)
@@ -204,27 +206,34 @@ class Bp3010Driver(Node):
             self._set_state("disconnected", str(err))
             self._stop.wait(self.p["reconnect_period_s"])
             return
-        read_at = time.monotonic()
+        read_at, wall = time.monotonic(), time.time()
         if data:
-            self._publish(data, self._host_time_s())
+            self._publish(data, wall)
         wait = read_at + self.p["min_read_interval_s"] - time.monotonic()
         if wait > 0 and data:
             self._stop.wait(wait)
 
-    def _host_time_s(self):
-        """Host time of a read that just returned, s (None: simulated time and no /clock yet)."""
+    def _publish(self, data: bytes, wall_s: float) -> None:
+        """Decode a read made at ``wall_s`` (system time, s), stamp and publish its frames."""
         if self._sim is None:
-            return self.get_clock().now().nanoseconds * 1e-9
+            self._send(self.core.feed(data, self.get_clock().now().nanoseconds * 1e-9))
+            return
         for blob, received_ns in self._clock_sub.take_all():
             sec, nanosec = _CLOCK_CDR.unpack_from(blob, 4)
             self._sim.update(sec + 1e-9 * nanosec, received_ns * 1e-9)
-        return self._sim.now(time.time())
-
-    def _publish(self, data: bytes, host_time_s) -> None:
-        if host_time_s is None:  # use_sim_time and no /clock yet: no stamp to give, so nothing to publish
-            self.frames_before_clock += len(self.core.decoder.feed(data))
+        batch = self.core.decoder.feed(data)
+        if len(batch):
+            self._pending.append((wall_s, batch))
+        if self._sim.now(wall_s) is None:
+            # simulated time not known yet: hold the reads (at most 2 s), stamp them once /clock's rate is
+            while self._pending and self._pending[0][0] < wall_s - 2.0:
+                self.frames_before_clock += len(self._pending.popleft()[1])
             return
-        samples = self.core.feed(data, host_time_s)
+        while self._pending:
+            wall, batch = self._pending.popleft()
+            self._send(self.core.stamp(batch, self._sim.now(wall)))
+
+    def _send(self, samples) -> None:
         if len(samples.t):
             # raw CDR for the whole read: building rclpy Imu objects cost ~70 us a frame, 7 % of a core at 1 kHz
             sec, nanosec = stamps_from_s(samples.t)

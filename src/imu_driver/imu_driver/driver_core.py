@@ -225,14 +225,14 @@ class ClockFollower:
         self._best = float(np.max(sim - self.rate * recv))
 
     def now(self, wall_s: float):
-        """Simulated time at ``wall_s`` (s); None before the first message or the clock's rate is known."""
+        """Simulated time at ``wall_s`` (s; also a past one); None before the clock's rate is known."""
         if self._best is None:
             return None
         paused = len(self._sim) >= 2 and self._sim[-1] == self._sim[0]
         if not paused and self._recv[-1] - self._recv[0] < self.min_span_s:
             return None  # moving (or not known to stand still) at a rate not yet measured
         wall = min(wall_s - self._ref[1], self._recv[-1] + self.max_extrapolation_s)
-        return self._ref[0] + max(self._best + self.rate * wall, self._sim[-1])
+        return self._ref[0] + self._best + self.rate * wall  # on or above every message: never behind /clock
 
 
 @dataclass
@@ -254,7 +254,10 @@ class DriverCore:
 
     def feed(self, data: bytes, host_time_s: float) -> ImuSamples:
         """Decode ``data`` read at ``host_time_s``; stamp the frames by their counters."""
-        batch = self.decoder.feed(data)
+        return self.stamp(self.decoder.feed(data), host_time_s)
+
+    def stamp(self, batch, host_time_s: float) -> ImuSamples:
+        """Stamp decoded frames (a ``FrameBatch``) read at ``host_time_s``; rates from increments."""
         t = self.clock.stamp(batch.counter, host_time_s)
         dt = 1.0 / self.rate_hz
         return ImuSamples(t, batch.dtheta / dt, batch.dv / dt)
