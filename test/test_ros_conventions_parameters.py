@@ -75,6 +75,7 @@ def _ros_args(values: dict) -> list:
     return args
 
 
+@pytest.mark.ros  # the nodes run in this process, but on DDS like the process tests
 @pytest.mark.parametrize("name", sorted(NODES))
 def test_set_parameters_at_run_time_is_refused_as_read_only(name, tmp_path, ros_env):
     import importlib

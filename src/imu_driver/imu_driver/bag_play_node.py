@@ -98,7 +98,9 @@ class BagPlayer(Node):
             self.get_logger().warning(f"playing without {want} subscriber(s) on every topic after waiting")
 
     def _play(self) -> None:
-        time.sleep(self.p["start_delay_s"])
+        if self._stop.wait(self.p["start_delay_s"]):  # Ctrl-C during the delay ends at once
+            self.done.set()
+            return
         self._wait_for_subscribers()
         while not self._stop.is_set():
             self._play_once()
