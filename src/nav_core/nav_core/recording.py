@@ -322,31 +322,56 @@ def _damage_or_raise(err, strict: bool):
 
 
 def read_imu_bag(path, topic: str = IMU_TOPIC, temp_topic: str = TEMP_TOPIC, strict: bool = False) -> ImuRecording:
-    """IMU samples of ``topic`` (header stamps) and temperature of ``temp_topic`` (interpolated) from a bag."""
+    """IMU samples of ``topic`` (header stamps) and temperature of ``temp_topic`` (interpolated) from a bag.
+
+    The Imu messages are decoded as one batch (:mod:`nav_core.imu_cdr`) rather than one message
+    object each (1 h at 64 Hz: 2.0 s instead of 5-6 s at load 13); one that does not decode is
+    skipped and counted in ``damage``.
+    """
     from nav_core import bagio
 
-    path = Path(path)
-    t, gyro, accel, temp_t, temp = [], [], [], [], []
-    frame_id, damage = "imu_link", None
+    path, want = Path(path), bagio.norm_topic(topic)
+    blobs, temp_t, temp, damage = [], [], [], None
     try:
-        for top, _, msg in bagio.iter_messages(path, [topic, temp_topic]):
-            if top == bagio.norm_topic(topic):
-                t.append(bagio.stamp_to_s(msg.header.stamp))
-                w, a = msg.angular_velocity, msg.linear_acceleration
-                gyro.append((w.x, w.y, w.z))
-                accel.append((a.x, a.y, a.z))
-                frame_id = msg.header.frame_id
-            else:
+        for top, mtype, _, raw in bagio.iter_raw(path, [topic, temp_topic]):
+            if top == want:
+                blobs.append(raw)
+                continue
+            try:
+                msg = bagio.TYPESTORE.deserialize_cdr(raw, mtype)
                 temp_t.append(bagio.stamp_to_s(msg.header.stamp))
-                temp.append(msg.temperature)
+                temp.append(float(msg.temperature))
+            except Exception:  # a damaged temperature message: the others interpolate over it
+                continue
     except bagio.BagDamage as err:
         damage = _damage_or_raise(err, strict)
-    if not t:
+    batch, bad = _decode_imu_blobs(blobs)
+    if bad:
+        text = f"{path}: {bad} of {len(blobs)} message(s) on {want} could not be decoded as sensor_msgs/Imu"
+        damage = _damage_or_raise(RecordingError(text), strict) if damage is None else f"{damage}; {text}"
+    if not len(batch):
         raise _no_topic(path, topic, damage)
-    t = np.asarray(t)
+    t = batch.t_s
     temp_c = np.interp(t, temp_t, temp) if temp_t else None
-    return ImuRecording(t, np.asarray(gyro).reshape(-1, 3), np.asarray(accel).reshape(-1, 3), temp_c,
-                        source=str(path), frame_id=frame_id, damage=damage)
+    return ImuRecording(t, batch.gyro, batch.accel, temp_c, source=str(path), frame_id=batch.frame_ids[-1],
+                        damage=damage)
+
+
+def _decode_imu_blobs(blobs: list):
+    """(ImuBatch of the decodable messages, count of those that are not)."""
+    from nav_core.imu_cdr import ImuCdrError, decode_imu
+
+    try:
+        return decode_imu(blobs), 0
+    except ImuCdrError:  # find the bad ones one by one (only on damage or a wrong message type)
+        good = []
+        for blob in blobs:
+            try:
+                decode_imu([blob])
+                good.append(blob)
+            except ImuCdrError:
+                continue
+        return decode_imu(good), len(blobs) - len(good)
 
 
 def read_gnss_bag(path, topic: str = GNSS_TOPIC, strict: bool = False) -> GnssRecording:
