@@ -227,3 +227,12 @@ def test_check_timestamps_names_non_finite_times_and_default_gap():
     assert check.non_finite.tolist() == [3] and check.gaps.tolist() == [6]
     assert "non-finite" in check.summary() and "sample 6" in check.summary()
     assert [(r.start, r.stop) for r in check.runs()] == [(0, 3), (4, 6), (6, 7)]
+
+
+def test_imu_messages_that_do_not_decode_are_counted_not_a_traceback(tmp_path, mcap_bag):
+    bag = mcap_bag[0]
+    with pytest.raises(RecordingError, match=r"90 of 90 message\(s\) on gps/fix could not be decoded"):
+        rec_io.read_imu(bag, topic="gps/fix")  # NavSatFix is not an Imu
+    imu = rec_io.read_imu(bag)
+    np.testing.assert_array_equal(imu.gyro, _imu().gyro)  # the batch decoder reads what was written
+    assert imu.frame_id == "imu_link" and imu.damage is None
