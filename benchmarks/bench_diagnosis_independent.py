@@ -48,7 +48,7 @@ CASES = {
     "temperature_bias": ("static", "temperature_bias", {}),
     "gauss_markov_bias": ("static", "gauss_markov_bias", {"gyro": 3.7e-5, "accel": 1.9e-4, "tau": 10.0}),
     "bias_random_walk": ("static", "bias_random_walk", {"gyro": 6e-7, "accel": 3e-6}),
-    "earth_rotation_updown": ("updown", "earth_rotation", {}),
+    "earth_rotation_updown": ("updown", "earth_rotation", {}),  # one record, the turn recorded
     "gps_latency": ("drive", "gps_latency", {"latency": 0.03}),
     "gps_lever_arm": ("drive", "gps_lever_arm", {"arm": [0.35, -0.25, 0.4]}),
     "colored_gps_noise": ("drive", "colored_gps_noise", {"sigma": [0.3, 0.3, 0.5], "tau": 30.0}),
@@ -178,11 +178,10 @@ def _gnss(site, motion, rng, folder, effect, par):
 
 
 def _updown(site, rng, folder, effect):
-    """Navigation-grade static run at 64 Hz: x axis up 300 s, then down 300 s (a recording of two files joined)."""
+    """Navigation-grade static run at 64 Hz: x axis up 300 s, a recorded 10-s turn, x down 300 s; truth CSV at 64 Hz."""
     rate, hold = 64.0, 300.0
-    parts = [site.true_imu(gen.Poses([pose], hold, 1.0), rate) for pose in ((0, -90, 0), (0, 90, 0))]
-    t = np.r_[parts[0][0], parts[1][0] + hold]
-    gyro, accel = np.vstack([parts[0][1], parts[1][1]]), np.vstack([parts[0][2], parts[1][2]])
+    motion = gen.Poses([(0, -90, 0), (0, 90, 0)], hold, 10.0)
+    t, gyro, accel = site.true_imu(motion, rate)
     n = len(t)
     gw, aw = 2e-6, 2e-5  # ring-laser-grade white noise, rad/s/sqrt(s), m/s/sqrt(s)
     gyro = gyro + rng.normal(0, gw * np.sqrt(rate), (n, 3)) + rng.normal(0, 1e-7, 3)
@@ -190,12 +189,9 @@ def _updown(site, rng, folder, effect):
     cols = {"t": t, "gx": gyro[:, 0], "gy": gyro[:, 1], "gz": gyro[:, 2], "ax": accel[:, 0], "ay": accel[:, 1],
             "az": accel[:, 2]}
     paths = {"recording": gen.write_csv(folder / "imu.csv", cols)}
-    segs = [{"t0": 0.0, "t1": hold, "roll_deg": 0.0, "pitch_deg": -90.0, "yaw_deg": 0.0},
-            {"t0": hold + 1e-3, "t1": 2 * hold + 1e-3, "roll_deg": 0.0, "pitch_deg": 90.0, "yaw_deg": 0.0}]
-    sc = {"latitude_deg": SITE[0], "longitude_deg": SITE[1], "height_m": SITE[2], "rate_hz": rate, "gps": False,
-          "static_segments": segs}
+    gen.write_csv(folder / "truth.csv", site.truth_rows(motion, rate))
     paths["scenario"] = folder / "scenario.yaml"
-    paths["scenario"].write_text(yaml.safe_dump(sc, sort_keys=False))
+    paths["scenario"].write_text(yaml.safe_dump({"trajectory": "truth.csv", "rate_hz": rate, "gps": False}))
     from nav_core.sensor_model import SensorModel, TriadModel, save
     model = SensorModel(gyro=TriadModel(white_noise=np.full(3, gw)), accel=TriadModel(white_noise=np.full(3, aw)),
                         sample_rate_hz=rate, physics={"gravity_model": {}, "coriolis": {}})

@@ -148,3 +148,11 @@ def test_drive_from_a_truth_csv_with_nothing_missing_gives_no_finding(tmp_path):
     res = diagnose(load_case(p["recording"], p["scenario"], p["model"], p["gnss"]), max_effects=2, seed=8001).result
     assert res["findings"] == []
     assert "harmonic" in next(t for t in res["tested"] if t["effect"] == "vibration")["note"]
+
+
+@pytest.mark.slow
+def test_chained_naive_model_from_imu_calib_allan_gives_no_finding_on_a_walk_it_fitted(tmp_path):
+    # the user's route: imu-calib allan on the recording writes the model, imu-sim diagnose checks it
+    p = bench.generate("null_single_naive", 8001, tmp_path)
+    res = diagnose(load_case(p["recording"], p["scenario"], p["model"]), max_effects=2, seed=8001).result
+    assert res["findings"] == []

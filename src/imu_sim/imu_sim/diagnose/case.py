@@ -48,6 +48,11 @@ class Case:
     gnss: GnssRecording | None = None
     notes: list = field(default_factory=list)
     cache: dict = field(default_factory=dict)
+    masked: np.ndarray | None = None
+    bias_resets: list = field(default_factory=list)
+    """Sample indices after a masked join: separately recorded files, each with its own turn-on bias."""
+    """Samples where the truth moves but the recording does not (e.g. two files joined without the turn between
+    them): residual and truth set to 0 there, so they carry no information."""
 
     @property
     def n(self) -> int:
@@ -105,7 +110,34 @@ def make_case(rec: ImuRecording, sc: Scenario, model: SensorModel, gnss=None, wh
     t = rec.t - rec.t[0] + 1.0 / rate
     temp = rec.temp_c if rec.temp_c is not None else temperature_profile(sc, t_abs[:n])
     dth, dv = kinematics.increments(traj, t_abs[:n], 1.0 / rate, kinematics.FULL)
-    return Case(rec, sc, model, t, 1.0 / rate, temp, dth * rate, dv * rate, t_abs[:n], gnss, notes)
+    gyro_true, accel_true = dth * rate, dv * rate
+    masked = _unrecorded_motion(rec, gyro_true, where, sc.where)
+    if masked is not None:
+        gyro_true[masked], accel_true[masked] = 0.0, 0.0
+        notes.append(f"{int(masked.sum())} samples where the scenario turns the IMU faster than anything recorded "
+                     f"(at t = {', '.join(f'{x:.2f}' for x in t[masked][:5])} s; files joined without the move?) "
+                     "carry no information (residual and truth set to 0 there)")
+    resets = [] if masked is None else [int(i) + 1 for i in np.flatnonzero(masked[:-1] & ~masked[1:])]
+    if resets:
+        notes.append("a separate turn-on bias per joined file (a step on every channel at each join is a nuisance)")
+    return Case(rec, sc, model, t, 1.0 / rate, temp, gyro_true, accel_true, t_abs[:n], gnss, notes, masked=masked,
+                bias_resets=resets)
+
+
+def _unrecorded_motion(rec, gyro_true, where, sc_where):
+    """Mask of samples whose true rate exceeds 10x the recorded rates + 1 rad/s; None when there are none.
+
+    More than 1 % of such samples: the truth does not belong to this recording (an input error)."""
+    recorded = float(np.percentile(np.linalg.norm(rec.gyro, axis=1), 99.9))
+    bad = np.linalg.norm(gyro_true, axis=1) > 10.0 * recorded + 1.0
+    if not bad.any():
+        return None
+    if bad.mean() > 0.01:
+        raise DiagnosisInputError(
+            f"{where}: the scenario ({sc_where}) turns the IMU at up to {np.max(np.linalg.norm(gyro_true, axis=1)):.3g} "
+            f"rad/s in {int(bad.sum())} samples where the recording shows at most {recorded:.3g} rad/s: the truth "
+            "does not match this recording")
+    return bad
 
 
 def deterministic(case: Case, model: SensorModel, stochastic: bool = False, seed: int = 0) -> np.ndarray:
@@ -121,8 +153,11 @@ def _needs_temp(model: SensorModel) -> bool:
 
 
 def residual(case: Case, model: SensorModel) -> np.ndarray:
-    """Recorded minus simulated-deterministic, (n, 6)."""
-    return case.measured - deterministic(case, model)
+    """Recorded minus simulated-deterministic, (n, 6); 0 at masked samples."""
+    out = case.measured - deterministic(case, model)
+    if case.masked is not None:
+        out[case.masked] = 0.0
+    return out
 
 
 def kinematic_difference(case: Case, model: SensorModel, effect: str) -> np.ndarray:
@@ -137,6 +172,8 @@ def kinematic_difference(case: Case, model: SensorModel, effect: str) -> np.ndar
             traj = case.cache.setdefault("traj", build_trajectory(case.scenario))
             dth, dv = kinematics.increments(traj, case.sim_t_abs, case.dt, key)
             case.cache[key] = np.column_stack([dth, dv]) / case.dt
+            if case.masked is not None:
+                case.cache[key][case.masked] = 0.0
         out.append(case.cache[key])
     return out[0] - out[1]
 

@@ -13,7 +13,7 @@ from scipy import stats
 from imu_sim.diagnose import metrics, noise_candidates, noise_tests, reference, regressors
 from imu_sim.diagnose.candidate import ALPHA, CONING_NOTE, Candidate, Context, not_testable, threshold
 from imu_sim.diagnose.case import CHANNELS, effective_model
-from imu_sim.diagnose.spectral import gls
+from imu_sim.diagnose.spectral import SE_MAX, GlsResult, gls
 
 KINEMATIC = ("earth_rotation", "gravity_model", "coriolis")
 FILE_LATTICE = 0.01
@@ -28,26 +28,50 @@ def drifting_channels(model) -> list:
             or mdl.triad(("gyro", "accel")[c // 3]).rate_ramp[c % 3] != 0]
 
 
-def fit(ctx: Context, columns: dict, k: int):
-    """GLS of the residual on ``columns`` (k parameters) with a free ramp per drifting channel as nuisance.
-
-    The likelihood ratio is the increment over the ramps alone; theta and cov are those of the k parameters."""
+def nuisance(ctx: Context) -> dict:
+    """Nuisance columns per channel: a ramp on each drifting channel, a bias step at each join of files."""
+    n = ctx.case.n
     drift = drifting_channels(ctx.model)
-    if not drift:
-        return gls(ctx.wh, ctx.resid_f, columns, k)
-    ramp = ctx.case.t - ctx.case.t[0]
-    n, nr = ctx.case.n, len(drift)
-    both, ramps = {}, {}
-    for c in set(columns) | set(drift):
-        r = np.zeros((n, nr))
-        if c in drift:
-            r[:, drift.index(c)] = ramp
-        ramps[c] = r
-        both[c] = np.hstack([columns.get(c, np.zeros((n, k))), r])
-    full = gls(ctx.wh, ctx.resid_f, both, k + nr)
+    resets = list(getattr(ctx.case, "bias_resets", None) or [])
+    out = {}
+    for c in range(6):
+        cols = [ctx.case.t - ctx.case.t[0]] if c in drift else []
+        cols += [(np.arange(n) >= r).astype(float) for r in resets]
+        if cols:
+            out[c] = np.column_stack(cols)
+    return out
+
+
+def fit(ctx: Context, columns: dict, k: int, se_max: float | None = None):
+    """GLS of the residual on ``columns`` (k parameters) with the nuisance columns of :func:`nuisance`.
+
+    Each (channel, nuisance) pair is its own parameter; the likelihood ratio is the increment over the nuisance
+    alone; theta and cov are those of the k parameters."""
+    nuis = nuisance(ctx)
+    if not nuis:
+        return gls(ctx.wh, ctx.resid_f, columns, k, se_max)
+    n = ctx.case.n
+    m = sum(x.shape[1] for x in nuis.values())
+    both, alone, at = {}, {}, 0
+    for c in sorted(set(columns) | set(nuis)):
+        z = np.zeros((n, m))
+        if c in nuis:
+            z[:, at:at + nuis[c].shape[1]] = nuis[c]
+            at += nuis[c].shape[1]
+        alone[c] = z
+        both[c] = np.hstack([columns.get(c, np.zeros((n, k))), z])
+    full = gls(ctx.wh, ctx.resid_f, both, k + m)
     if not full.identifiable:
-        return gls(ctx.wh, ctx.resid_f, columns, k)
-    base = gls(ctx.wh, ctx.resid_f, ramps, nr)
+        full.why = ("its regressors are collinear with the nuisance (the turn-on bias of each joined file, or the "
+                    "end-to-end drift of the model's random walk) in this scenario")
+        full.theta, full.cov, full.dof, full.dropped = np.zeros(k), np.full((k, k), np.nan), k, []
+        return full
+    weak = np.flatnonzero(np.sqrt(np.clip(np.diag(full.cov)[:k], 0, None)) > (se_max or np.inf))
+    if len(weak):  # determined only through the nuisance (e.g. a step at the join of two files)
+        return GlsResult(np.zeros(k), np.full((k, k), np.nan), 0.0, k, False,
+                         "its regressors are collinear with the nuisance (the turn-on bias of each joined file, or "
+                         "the end-to-end drift of the model's random walk) in this scenario", [int(j) for j in weak])
+    base = gls(ctx.wh, ctx.resid_f, alone, m)
     full.theta, full.cov = full.theta[:k], full.cov[:k, :k]
     full.lr, full.dof = full.lr - base.lr, k
     return full
@@ -67,23 +91,25 @@ def _channels_of(columns: dict, theta: np.ndarray, cov: np.ndarray) -> list:
     return out
 
 
-def regression(ctx: Context, design, statistic: str = "GLS likelihood ratio") -> Candidate:
+def regression(ctx: Context, design, statistic: str = "GLS likelihood ratio", se_max: float | None = None) -> Candidate:
     """GLS test and fit of one regressor design (columns per channel sharing one parameter vector)."""
     case = ctx.case
-    res = gls(ctx.wh, ctx.resid_f, design.columns, design.k)
     dropped = []
-    if not res.identifiable and res.dropped and len(res.dropped) < design.k:
+    for _ in range(3):
+        res = gls(ctx.wh, ctx.resid_f, design.columns, design.k, se_max)
+        if res.identifiable:
+            res = fit(ctx, design.columns, design.k, se_max)
+        if res.identifiable or not res.dropped or len(res.dropped) == design.k:
+            break
         # e.g. the accelerometers' scale factor on a level rate table (constant specific force): test the rest
-        dropped = [design.names[j] for j in res.dropped]
+        dropped += [design.names[j] for j in res.dropped]
         design = design.without(res.dropped)
-        res = gls(ctx.wh, ctx.resid_f, design.columns, design.k)
-    if res.identifiable:
-        res = fit(ctx, design.columns, design.k)
     thr = threshold(design.k, ctx.m_tests, 1, ctx.factor(design.effect))
     cand = Candidate(design.effect, res.lr, thr, statistic, res.identifiable, res.why, columns=design.columns)
     if dropped:
-        cand.reason = (f"not identifiable by this scenario (regressor constant over the run): {', '.join(dropped)}; "
-                       "tested on the others")
+        cand.reason = ("not identifiable by this scenario (regressor constant over the run" + (
+            f", or determined no better than +-{se_max:g}" if se_max else "") + f"): {', '.join(dropped)}; "
+            "tested on the others")
     if not res.identifiable:
         return cand
     ci = res.interval()
@@ -188,7 +214,7 @@ def quantization(ctx: Context) -> Candidate:
     thr = 2.0 * np.log(6 * ctx.m_tests / ALPHA) * ctx.factor("quantization")
     # a lattice far below the per-sample noise (e.g. the file's print precision) is a property of the file
     sigma = np.sqrt([metrics.robust_var(case.measured[:, c]) for c in range(6)])
-    fine = np.array([0 < o[0] < FILE_LATTICE * s for o, s in zip(out, sigma)])
+    fine = np.array([0 < o[0] < FILE_LATTICE * s and 2 * o[2] > thr for o, s in zip(out, sigma)])
     z_phys = np.where(fine, 0.0, z)
     cand = Candidate("quantization", float(2 * z_phys.max()), thr,
                      "Rayleigh lattice statistic 2z of raw values (chi-square 2 for continuous values)",
@@ -228,7 +254,7 @@ def kinematic(ctx: Context, effect: str) -> Candidate:
     """Earth rotation, normal gravity or Coriolis: one scale on the exact difference the effect makes."""
     if effect in (ctx.model.physics or {}):
         return not_testable(effect, "already in the model's physics")
-    return regression(ctx, regressors.design_kinematic(ctx.case, ctx.model, effect))
+    return regression(ctx, regressors.design_kinematic(ctx.case, ctx.model, effect), se_max=SE_MAX)
 
 
 def temperature(ctx: Context) -> Candidate:
@@ -243,11 +269,13 @@ TESTS = {
     "earth_rotation": lambda ctx: kinematic(ctx, "earth_rotation"),
     "gravity_model": lambda ctx: kinematic(ctx, "gravity_model"),
     "coriolis": lambda ctx: kinematic(ctx, "coriolis"),
-    "gyro_g_sensitivity": lambda ctx: regression(ctx, regressors.design_g_sensitivity(ctx.case, ctx.model)),
+    "gyro_g_sensitivity": lambda ctx: regression(ctx, regressors.design_g_sensitivity(ctx.case, ctx.model),
+                                                 se_max=SE_MAX),
     "temperature_bias": temperature,
     "warmup_drift": warmup,
-    "scale_factor": lambda ctx: regression(ctx, regressors.design_scale_factor(ctx.case, ctx.model)),
-    "axis_misalignment": lambda ctx: regression(ctx, regressors.design_misalignment(ctx.case, ctx.model)),
+    "scale_factor": lambda ctx: regression(ctx, regressors.design_scale_factor(ctx.case, ctx.model), se_max=SE_MAX),
+    "axis_misalignment": lambda ctx: regression(ctx, regressors.design_misalignment(ctx.case, ctx.model),
+                                                se_max=SE_MAX),
     "vibration": vibration,
     "quantization": quantization,
     "gauss_markov_bias": lambda ctx: noise_candidates.noise(ctx, "gauss_markov_bias"),

@@ -38,7 +38,13 @@ def moving_file_truth(case) -> bool:
 
 
 def clean(case, resid: np.ndarray) -> np.ndarray:
-    """The residual with the accelerometers' slow part removed on a moving truth file (else unchanged)."""
+    """The residual less its nuisances: each joined file's own turn-on bias (its mean per channel), and on a
+    moving truth file the accelerometers' slow part (else unchanged)."""
+    resets = list(getattr(case, "bias_resets", None) or [])
+    if resets:
+        resid = resid.copy()
+        for a, b in zip([0] + resets, resets + [len(resid)]):
+            resid[a:b] -= resid[a:b].mean(axis=0)
     if not moving_file_truth(case):
         return resid
     spec = np.fft.rfft(resid[:, 3:], axis=0)

@@ -18,6 +18,9 @@ from nav_core.sensor_model import SensorModel
 from imu_sim.diagnose.case import effective_model
 
 LN2 = np.log(2.0)
+SE_MAX = 1.0
+"""A scale factor, misalignment, g-sensitivity or physical scale whose standard error exceeds this is not
+identifiable by the run (its natural scale is 1; callers pass it as ``se_max``)."""
 
 
 def noise_psd(model: SensorModel, freqs: np.ndarray, dt: float) -> np.ndarray:
@@ -97,8 +100,11 @@ class GlsResult:
         return np.column_stack([self.theta - z * sd, self.theta + z * sd])
 
 
-def gls(wh: Whitener, resid_f: np.ndarray, design: dict, k: int) -> GlsResult:
-    """Joint GLS of residual spectra (nf, 6) on a design {channel: (n, k) columns}; LR = b^T A^-1 b."""
+def gls(wh: Whitener, resid_f: np.ndarray, design: dict, k: int, se_max: float | None = None) -> GlsResult:
+    """Joint GLS of residual spectra (nf, 6) on a design {channel: (n, k) columns}; LR = b^T A^-1 b.
+
+    ``se_max``: a parameter whose marginal standard error exceeds it is dropped as not identifiable (for
+    parameters with a natural scale, e.g. a scale factor: +-1 says nothing)."""
     a = np.zeros((k, k))
     b = np.zeros(k)
     raw = np.zeros(k)
@@ -114,10 +120,14 @@ def gls(wh: Whitener, resid_f: np.ndarray, design: dict, k: int) -> GlsResult:
         raw[used] += np.sum(xu**2, axis=0)
         ac[used] += np.sum((xu - xu.mean(axis=0)) ** 2, axis=0)
     frac = ac / np.maximum(raw, 1e-300)
-    if np.any(frac < 1e-10):
+    # a parameter the run determines no better than +-1 (SI; e.g. a scale factor from a regressor that is
+    # round-off, an axis that never turns) is not identifiable either
+    weak = np.diag(a) < 1.0 / se_max**2 if se_max else np.zeros(k, bool)
+    if np.any(frac < 1e-10) or np.any(weak):
         result = GlsResult(np.zeros(k), np.full((k, k), np.nan), 0.0, k, False,
-                           "its regressor is constant over the run here, so it is collinear with the turn-on bias")
-        result.dropped = [int(j) for j in np.flatnonzero(frac < 1e-10)]
+                           "its regressor is constant over the run here (so it is collinear with the turn-on bias) "
+                           "or too weak to determine (standard error above the parameter's natural scale)")
+        result.dropped = [int(j) for j in np.flatnonzero((frac < 1e-10) | weak)]
         return result
     d = np.sqrt(np.diag(a))
     corr = a / np.outer(d, d)
