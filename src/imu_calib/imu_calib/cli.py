@@ -160,9 +160,10 @@ def _print_noise(result) -> None:
             bounds = ", ".join(f"{t}<={b:.3g}" for t, b in fit.upper_bounds.items() if b > 0)
             bounds = f"; not identifiable from this record: {bounds}" if bounds else ""
             gm = f", GM tau_c={fit.bias_correlation_time:.3g} s" if fit.bias_correlation_time else ""
-            quality = fit.fit_quality
-            print(f"{triad} {'xyz'[i]}: {terms}{gm}{bounds} (SI; fit {quality.get('verdict', '?')}, "
-                  f"reduced chi2 {fit.chi2_reduced:.2f}, p = {quality.get('p_value', float('nan')):.2g})")
+            q = fit.fit_quality
+            reduced = q["chi2"] / max(q["points"] - q["terms"], 1)  # without the model-error floor
+            print(f"{triad} {'xyz'[i]}: {terms}{gm}{bounds} (SI; fit {q['verdict']}, reduced chi2 {reduced:.3g}, "
+                  f"p = {q['p_value']:.2g})")
 
 
 def cmd_two_position(args) -> int:
