@@ -12,5 +12,7 @@ calibration loading; a leaf), :mod:`effect_tests` (the registry of per-effect te
 Monte Carlo), :mod:`calibrate` (threshold factors from the null cases, ``calibration.yaml``),
 :mod:`gnss_tests` / :mod:`gnss_candidates` (GNSS-side effects from the fix residual),
 :mod:`real` (real recordings to CSV + scenario).
+
+The package imports none of its modules (so importing one never runs the engine): use
+``from imu_sim.diagnose.engine import diagnose``.
 """
-from imu_sim.diagnose.engine import diagnose  # noqa: F401

@@ -134,7 +134,8 @@ def _unrecorded_motion(rec, gyro_true, where, sc_where):
         return None
     if bad.mean() > 0.01:
         raise DiagnosisInputError(
-            f"{where}: the scenario ({sc_where}) turns the IMU at up to {np.max(np.linalg.norm(gyro_true, axis=1)):.3g} "
+            f"{where}: the scenario ({sc_where}) turns the IMU at up to "
+            f"{np.max(np.linalg.norm(gyro_true, axis=1)):.3g} "
             f"rad/s in {int(bad.sum())} samples where the recording shows at most {recorded:.3g} rad/s: the truth "
             "does not match this recording")
     return bad

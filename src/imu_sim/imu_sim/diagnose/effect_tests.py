@@ -244,7 +244,8 @@ def quantization(ctx: Context) -> Candidate:
             half = max(1.96 * se, 1e-9 * q) * case.dt
             cand.params[key] = float(q * case.dt)
             cand.intervals[key] = [float(q * case.dt - half), float(q * case.dt + half)]
-            cand.params[key.replace("lsb", "output_step").replace("_rad[", "_rad_per_s[").replace("_mps[", "_mps2[")] = float(q)
+            step_key = key.replace("lsb", "output_step").replace("_rad[", "_rad_per_s[").replace("_mps[", "_mps2[")
+            cand.params[step_key] = float(q)
             cand.channels.append(CHANNELS[c])
     cand.physics = {"gyro_lsb_rad": lsb["gyro"].tolist(), "accel_lsb_mps": lsb["accel"].tolist()}
     return cand

@@ -21,7 +21,8 @@ REF_CUTOFF_HZ = 0.2
 """On a moving truth file the accelerometer residual below this (Hz) is the reference's error (a nuisance)."""
 FILE_SOURCES = ("trajectory", "gnss_track")
 MOVING_MPS = 0.05
-"""A truth whose speed exceeds this (m/s) somewhere translates: its spline's position error reaches the accelerometers."""
+"""A truth whose speed exceeds this (m/s) somewhere translates: its spline's position error reaches the
+accelerometers."""
 HARMONIC_RATIO = 100.0
 """A bin where the truth's rate/specific force has 100x its local median power is a harmonic of the motion."""
 
