@@ -147,7 +147,7 @@ def test_drive_from_a_truth_csv_with_nothing_missing_gives_no_finding(tmp_path):
     p = bench.generate("null_drive", 8001, tmp_path)
     res = diagnose(load_case(p["recording"], p["scenario"], p["model"], p["gnss"]), max_effects=2, seed=8001).result
     assert res["findings"] == []
-    assert "harmonic" in next(t for t in res["tested"] if t["effect"] == "vibration")["note"]
+    assert "reference trajectory's error" in next(t for t in res["tested"] if t["effect"] == "vibration")["note"]
 
 
 @pytest.mark.slow
