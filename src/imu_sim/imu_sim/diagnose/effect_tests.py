@@ -220,7 +220,7 @@ def quantization(ctx: Context) -> Candidate:
                      "Rayleigh lattice statistic 2z of raw values (chi-square 2 for continuous values)",
                      kind="quantization")
     digits = [noise_tests.print_digits(case.measured[:, c]) for c in range(6)]
-    printed = [c for c in range(6) if digits[c] is not None
+    printed = [c for c in range(6) if digits[c] is not None and digits[c] <= 12  # beyond: float arithmetic, not print
                and noise_tests.print_step(case.measured[:, c], digits[c]) < FILE_LATTICE * sigma[c]]
     if printed or any(fine):
         steps = ", ".join(f"{noise_tests.print_step(case.measured[:, c], digits[c]):.3g}" for c in printed)
