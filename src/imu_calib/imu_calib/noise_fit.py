@@ -263,6 +263,8 @@ def fit_noise(adev: AllanDeviation, terms=TERMS, min_share: float = 0.1, try_gau
     if samples is not None and floor == 0 and any(t in WHITTLE_TERMS for t in kept):
         whittle = WhittleProblem(samples, adev.rate_hz, tau_c)
         kept = _whittle_select(prob, whittle, terms, kept, upper, tau_c)
+        # the likelihood's choice must still explain the Allan curve within its dof
+        kept = _add_what_the_residual_asks_for(prob, terms, kept, upper, tau_c, floor)
     final = prob.fit(kept, tau_c, floor)
     fit = _make_fit(final.c, final.cov, final.chi2, kept, len(prob.taus))
     for term in TERMS:
@@ -316,9 +318,11 @@ def _add_what_the_residual_asks_for(prob: _Problem, terms, kept, upper, tau_c: f
             trial = [u for u in terms if u in kept or u == t]
             with_t = prob.fit(trial, tau_c, floor)
             gains[t] = (now.chi2 - with_t.chi2) / with_t.kappa[trial.index(t)]
-        best = max(gains, key=gains.get)
-        if gains[best] < DROP_CHI2:
+        # a ramp comes back last: a walk's drift looks like one in the last few-dof points
+        useful = {t: g for t, g in gains.items() if g >= DROP_CHI2}
+        if not useful:
             return kept
+        best = max((t for t in useful if t != "R"), key=useful.get, default="R")
         kept = [u for u in terms if u in kept or u == best]
         upper.pop(best, None)
 
@@ -347,11 +351,13 @@ def _whittle_select(prob: _Problem, whittle: WhittleProblem, terms, kept, upper,
             if np.isfinite(w.nll) and (best is None or score < best[0]):
                 best = (score, subset)
     cur = best[1] if best is not None else [t for t in terms if t in kept and t in WHITTLE_TERMS]
-    if "R" in kept:
-        with_r = prob.fit(_ordered(terms, cur + ["R"]), tau_c, 0.0)
-        i = _ordered(terms, cur + ["R"]).index("R")
-        if (prob.fit(cur, tau_c, 0.0).chi2 - with_r.chi2) / with_r.kappa[i] >= DROP_CHI2_NEGLIGIBLE:
-            cur = _ordered(terms, cur + ["R"])
+    if "R" in kept and _ramp_needed(prob, terms, cur, tau_c):
+        # the likelihood removes the differences' mean, i.e. the end-to-end drift a walk shows as a ramp; the
+        # last Allan points have 1-2 dof, so a walk's drift can look like a ramp there: if the walk explains
+        # the curve within its dof, it is the walk (a ramp only when nothing else can)
+        with_k = _ordered(terms, cur + ["K"])
+        cur = with_k if "K" in terms and "K" not in cur and \
+            prob.fit(with_k, tau_c, 0.0).p_value() >= MISFIT_P_VALUE else _ordered(terms, cur + ["R"])
     for t in terms:
         if t not in cur:
             trial = _ordered(terms, cur + [t])
@@ -361,6 +367,13 @@ def _whittle_select(prob: _Problem, whittle: WhittleProblem, terms, kept, upper,
         else:
             upper.pop(t, None)
     return cur
+
+
+def _ramp_needed(prob: _Problem, terms, cur, tau_c: float) -> bool:
+    """Whether adding a ramp to ``cur`` raises the Allan fit by the 99.9 % point (kappa-adjusted)."""
+    trial = _ordered(terms, cur + ["R"])
+    with_r = prob.fit(trial, tau_c, 0.0)
+    return (prob.fit(cur, tau_c, 0.0).chi2 - with_r.chi2) / with_r.kappa[trial.index("R")] >= DROP_CHI2_NEGLIGIBLE
 
 
 def _ordered(terms, subset) -> list:
