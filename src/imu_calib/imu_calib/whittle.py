@@ -20,6 +20,12 @@ values enter every low-frequency ordinate as one shared term, so the ordinates
 are not independent there and the K estimate loses a third of its precision. Flicker uses the synthetic generator's
 spectrum ``B^2 / (pi f) sinc^2(f/fs)`` (one-sided), a Gauss-Markov bias its
 exponential autocovariance at a fixed correlation time.
+
+:class:`WhittleProblem` keeps one record's periodogram and the columns per term,
+so fits of several term sets (the term choice in :mod:`imu_calib.noise_fit`)
+share them; above the lowest ``SINGLE_BINS`` ordinates the bins are pooled in
+groups 1 % wide in frequency, where every expected ordinate is nearly constant
+(``m log s + sum I / s`` per group), which makes each fit cheap.
 """
 from __future__ import annotations
 
