@@ -11,15 +11,16 @@ setup:
 demo: setup
 	@$(VENV)/bin/nav-demo --rate $(RATE)
 
+# The CI command: two workers (one per core); node tests mostly wait on simulated clocks.
 test: setup
-	@$(PY) -m pytest -q test
+	@$(PY) -m pytest -q -n 2 test
 
 # Every test that starts no ROS process and no long simulation: the contributor's loop (< 2 minutes).
 test-unit: setup
-	@$(PY) -m pytest -q -m "not ros and not slow" test
+	@$(PY) -m pytest -q -n 2 -m "not ros and not slow" test
 
 test-fast: setup
-	@$(PY) -m pytest -q -m "not slow" test
+	@$(PY) -m pytest -q -n 2 -m "not slow" test
 
 bench: setup
 	@$(PY) benchmarks/run_all.py

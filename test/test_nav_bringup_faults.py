@@ -33,7 +33,7 @@ def test_faults_are_reported_no_node_exits_and_the_filter_recovers(sim_dir, tmp_
     sim, scen = sim_dir
     link, s = tmp_path / "port", {"use_sim_time": True}
     model = {"sensor_model_path": str(MODEL)}
-    specs = [NodeSpec("bp3010_driver", dict(s, port=str(link), reconnect_period_s=0.2, max_stamp_offset_s=0.2)),
+    specs = [NodeSpec("bp3010_driver", dict(s, port=str(link), reconnect_period_s=0.2)),
              NodeSpec("wmra_node", dict(s, **model)),
              NodeSpec("ins_gps_kf_node", dict(s, **model, datum_lat_deg=scen["latitude_deg"],
                                               datum_lon_deg=scen["longitude_deg"], datum_h_m=scen["height_m"])),

@@ -35,8 +35,7 @@ def _specs(sim_dir: Path, run: Path, scen: dict) -> list:
     sim = {"use_sim_time": True}
     link = run / "port"
     model = {"sensor_model_path": str(MODEL)}
-    return [NodeSpec("bp3010_driver", dict(sim, port=str(link), reconnect_period_s=0.2,
-                                           max_stamp_offset_s=0.1 * RATE)),
+    return [NodeSpec("bp3010_driver", dict(sim, port=str(link), reconnect_period_s=0.2)),
             NodeSpec("wmra_node", dict(sim, **model)),
             NodeSpec("ins_gps_kf_node", dict(sim, **model, datum_lat_deg=scen["latitude_deg"],
                                              datum_lon_deg=scen["longitude_deg"], datum_h_m=scen["height_m"])),

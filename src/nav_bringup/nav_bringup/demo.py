@@ -145,7 +145,7 @@ def graph_specs(args, run_dir: Path, sim_dir: Path | None) -> list:
     if sim_dir is None:
         return specs + [NodeSpec("bag_play", {"bag": str(args.recording.resolve()), "rate": args.rate})]
     link = run_dir / "bp3010_port"
-    driver = dict(sim, port=str(link), reconnect_period_s=0.2)  # (max_stamp_offset_s is gone: load-proof stamps)
+    driver = dict(sim, port=str(link), reconnect_period_s=0.2)
     return ([NodeSpec("bp3010_driver", driver)] + specs +
             [NodeSpec("scenario_player", {"sim_dir": str(sim_dir), "link": str(link), "rate": args.rate,
                                           "duration_s": args.duration,
