@@ -14,7 +14,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from imu_calib.allan import AllanError
-from nav_core.recording import ImuRecording
+from nav_core.recording import ImuRecording, check_timestamps
 
 GAP_FACTOR = 1.5
 """A sample interval longer than this many median intervals is a gap (at least one sample is missing)."""
@@ -76,24 +76,23 @@ def timeline(rec: ImuRecording) -> Timeline:
     source = rec.source or "recording"
     if len(rec) < 2:
         raise AllanError(f"{source}: {len(rec)} samples, nothing to analyse")
-    if not np.all(np.isfinite(rec.t)):
-        raise AllanError(f"{source}: {int(np.sum(~np.isfinite(rec.t)))} time stamps are not finite")
-    dt = np.diff(rec.t)
-    positive = dt[dt > 0]
-    if len(positive) == 0:
+    check = check_timestamps(rec.t, source, gap_factor=GAP_FACTOR)
+    if len(check.non_finite):
+        raise AllanError(f"{source}: {len(check.non_finite)} time stamps are not finite")
+    median = check.nominal_dt_s
+    if not np.isfinite(median):
         raise AllanError(f"{source}: time stamps do not increase")
-    median = float(np.median(positive))
-    back = np.flatnonzero(dt <= 0)
-    gap = np.flatnonzero(dt > GAP_FACTOR * median)
+    dt = np.diff(rec.t)
     irregular = (dt > 0) & (np.abs(dt / median - 1.0) > 0.5) & (dt <= GAP_FACTOR * median)
     if irregular.mean() > JITTER_TOLERANCE:
         raise AllanError(f"{source}: {irregular.mean():.1%} of sample intervals differ from the median "
                          f"{median:.4g} s by more than half; Allan variance needs uniform sampling")
-    cuts = np.union1d(back, gap) + 1
+    back = np.union1d(check.backwards, check.duplicates)  # index i: the step t[i-1] -> t[i] does not increase
+    cuts = np.union1d(back, check.gaps)
     bounds = np.concatenate(([0], cuts, [len(rec)]))
     segments = [(int(a), int(b)) for a, b in zip(bounds[:-1], bounds[1:]) if b > a]
     t = rec.t
     # stamps in s carry float noise: 1e-6 Hz resolution is plenty for any IMU rate
     return Timeline(float(np.round(1.0 / median, 6)), segments,
-                    [(int(i + 1), float(t[i]), float(t[i + 1])) for i in back],
-                    [(int(i + 1), float(t[i]), float(t[i + 1])) for i in gap])
+                    [(int(i), float(t[i - 1]), float(t[i])) for i in back],
+                    [(int(i), float(t[i - 1]), float(t[i])) for i in check.gaps])
