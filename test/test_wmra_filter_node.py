@@ -114,19 +114,32 @@ def test_node_denoises_preserves_stamps_matches_core_and_restarts_on_gap(running
     assert diag["thresholds_gyro_rad_s"].startswith("L1:") and float(diag["processing_mean_us"]) > 0
 
 
-@pytest.mark.parametrize("params, message", [
-    ({"sensor_model_path": "/nonexistent/model.yaml"}, "/nonexistent/model.yaml: sensor-model file not found"),
-    ({"wavelet": "db99"}, "wavelet 'db99'"),
-    ({"window": 40}, "window 40"),
-])
-def test_node_exits_with_status_2_and_a_message_on_bad_config(tmp_path, ros_env, params, message):
-    _, path = _model(tmp_path)
-    node = NodeProcess("wmra_node", env=ros_env, ros_args={"sensor_model_path": str(path), **params})
+def test_node_exits_with_status_2_and_a_message_on_bad_config(tmp_path, ros_env):
+    # the wiring: a configuration error in the node is one message and exit 2 (the checks themselves run
+    # in-process below)
+    node = NodeProcess("wmra_node", env=ros_env, ros_args={"sensor_model_path": "/nonexistent/model.yaml"})
     try:
         assert node.proc.wait(timeout=30) == 2
     finally:
         node.stop()
-    assert message in node.output
+    assert "/nonexistent/model.yaml: sensor-model file not found" in node.output
+
+
+@pytest.mark.parametrize("params, message", [({"wavelet": "db99"}, "wavelet 'db99'"), ({"window": 40}, "window 40")])
+def test_bad_wavelet_parameters_are_refused_naming_the_value(tmp_path, params, message):
+    from wmra_filter.wmra import WmraConfigError
+    from wmra_filter.wmra_node import PARAMS, config_from_params, load_model
+    model = load_model(str(_model(tmp_path)[1]))
+    with pytest.raises(WmraConfigError, match=message):
+        config_from_params({**{p.name: p.default for p in PARAMS}, **params}, model)
+
+
+def test_an_empty_or_missing_sensor_model_path_is_a_config_error_naming_the_parameter(tmp_path):
+    from nav_core.params import ConfigError
+    from wmra_filter.wmra_node import load_model
+    for path in ("", str(tmp_path / "none.yaml")):
+        with pytest.raises(ConfigError, match="sensor_model_path"):
+            load_model(path)
 
 
 def test_node_fills_a_dropped_message_instead_of_restarting(running):
