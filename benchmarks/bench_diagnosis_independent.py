@@ -1,6 +1,6 @@
 """The diagnosis on recordings it did not make: cases from ``independent_gen`` (no imu_sim code), files as users write.
 
-    .venv/bin/python benchmarks/bench_diagnosis_independent.py [--seeds 20] [--null-seeds 20] [--cases ...] [--out DIR]
+    .venv/bin/python benchmarks/bench_diagnosis_independent.py [--seeds 20] [--null-seeds 20] [--cases ...] [--out DIR] [--quick]
 
 Each case writes imu.csv (10 significant digits), scenario.yaml (a truth CSV at 100 Hz, or static segments as a
 user types them), model.yaml (what the user believes) and, for drives, gnss.csv; then diagnoses them through
@@ -282,7 +282,10 @@ def main(argv=None) -> int:
     parser.add_argument("--cases", nargs="*", default=None, help=f"default all: {list(CASES) + list(NULLS)}")
     parser.add_argument("--out", default="/tmp/diag_independent")
     parser.add_argument("--resume", default=None, help="rows.json of an earlier run of the same code to reuse")
+    parser.add_argument("--quick", action="store_true", help="1 seed of one effect and one null (a smoke run)")
     args = parser.parse_args(argv)
+    if args.quick:
+        args.seeds, args.null_seeds, args.cases = 1, 1, args.cases or ["gravity_model", "null_tumble"]
     names = args.cases or list(NULLS) + list(CASES)
     jobs = [(c, (8000 if c in NULLS else 7000) + s) for s in range(max(args.seeds, args.null_seeds)) for c in names
             if s < (args.null_seeds if c in NULLS else args.seeds)]
