@@ -15,6 +15,7 @@ from ins_gps_kf import config, input_checks, synthetic as syn
 from ins_gps_kf.filter import NAVIGATING, InsGpsFilter
 from ins_gps_kf.offline import run
 from ins_gps_kf.replay import main
+from nav_eval.bad_input import shift_north
 
 RATE = 32.0
 PARAMS = {"alignment_time_s": 20.0}
@@ -49,17 +50,6 @@ def _errors(filt, est, motion=CIRCLE):
 def _finite(est) -> bool:
     return all(np.all(np.isfinite(e.position_n)) and np.all(np.isfinite(e.velocity_n))
                and np.all(np.isfinite(e.quat_xyzw)) and np.all(np.isfinite(e.cov)) for e in est)
-
-
-def _shift_fixes(gnss, index, north_m):
-    """A copy of ``gnss`` with the fixes at ``index`` moved ``north_m`` m north (in the first fix's frame)."""
-    out = GnssRecording(gnss.t.copy(), gnss.lat.copy(), gnss.lon.copy(), gnss.h.copy(), gnss.std_enu.copy())
-    frame = LocalFrame(gnss.lat[0] / DEG, gnss.lon[0] / DEG, gnss.h[0])
-    enu = frame.to_enu(gnss.lat[index] / DEG, gnss.lon[index] / DEG, gnss.h[index])
-    enu[:, 1] += north_m
-    lat, lon, h = frame.to_geodetic(enu)
-    out.lat[index], out.lon[index], out.h[index] = lat * DEG, lon * DEG, h
-    return out
 
 
 # ---------------------------------------------------------------------------------------------- IMU
@@ -160,7 +150,7 @@ def test_conflicting_duplicate_stamps_are_counted_and_neither_position_is_used()
     k = np.arange(len(gnss))
     doubled = _with_rows(gnss, np.sort(np.concatenate([k, k[60:70]])))
     second = np.flatnonzero(np.diff(doubled.t) == 0) + 1
-    doubled = _shift_fixes(doubled, second, 22.0)
+    doubled = shift_north(doubled, second, 22.0)
     filt, est = _run(imu, doubled)
     assert filt.input_counters["fixes_conflicting"] == 10
     t, err, _ = _errors(filt, est)
@@ -202,7 +192,7 @@ def test_a_single_fix_stamped_far_ahead_is_dropped_and_the_rest_is_used():
 def test_six_fix_glitch_is_rejected_without_a_reset_and_the_error_stays_small(offset_m):
     imu, gnss = _inputs()
     k = int(np.searchsorted(gnss.t, 100.0))
-    filt, est = _run(imu, _shift_fixes(gnss, np.arange(k, k + 6), offset_m))
+    filt, est = _run(imu, shift_north(gnss, np.arange(k, k + 6), offset_m))
     t, err, speed = _errors(filt, est)
     assert err[t > 40].max() < 50.0
     assert speed.max() < 2 * TRUE_MAX_SPEED
@@ -225,7 +215,7 @@ def test_the_course_ignores_a_chord_faster_than_the_speed_limit():
     motion = syn.straight(still_s=25.0, accel_s=10.0, cruise_s=40.0)
     imu, gnss = _inputs(motion)
     k = int(np.searchsorted(gnss.t, 27.0))  # heading still pending: no gate against a known course yet
-    filt, est = _run(imu, _shift_fixes(gnss, np.array([k]), 300.0))
+    filt, est = _run(imu, shift_north(gnss, np.array([k]), 300.0))
     _, _, speed = _errors(filt, est, motion)
     assert speed.max() < 2 * TRUE_MAX_SPEED
     assert filt.input_counters["gps_jumps"] >= 1 and est[-1].status == NAVIGATING

@@ -31,8 +31,9 @@ def _rows(gnss: GnssRecording, idx=None) -> GnssRecording:
                          gnss.std_enu[idx].copy(), gnss.status[idx].copy())
 
 
-def _north(gnss: GnssRecording, idx, metres: float) -> GnssRecording:
-    """``gnss`` with the fixes at ``idx`` moved ``metres`` north."""
+def shift_north(gnss: GnssRecording, idx, metres: float) -> GnssRecording:
+    """A copy of ``gnss`` with the fixes at ``idx`` moved ``metres`` north (in the first fix's local frame)."""
+    gnss = _rows(gnss)
     frame = LocalFrame(gnss.lat[0] / DEG, gnss.lon[0] / DEG, gnss.h[0])
     enu = frame.to_enu(gnss.lat[idx] / DEG, gnss.lon[idx] / DEG, gnss.h[idx])
     enu[:, 1] += metres
@@ -47,15 +48,15 @@ def cases(gnss: GnssRecording) -> dict:
     i = np.arange(len(gnss))
     doubled = np.sort(np.concatenate([i, i[k:k + 10]]))
     out = {"clean": _rows(gnss),
-           "6 fixes 200 m off": _north(_rows(gnss), np.arange(k, k + 6), 200.0),
-           "6 fixes 500 km off": _north(_rows(gnss), np.arange(k, k + 6), 500e3),
+           "6 fixes 200 m off": shift_north(gnss, np.arange(k, k + 6), 200.0),
+           "6 fixes 500 km off": shift_north(gnss, np.arange(k, k + 6), 500e3),
            "every std 0": _rows(gnss), "every std -1": _rows(gnss),
            "10 duplicated fixes": _rows(gnss, doubled)}
     out["every std 0"].std_enu[:] = 0.0
     out["every std -1"].std_enu[:] = -1.0
     conflicting = _rows(gnss, doubled)
-    out["10 conflicting duplicates (22 m)"] = _north(conflicting, np.flatnonzero(np.diff(conflicting.t) == 0) + 1,
-                                                     22.0)
+    second = np.flatnonzero(np.diff(conflicting.t) == 0) + 1
+    out["10 conflicting duplicates (22 m)"] = shift_north(conflicting, second, 22.0)
     out["fix stamps step back 100 s"] = _rows(gnss)
     out["fix stamps step back 100 s"].t[k:] -= 100.0
     out["latitude 221 deg"] = _rows(gnss)
