@@ -45,21 +45,12 @@ def test_params_module_imports_no_ros():
     assert subprocess.run([sys.executable, "-c", code]).returncode == 0
 
 
-@pytest.fixture
-def rclpy_ctx(ros_env):
-    import rclpy
-    ctx = rclpy.Context()
-    rclpy.init(context=ctx)
-    yield ctx
-    rclpy.try_shutdown(context=ctx)
-
-
-def _declare(ctx, params, overrides):
+def _declare(params, overrides):
     from rclpy.node import Node
     from rclpy.parameter import Parameter
 
     from nav_core.params_ros import declare_parameters
-    node = Node("bad_param_probe", context=ctx,
+    node = Node("bad_param_probe",
                 parameter_overrides=[Parameter(k, value=v) for k, v in overrides.items()])
     try:
         return declare_parameters(node, params)
@@ -74,29 +65,29 @@ def _ranged(module_name):
 
 
 @pytest.mark.parametrize("module_name", NODE_MODULES)
-def test_every_node_range_is_a_config_error_not_a_traceback(rclpy_ctx, module_name):
+def test_every_node_range_is_a_config_error_not_a_traceback(rclpy_context, module_name):
     ranged = _ranged(module_name)
     assert ranged, f"{module_name} declares no ranged parameter"
     for p in ranged:
         below = type(p.default)(p.low) - (1 if isinstance(p.default, int) else abs(p.low) + 1.0)
         with pytest.raises(ConfigError, match=f"parameter '{p.name}'.*expected"):
-            _declare(rclpy_ctx, [p], {p.name: below})
+            _declare([p], {p.name: below})
 
 
-def test_node_parameter_of_the_wrong_type_is_a_config_error(rclpy_ctx):
+def test_node_parameter_of_the_wrong_type_is_a_config_error(rclpy_context):
     from imu_driver.bp3010_driver_node import PARAMS
     baud = next(p for p in PARAMS if p.name == "baud")
     with pytest.raises(ConfigError, match="parameter 'baud'.*wrong type"):
-        _declare(rclpy_ctx, [baud], {"baud": "fast"})
-    assert _declare(rclpy_ctx, [baud], {"baud": 115200}) == {"baud": 115200}
+        _declare([baud], {"baud": "fast"})
+    assert _declare([baud], {"baud": 115200}) == {"baud": 115200}
 
 
-def test_a_value_for_a_parameter_the_node_does_not_have_is_named_in_a_warning(rclpy_ctx):
+def test_a_value_for_a_parameter_the_node_does_not_have_is_named_in_a_warning(rclpy_context):
     from rclpy.node import Node
     from rclpy.parameter import Parameter
 
     from nav_core.params_ros import declare_parameters
-    node = Node("unknown_param_probe", context=rclpy_ctx, parameter_overrides=[Parameter("hopp", value=3)])
+    node = Node("unknown_param_probe", parameter_overrides=[Parameter("hopp", value=3)])
     try:
         declare_parameters(node, [Param("hop", 8, "samples", 1, 65536)])
         from nav_core.params_ros import warn_unknown_overrides
