@@ -100,10 +100,9 @@ def test_unknown_topic_error_lists_the_topics_the_bag_has(tmp_path):
 # -- nodes -------------------------------------------------------------------------------------
 
 @pytest.mark.ros
-def test_bag_play_drives_a_sim_time_subscriber_with_the_bag_clock(tmp_path, ros_env):
+def test_bag_play_drives_a_sim_time_subscriber_with_the_bag_clock(tmp_path, ros_env, rclpy_context):
     imu, gnss = _imu(n=192), _gnss(n=3)
     bag = rec_io.write_bag(tmp_path / "bag", imu, gnss)
-    rclpy.init()
     probe = Probe({"imu/data_raw": Imu, "gps/fix": NavSatFix, "imu/temperature": Temperature})
     probe.set_parameters([Parameter("use_sim_time", Parameter.Type.BOOL, True)])
     sim_times = []
@@ -120,7 +119,6 @@ def test_bag_play_drives_a_sim_time_subscriber_with_the_bag_clock(tmp_path, ros_
         assert player.proc.wait(timeout=20) == 0, player.output
     finally:
         probe.destroy_node()
-        rclpy.try_shutdown()
         player.stop()
     stamps = np.array([stamp_to_s(m.header.stamp) for _, m in probe.received["imu/data_raw"]])
     assert set(np.round(stamps, 6)) <= set(np.round(imu.t, 6))

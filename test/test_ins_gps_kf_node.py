@@ -87,13 +87,11 @@ class Feeder:
 
 
 @pytest.fixture
-def feeder(ros_env):
-    rclpy.init()
+def feeder(rclpy_context):
     f = Feeder()
     yield f
     f.probe.destroy_node()
     f.odom.destroy_node()
-    rclpy.try_shutdown()
 
 
 @pytest.mark.slow

@@ -103,7 +103,7 @@ def test_set_parameters_at_run_time_is_refused_as_read_only(name, tmp_path, ros_
 
 
 @pytest.mark.ros
-def test_the_set_parameters_service_refuses_a_change(tmp_path, ros_env):
+def test_the_set_parameters_service_refuses_a_change(tmp_path, ros_env, rclpy_context):
     """``ros2 param set /bag_record storage mcap`` answers 'read-only' and the node keeps recording."""
     import rclpy
     from rcl_interfaces.msg import Parameter as ParameterMsg, ParameterType, ParameterValue
@@ -112,7 +112,6 @@ def test_the_set_parameters_service_refuses_a_change(tmp_path, ros_env):
     exe = Path(sys.executable).parent / "bag_record"
     proc = subprocess.Popen([str(exe), "--ros-args", "-p", f"output:={tmp_path / 'bag'}"], env=ros_env,
                             stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
-    rclpy.init()
     node = rclpy.create_node("param_client")
     try:
         client = node.create_client(SetParameters, "/bag_record/set_parameters")
@@ -126,7 +125,6 @@ def test_the_set_parameters_service_refuses_a_change(tmp_path, ros_env):
         assert proc.poll() is None
     finally:
         node.destroy_node()
-        rclpy.try_shutdown()
         proc.send_signal(2)
         try:
             out, _ = proc.communicate(timeout=15)

@@ -41,13 +41,12 @@ def _pose(tr) -> Pose:
 
 @pytest.mark.ros
 @pytest.mark.slow
-def test_tf_tree_and_twist_of_the_fusion_node(ros_env):
+def test_tf_tree_and_twist_of_the_fusion_node(ros_env, rclpy_context):
     motion = syn.circle(still_s=20.0, accel_s=5.0, straight_s=10.0, turn_s=10.0, yaw_rate=YAW_RATE)
     rng = np.random.default_rng(9)
     imu = syn.add_imu_errors(syn.ideal_imu(motion, RATE), rng, 1e-4, 0.01, 1e-3, 1e-3)
     gnss = syn.gnss(motion, RATE, 1.0, rng)
     node = NodeProcess("ins_gps_kf_node", env=ros_env, ros_args=PARAMS)
-    rclpy.init()
     probe = Probe({"odometry/filtered": Odometry, "/tf": TFMessage}, name="tf_probe", qos=QoSProfile(depth=5000))
     static = Probe({"/tf_static": TFMessage}, name="tf_static_probe", qos=QoSProfile(
         depth=1, reliability=ReliabilityPolicy.RELIABLE, durability=DurabilityPolicy.TRANSIENT_LOCAL))
@@ -78,7 +77,6 @@ def test_tf_tree_and_twist_of_the_fusion_node(ros_env):
         tf = [tr for _, m in probe.received["/tf"] for tr in m.transforms]
         probe.destroy_node()
         static.destroy_node()
-        rclpy.try_shutdown()
 
     mounts = {(tr.header.frame_id, tr.child_frame_id): _pose(tr) for tr in statics}
     assert set(mounts) == {("base_link", "imu_link"), ("base_link", "gps_link")}
