@@ -1,8 +1,6 @@
 """Every CLI on bad input: one line and exit 2, never a traceback (unless --debug); outputs checked first, never
 half-overwritten."""
-import os
 
-os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")  # before numpy
 
 import numpy as np  # noqa: E402
 import pytest  # noqa: E402

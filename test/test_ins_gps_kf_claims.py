@@ -1,7 +1,5 @@
 """The claim experiments' building blocks: WMRA input via wmra_filter, Allan-derived noise model via imu_calib."""
-import os
 
-os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 
 import numpy as np
 

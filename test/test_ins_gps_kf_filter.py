@@ -1,7 +1,5 @@
 """The INS/GPS filter on synthetic drives: alignment, heading from course, accuracy, gating, consistency, resets."""
-import os
 
-os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")  # before numpy: 15x15 algebra, BLAS threads only cost time
 
 import math
 

@@ -1,7 +1,5 @@
 """A lost serial port while driving: the filter bridges a forward IMU gap instead of re-aligning, and recovers."""
-import os
 
-os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 
 from pathlib import Path  # noqa: E402
 

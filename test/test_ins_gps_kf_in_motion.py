@@ -1,7 +1,5 @@
 """Alignment in motion: a vehicle that never stands still gets level, heading and velocity while driving."""
-import os
 
-os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 
 import numpy as np
 import pytest

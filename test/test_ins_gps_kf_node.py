@@ -1,7 +1,5 @@
 """ins_gps_kf_node as a process: same output as the offline replay, diagnostics, bad config, time jumps."""
-import os
 
-os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")  # before numpy: 15x15 algebra, BLAS threads only cost time
 
 import time  # noqa: E402
 

@@ -1,7 +1,5 @@
 """Accuracy on the project simulator's paper drive (imu_sim): filtered error below GPS, outages, consistency."""
-import os
 
-os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")  # before numpy: 15x15 algebra, BLAS threads only cost time
 
 from pathlib import Path  # noqa: E402
 

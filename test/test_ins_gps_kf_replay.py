@@ -1,7 +1,5 @@
 """The offline CLI: ins-gps-kf replay over CSVs and bags; output format; bad input."""
-import os
 
-os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")  # before numpy: 15x15 algebra, BLAS threads only cost time
 
 import numpy as np  # noqa: E402
 import pytest  # noqa: E402

@@ -1,7 +1,5 @@
 """Optional scale-factor states (21): estimated on a turning drive, and the 15-state filter is unchanged."""
-import os
 
-os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 
 import numpy as np
 import pytest

@@ -1,7 +1,5 @@
 """Strapdown mechanization against closed-form motions (independent truth in ins_gps_kf.synthetic)."""
-import os
 
-os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")  # before numpy: 15x15 algebra, BLAS threads only cost time
 
 import numpy as np
 from hypothesis import given, settings

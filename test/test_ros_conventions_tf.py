@@ -1,7 +1,5 @@
 """The fusion node's REP-105 frames on /tf and /tf_static, and complete odometry (the body rate in the twist)."""
-import os
 
-os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 
 import time  # noqa: E402
 
