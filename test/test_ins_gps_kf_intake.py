@@ -6,6 +6,7 @@ import pytest
 from hypothesis import given, settings, strategies as st
 
 from ins_gps_kf import config as kfconfig
+from ins_gps_kf import input_checks, offline
 from ins_gps_kf import synthetic as syn
 from ins_gps_kf.filter import InsGpsFilter
 from ins_gps_kf.intake import StampOrderIntake
@@ -88,8 +89,11 @@ def test_a_stamp_jumping_back_resets_the_filter_after_running_all_that_came_befo
     rec, intake = _intake()
     for k in range(64):
         _imu(intake, 10.0 + k / RATE)
+        if k == 16:
+            _fix(intake, 10.5)
     intake.release()
-    _fix(intake, 3.5)  # the restarted bag's first fix comes before its (denoised, later) IMU
+    _fix(intake, 3.5)  # the restarted bag's first fix comes before its (denoised, later) IMU: stamped back
+    _fix(intake, 4.5)
     _imu(intake, 3.0)  # the bag restarts
     assert rec.calls[-1][0] == "reset"
     before = [t for kind, t in rec.calls[:-1] if kind == "imu"]
@@ -101,7 +105,9 @@ def test_a_stamp_jumping_back_resets_the_filter_after_running_all_that_came_befo
     reset_at = [kind for kind, _ in rec.calls].index("reset")
     after = [t for kind, t in rec.calls[reset_at + 1:] if kind == "imu"]
     assert after == sorted(after) and after[0] == 3.0 and len(after) == 20
-    assert ("gps", 3.5) in rec.calls[reset_at:]  # kept for the new run
+    assert [c for c in rec.calls[reset_at:] if c[0] == "gps"] == [("gps", 3.5), ("gps", 4.5)]  # kept for the new run
+    new_run = [t for _, t in rec.calls[reset_at + 1:]]
+    assert new_run == sorted(new_run)  # in their place among the new run's IMU samples
     assert intake.counters.late_imu == 0
 
 
@@ -141,13 +147,57 @@ def test_whatever_the_arrival_order_the_filter_sees_nondecreasing_stamps(message
         if kind == "reset":
             runs.append([])
         else:
-            runs[-1].append(t)
+            runs[-1].append((kind, t))
             stamps.append(t)
-    assert all(run == sorted(run) for run in runs)  # between restarts (stamp jumps back > 1 s)
-    assert len(runs) - 1 == intake.counters.restarts
+    # between restarts (stamp jumps back > 1 s) the IMU stamps never go back, and a fix comes between the
+    # IMU samples of its stamp unless the intake counted it as stamped back or ahead (it goes where it arrived)
+    out_of_place = 0
+    for run in runs:
+        imu = [t for kind, t in run if kind == "imu"]
+        assert imu == sorted(imu)
+        for k, (kind, t) in enumerate(run):
+            before = [s for knd, s in run[:k] if knd == "imu"][-1:] or [-math.inf]
+            after = [s for knd, s in run[k + 1:] if knd == "imu"][:1] or [math.inf]
+            out_of_place += kind == "gps" and not before[0] <= t <= after[0]
     c = intake.counters
+    assert out_of_place <= c.fixes_stamped_back + c.fixes_stamped_ahead
+    assert len(runs) - 1 == c.restarts
     # every message handed in was either processed or counted as dropped: nothing vanishes silently
     assert len(stamps) + c.dropped == len(messages)
+
+
+@settings(max_examples=100, deadline=None)
+@given(st.lists(st.tuples(st.sampled_from([0.0, -100.0, 50.0, -7.0]), st.integers(1, 12), st.booleans()),
+                min_size=1, max_size=8))
+def test_fix_places_follow_the_offline_replay_rule_without_looking_ahead(segments):
+    # a 1-Hz receiver whose clock steps by whole seconds (back or ahead), with single outliers stamped 30 s ahead
+    offsets = []
+    for offset, n, spike in segments:
+        offsets += [offset] * n + ([offset + 30.0] if spike else [])
+    stamps = np.arange(len(offsets), dtype=float) + np.array(offsets)
+    places, arrivals = [], input_checks.FixArrivals(1.0)
+    for t in stamps:
+        at, outlier_place = arrivals.place_of(float(t))
+        if outlier_place is not None:
+            places[-1] = outlier_place
+        places.append(at)
+    np.testing.assert_array_equal(places, offline._arrivals(stamps))
+
+
+def test_a_fix_stamped_back_goes_where_it_arrived_and_the_filter_gets_its_stamp():
+    rec, intake = _intake()
+    for k in range(3):
+        _fix(intake, 10.0 + k)
+    _fix(intake, 13.0 - 100.0)  # the GNSS clock steps back 100 s: received at 13 s
+    _fix(intake, 14.0 - 100.0)
+    for k in range(int(16 * RATE)):
+        _imu(intake, k / RATE)
+    intake.flush()
+    gps = [(k, t) for k, (kind, t) in enumerate(rec.calls) if kind == "gps"]
+    assert [t for _, t in gps] == [10.0, 11.0, 12.0, -87.0, -86.0]  # the filter judges the stamps
+    assert [rec.calls[k - 1][1] for k, _ in gps] == [10 - 1 / RATE, 11 - 1 / RATE, 12 - 1 / RATE,
+                                                     13 - 1 / RATE, 14 - 1 / RATE]  # each where it arrived
+    assert intake.counters.fixes_stamped_back == 2 and intake.counters.dropped == 0
 
 
 def _drive():
@@ -163,15 +213,21 @@ def _filter():
     return InsGpsFilter(kfconfig.from_params(p))
 
 
+@pytest.mark.parametrize("clock_step_s", [0.0, -100.0], ids=["clean", "gnss_clock_stepping_back_100s"])
 @pytest.mark.parametrize("batch_s, imu_lag_s", [(0.01, 0.0), (0.5, 1.5), (12.0, 0.8)],
                          ids=["every_sample", "imu_behind_the_fixes", "catching_up_after_a_12s_stall"])
-def test_the_intake_gives_the_offline_replay_numbers_however_the_input_is_batched(batch_s, imu_lag_s):
+def test_the_intake_gives_the_offline_replay_numbers_however_the_input_is_batched(batch_s, imu_lag_s, clock_step_s):
     imu, gnss = _drive()
-    offline = run(_filter(), imu, gnss)
+    stepped = gnss.t >= 35.0
+    gnss.t[stepped] += clock_step_s  # the receiver keeps its rate, its clock steps: the fixes arrive as before
+    offline_filter = _filter()
+    offline = run(offline_filter, imu, gnss)
     live = []
     intake = StampOrderIntake(_filter(), 0.1, 1.0, RATE, on_run=lambda est, *_: live.extend(est))
-    # arrival order: fixes at their stamp, the IMU imu_lag_s later; taken every batch_s
-    arrivals = sorted([(t, 0, i) for i, t in enumerate(gnss.t)] + [(t + imu_lag_s, 1, i) for i, t in enumerate(imu.t)])
+    # arrival order: fixes when received (at their stamp before the step), the IMU imu_lag_s after its stamp;
+    # taken every batch_s
+    received = gnss.t - np.where(stepped, clock_step_s, 0.0)
+    arrivals = sorted([(t, 0, i) for i, t in enumerate(received)] + [(t + imu_lag_s, 1, i) for i, t in enumerate(imu.t)])
     edge = batch_s
     for when, kind, i in arrivals:
         if when > edge:
@@ -187,6 +243,11 @@ def test_the_intake_gives_the_offline_replay_numbers_however_the_input_is_batche
         assert a.t == b.t
         np.testing.assert_array_equal(a.position_n, b.position_n)
     assert intake.counters.dropped == 0 and intake.counters.imu_missing == 0
+    assert intake.filter.input_counters == offline_filter.input_counters
+    assert intake.counters.fixes_stamped_back == (np.sum(stepped) if clock_step_s else 0)
+    if clock_step_s:  # the step is found, and the fixes after it re-stamped and used to the end
+        assert intake.filter.input_counters["gnss_clock_steps"] == 1
+        assert intake.filter.last_fix_t > received[-1] - 1.0
 
 
 def test_warm_up_runs_the_filter_through_alignment_heading_and_gps_updates():

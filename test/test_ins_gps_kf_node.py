@@ -47,9 +47,11 @@ def _drive():
     return imu, type(gnss)(gnss.t[late], gnss.lat[late], gnss.lon[late], gnss.h[late], gnss.std_enu[late])
 
 
-def _events(imu, gnss, imu_delay_s=0.0):
-    """Publication order: by stamp, the IMU ``imu_delay_s`` behind (a denoiser's window delays it)."""
-    events = [(t, 0, i) for i, t in enumerate(gnss.t)] + [(t + imu_delay_s, 1, i) for i, t in enumerate(imu.t)]
+def _events(imu, gnss, imu_delay_s=0.0, gnss_received=None):
+    """Publication order: by stamp (fixes: by ``gnss_received`` if given), the IMU ``imu_delay_s`` behind
+    (a denoiser's window delays it)."""
+    received = gnss.t if gnss_received is None else gnss_received
+    events = [(t, 0, i) for i, t in enumerate(received)] + [(t + imu_delay_s, 1, i) for i, t in enumerate(imu.t)]
     return sorted(events)
 
 
@@ -69,10 +71,10 @@ class Feeder:
                                      and p.count_publishers("odometry/filtered") > 0
                                      and self.odom.count_publishers("odometry/filtered") > 0, timeout_s)
 
-    def play(self, imu, gnss, msgs_per_s=150.0, imu_delay_s=0.0):
+    def play(self, imu, gnss, msgs_per_s=150.0, imu_delay_s=0.0, gnss_received=None):
         period = 1.0 / msgs_per_s
         next_t = time.monotonic()
-        for _, kind, i in _events(imu, gnss, imu_delay_s):
+        for _, kind, i in _events(imu, gnss, imu_delay_s, gnss_received):
             if kind == 0:
                 self.gps_pub.publish(_fix_msg(gnss.t[i], gnss.lat[i], gnss.lon[i], gnss.h[i], gnss.std_enu[i],
                                               gnss.status[i]))
@@ -170,17 +172,20 @@ def test_node_with_a_bad_config_exits_2_with_a_message(ros_env):
 
 
 @pytest.mark.slow
-def test_a_nan_imu_sample_is_counted_never_published_and_sigint_exits_0(ros_env, feeder):
+def test_a_nan_imu_sample_and_a_gnss_clock_step_are_counted_never_published_and_sigint_exits_0(ros_env, feeder):
     imu, gnss = _drive()
     bad = int(np.searchsorted(imu.t, 38.0))  # while navigating
     imu.gyro[bad] = np.nan
     imu.accel[bad + 5] = np.inf
+    received = gnss.t.copy()
+    stepped = gnss.t >= 33.0
+    gnss.t[stepped] -= 100.0  # the GNSS clock steps back 100 s; the fixes come as before
     node = NodeProcess("ins_gps_kf_node", env=ros_env, ros_args=PARAMS)
     try:
         assert node.wait_for_line("ready", 30.0), node.output
         assert feeder.wait_connected(), node.output
         feeder.probe.spin_until(lambda p: False, 1.0)
-        feeder.play(imu, gnss, msgs_per_s=400.0)
+        feeder.play(imu, gnss, msgs_per_s=400.0, gnss_received=received)
         feeder.odom.spin_until(lambda p: False, 2.0)
         feeder.probe.spin_until(lambda p: False, 1.5)  # a diagnostics period after the last message
     finally:
@@ -201,3 +206,7 @@ def test_a_nan_imu_sample_is_counted_never_published_and_sigint_exits_0(ros_env,
     assert values["nonfinite_estimates"] == "0" and values["processing_errors"] == "0", values
     assert values["state"] == "navigating"
     assert node.output.count("ERROR") <= 1
+    # the stepped fixes reach the filter where they arrived: the step is found and the fixes used again
+    assert values["fixes_stamped_back"] == str(int(stepped.sum())) and values["late_fixes"] == "0", values
+    assert values["gnss_clock_steps"] == "1" and float(values["gps_age_s"]) < 2.0, values
+    assert "GNSS clock step" in node.output

@@ -244,3 +244,38 @@ class GnssClock:
         self.counters.last_rejection = (f"fix stamps from t={t:.3f} s moved by {offset - self.offset:+.3f} s "
                                         f"onto the IMU clock (GNSS clock step)")
         self.offset = offset
+
+
+class FixArrivals:
+    """Where each fix of a stream belongs among the IMU samples (s), decided fix by fix as they arrive (the node).
+
+    The offline replay's arrival rule (:func:`ins_gps_kf.offline._arrivals`) without looking ahead:
+    a fix belongs at its stamp; a stamp more than ``stale_s`` before the place of the fix before
+    belongs one fix spacing (the last forward step of the stamps) after it (the receiver kept its
+    rate, its clock stepped back: the filter's :class:`GnssClock` then sees the lag, as in the
+    replay). A stamp up to ``stale_s`` back keeps its place (the intake reorders it or drops it as
+    late). When a fix stamped back follows the one before the last, the last one was an outlier
+    ahead: the stream goes on from the one before it, and the outlier belongs with it (as in the replay).
+    """
+
+    def __init__(self, stale_s: float):
+        self.stale_s = float(stale_s)
+        self.restart()
+
+    def restart(self) -> None:
+        """Forget the stream (a restarted recording)."""
+        self.place, self.prev_t, self.spacing = -math.inf, math.nan, 0.0
+        self._before = None  # (place, prev_t, spacing) before the last fix: to undo an outlier
+
+    def place_of(self, t: float) -> tuple[float, float | None]:
+        """(place of the fix stamped ``t`` s, the new place of the fix before when it was an outlier, else None)."""
+        outlier_place = None
+        if self._before is not None and self.prev_t > t >= self._before[1] and t < self.place - self.stale_s:
+            self.place, self.prev_t, self.spacing = self._before
+            outlier_place = self.place
+        self._before = (self.place, self.prev_t, self.spacing)
+        if t > self.prev_t:
+            self.spacing = t - self.prev_t
+        at = t if t >= self.place - self.stale_s else self.place + self.spacing
+        self.place, self.prev_t = max(self.place, at), t
+        return at, outlier_place

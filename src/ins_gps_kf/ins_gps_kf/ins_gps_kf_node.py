@@ -12,7 +12,8 @@ to one by one); ``imu/data`` carries the newest sample of each chunk: every samp
 than the filter).
 Ordering, late drops and time-jump resets are :class:`ins_gps_kf.intake.StampOrderIntake`'s
 (messages wait ``reorder_window_s`` past the newest IMU stamp, so a node that falls behind
-catches up in the same order); this module is wiring. The subscriptions queue
+catches up in the same order; a fix stamped back goes where it arrived, so the filter's GNSS
+clock check sees the step as in the replay); this module is wiring. The subscriptions queue
 ``input_queue_depth`` messages, so a node held up for seconds loses nothing, and every
 numba kernel is compiled before the node says ready (a first-epoch compile once held a
 fresh install's node up for 30 s on a busy machine while DDS dropped its input).
@@ -149,7 +150,7 @@ class InsGpsKfNode(Node):
         arrivals = sorted([(received, IMU, i) for i, (_, received) in enumerate(imu)]
                           + [(received, GPS, i) for i, (_, received) in enumerate(fixes)])
         t_s = batch.t_s.tolist()
-        restarts = self.intake.counters.restarts
+        restarts, steps = self.intake.counters.restarts, self.filter.input.gnss_clock_steps
         for _, kind, i in arrivals:
             if kind == IMU:
                 self.intake.add_imu(t_s[i], batch.gyro[i], batch.accel[i])
@@ -158,6 +159,9 @@ class InsGpsKfNode(Node):
         self._guarded(self.intake.release)
         if self.intake.counters.restarts != restarts:
             self.get_logger().warn(f"time jump: {self.intake.counters.last_restart}; filter reset")
+        if self.filter.input.gnss_clock_steps != steps:
+            self.get_logger().warn(f"GNSS clock step ({self.filter.input.gnss_clock_steps} so far): "
+                                   f"{self.filter.input.last_rejection}")
         self._publish_imu_out()
 
     def on_gps(self, msg: NavSatFix):
@@ -289,6 +293,9 @@ class InsGpsKfNode(Node):
             level = "ERROR" if level == "ERROR" else "WARN"
             message += (f"; input dropped {ic.dropped}, non-finite estimates {self.nonfinite_estimates}, "
                         f"errors {self.processing_errors}")
+        if f.input.gnss_clock_steps:  # fixes re-stamped onto the IMU clock: worth a look at the receiver
+            level = "ERROR" if level == "ERROR" else "WARN"
+            message += f"; GNSS clock steps {f.input.gnss_clock_steps}"
         values = {"state": f.status, "last_nis": f.last_nis, "fixes": c.fixes, "rejected_fixes": c.fixes_rejected,
                   "invalid_fixes": c.fixes_invalid, "reused_fixes": c.fixes_reused, "gps_resets": c.gps_resets,
                   "gps_age_s": age, "zupts": c.zupts, "epochs": c.epochs,
@@ -300,6 +307,7 @@ class InsGpsKfNode(Node):
                   # the intake: everything it dropped, and why; samples missing in the stamps it released
                   "late_dropped": ic.dropped, "late_imu": ic.late_imu, "late_fixes": ic.late_fixes,
                   "bad_stamps": ic.bad_stamps, "imu_missing": ic.imu_missing, "node_resets": ic.restarts,
+                  "fixes_stamped_back": ic.fixes_stamped_back, "fixes_stamped_ahead": ic.fixes_stamped_ahead,
                   "imu_received": ic.imu_samples, "fixes_received": ic.fixes, "queued": self.intake.pending,
                   "bad_imu_messages": self.imu_intake.bad_messages, "nonfinite_estimates": self.nonfinite_estimates,
                   "processing_errors": self.processing_errors, "last_processing_error": self.last_processing_error}
