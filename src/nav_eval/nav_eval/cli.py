@@ -22,26 +22,36 @@ def add_parser(subparsers) -> None:
                     "config/scenarios/paper_drive.yaml, found from $MEMS_NAV_ROOT or the current folder up)")
     ev.add_argument("--claims", action="store_true", help="WMRA on/off x Allan-derived/hand-tuned noise model "
                     "table (paper-sim, katwijk)")
-    ev.add_argument("--force", action="store_true", help="write into an existing non-empty --out")
+    ev.add_argument("--force", action="store_true", help="replace an existing non-empty --out (once the new one is written)")
     ev.set_defaults(run=evaluate)
 
 
 def evaluate(args) -> int:
-    """Run the chosen evaluation and print its figures as JSON; RecordingError for a bad dataset choice."""
-    from nav_core.outputs import check_out_dir
-    from nav_eval import claims, datasets, paper_sim
+    """Run the chosen evaluation and print its figures as JSON; RecordingError for a bad dataset choice.
 
-    check_out_dir(args.out, getattr(args, "force", False))  # before the work, not after it
-    if args.claims:
-        if args.dataset not in ("paper-sim", "katwijk"):
-            raise RecordingError(f"--claims: only paper-sim and katwijk, not {args.dataset}")
-        figures = (claims.claims_paper_sim(args.out, seed=args.seed, scenario=args.scenario)
-                   if args.dataset == "paper-sim" else claims.claims_katwijk(args.out))
-    elif args.dataset == "paper-sim":
-        figures = paper_sim.paper_sim(args.out, seed=args.seed, scenario=args.scenario)
-    elif args.dataset == "balzer":
-        figures = datasets.evaluate_balzer(args.out)
-    else:
-        figures = datasets.evaluate_rover(args.dataset, args.out)
+    ``--out`` is checked before the work and written whole: the figures and plots go to a temporary
+    folder next to it, renamed into place when all is written (a failure leaves ``--out`` as it was).
+    """
+    from nav_core.outputs import staged_dir
+
+    if args.claims and args.dataset not in ("paper-sim", "katwijk"):
+        raise RecordingError(f"--claims: only paper-sim and katwijk, not {args.dataset}")
+    inputs = (args.scenario,) if getattr(args, "scenario", None) else ()
+    with staged_dir(args.out, getattr(args, "force", False), inputs=inputs) as tmp:  # checked before the work
+        figures = _run(args, tmp)
     print(json.dumps(figures, indent=1, default=float))
     return 0
+
+
+def _run(args, out_dir) -> dict:
+    """The evaluation ``args`` ask for, written into ``out_dir``; its figures."""
+    from nav_eval import claims, datasets, paper_sim
+
+    if args.claims:
+        return (claims.claims_paper_sim(out_dir, seed=args.seed, scenario=args.scenario)
+                if args.dataset == "paper-sim" else claims.claims_katwijk(out_dir))
+    if args.dataset == "paper-sim":
+        return paper_sim.paper_sim(out_dir, seed=args.seed, scenario=args.scenario)
+    if args.dataset == "balzer":
+        return datasets.evaluate_balzer(out_dir)
+    return datasets.evaluate_rover(args.dataset, out_dir)
