@@ -3,6 +3,7 @@ from __future__ import annotations
 
 import importlib
 import math
+import sys
 
 import pytest
 
@@ -82,18 +83,100 @@ def test_node_parameter_of_the_wrong_type_is_a_config_error(rclpy_context):
     assert _declare([baud], {"baud": 115200}) == {"baud": 115200}
 
 
-def test_a_value_for_a_parameter_the_node_does_not_have_is_named_in_a_warning(rclpy_context):
-    from rclpy.node import Node
-    from rclpy.parameter import Parameter
+def test_a_value_for_a_parameter_the_node_does_not_have_is_a_config_error_with_a_suggestion(rclpy_context):
+    with pytest.raises(ConfigError, match=r"unknown parameter\(s\) \['hopp'\] for bad_param_probe "
+                                          r"\(did you mean 'hop'\?\)"):
+        _declare([Param("hop", 8, "samples", 1, 65536)], {"hopp": 3})
 
-    from nav_core.params_ros import declare_parameters
-    node = Node("unknown_param_probe", parameter_overrides=[Parameter("hopp", value=3)])
+
+WILDCARD_FILE = """
+/**:
+  ros__parameters:
+    imu_rate_hz: 64.0        # shared by several nodes: not every one has it
+    shared_only: 1
+wmra_node:
+  ros__parameters:
+    hopp: 3
+/**/ins_gps_kf_node:
+  ros__parameters:
+    gate: 0.5
+/*:
+  ros__parameters:
+    nested: {deep: 1}
+"""
+
+
+def test_only_keys_of_wildcard_params_file_sections_count_as_shared(tmp_path):
+    from nav_core.params_ros import shared_only_keys
+
+    f = tmp_path / "params.yaml"
+    f.write_text(WILDCARD_FILE)
+    args = ["node", "--ros-args", "--disable-stdout-logs", "--params-file", str(f), "-p", "shared_only:=2", "--",
+            "-p", "nested.deep:=1"]  # after "--": not ROS arguments
+    # hopp and gate are under a node's own name, shared_only also comes with -p: errors
+    assert shared_only_keys(args) == {"imu_rate_hz", "nested.deep"}
+    assert shared_only_keys(["node", "--params-file", str(f)]) == set()  # not a ROS argument
+    assert shared_only_keys(["node", "--ros-args", "--params-file", str(tmp_path / "missing.yaml")]) == set()
+
+
+@pytest.mark.ros  # rclpy initialised with the test's own command line, on DDS like the process tests
+def test_a_key_only_a_wildcard_section_gives_is_a_warning_and_a_node_section_key_an_error(
+        tmp_path, ros_env, monkeypatch):
+    import rclpy
+    from rclpy.node import Node
+
+    from nav_core.params_ros import check_unknown_overrides, declare_parameters
+    f = tmp_path / "params.yaml"
+    for node_name, expect_error in (("probe_elsewhere", False), ("wmra_node", True)):
+        f.write_text(WILDCARD_FILE)
+        monkeypatch.setattr(sys, "argv", ["probe", "--ros-args", "--params-file", str(f)])
+        rclpy.init()  # parses sys.argv, as a node's main does
+        node = Node(node_name)
+        try:
+            if expect_error:  # wmra_node's own section holds hopp
+                with pytest.raises(ConfigError, match=r"\['hopp'\] for wmra_node \(did you mean 'hop'\?\)"):
+                    declare_parameters(node, [Param("hop", 8, "samples", 1, 65536)])
+            else:
+                assert declare_parameters(node, [Param("hop", 8, "samples", 1, 65536)]) == {"hop": 8}
+                assert check_unknown_overrides(node, ["hop"]) == ["imu_rate_hz", "nested.deep", "shared_only"]
+        finally:
+            node.destroy_node()
+            rclpy.try_shutdown()
+
+
+NODE_CLASSES = {"imu_calib.allan_node": "AllanNode", "imu_driver.bag_play_node": "BagPlayer",
+                "imu_driver.bag_record_node": "BagRecorder", "imu_driver.bp3010_driver_node": "Bp3010Driver",
+                "nav_bringup.scenario_player_node": "ScenarioPlayer", "wmra_filter.wmra_node": "WmraNode",
+                "ins_gps_kf.ins_gps_kf_node": "InsGpsKfNode"}
+
+
+@pytest.mark.ros  # each node is built in this process, on DDS like the process tests
+@pytest.mark.parametrize("module_name", sorted(NODE_CLASSES))
+def test_every_node_refuses_an_unknown_parameter_given_with_p(module_name, ros_env):
+    import rclpy
+
+    cls = getattr(importlib.import_module(module_name), NODE_CLASSES[module_name])
+    rclpy.init(args=["node", "--ros-args", "-p", "no_such_param:=1"])
     try:
-        declare_parameters(node, [Param("hop", 8, "samples", 1, 65536)])
-        from nav_core.params_ros import warn_unknown_overrides
-        assert warn_unknown_overrides(node, ["hop"]) == ["hopp"]
+        with pytest.raises(ConfigError, match=r"unknown parameter\(s\) \['no_such_param'\]"):
+            cls()
     finally:
-        node.destroy_node()
+        rclpy.try_shutdown()
+
+
+@pytest.mark.ros
+def test_a_node_given_an_unknown_parameter_exits_2_with_one_line_naming_it(ros_env):
+    from nav_core.processes import NodeProcess
+
+    node = NodeProcess("wmra_node", env=ros_env, ros_args={"hopp": 3})
+    try:
+        node.proc.wait(timeout=30.0)
+    finally:
+        code = node.stop()
+    lines = [ln for ln in node.output.splitlines() if "configuration" in ln]
+    assert code == 2 and len(lines) == 1, node.output
+    assert "'hopp'" in lines[0] and "did you mean 'hop'?" in lines[0], node.output
+    assert "Traceback" not in node.output
 
 
 def test_an_unparsable_params_file_is_one_configuration_line_and_exit_2(tmp_path, ros_env, capsys):

@@ -2,10 +2,16 @@
 
 A value out of range (``-p hop:=-3``), of the wrong type (``-p baud:=fast``) or refused by
 rclpy itself becomes one :class:`~nav_core.params.ConfigError` naming the parameter and the
-allowed range; :func:`nav_core.ros_node.run_node` prints it as one line and exits 2.
+allowed range; :func:`nav_core.ros_node.run_node` prints it as one line and exits 2. So does a
+value for a parameter the node does not have (``-p hopp:=3``), unless only a params file's
+wildcard section gives it (a warning: that section is shared by several nodes).
 """
 from __future__ import annotations
 
+import sys
+from pathlib import Path
+
+import yaml
 from rcl_interfaces.msg import FloatingPointRange, IntegerRange, ParameterDescriptor, SetParametersResult
 from rclpy.exceptions import (InvalidParameterTypeException, InvalidParameterValueException,
                               ParameterException, ParameterUninitializedException)
@@ -62,7 +68,7 @@ def declare_parameters(node, params, dynamic=()) -> dict:
     if unknown:
         raise ValueError(f"dynamic parameters {sorted(unknown)} are not declared")
     values = {p.name: declare_one(node, p, read_only=p.name not in dynamic) for p in params}
-    warn_unknown_overrides(node, by_name)
+    check_unknown_overrides(node, by_name)
 
     def on_set(changes):
         for change in changes:
@@ -77,19 +83,88 @@ def declare_parameters(node, params, dynamic=()) -> dict:
     return values
 
 
-def warn_unknown_overrides(node, known) -> list:
-    """Log one warning per value given (``-p`` or params file) for a parameter the node does not have.
+def check_unknown_overrides(node, known, args=None) -> list:
+    """ConfigError for a value given to ``node`` for a parameter it does not have; returns the ones only warned about.
 
-    rclpy ignores such values silently (a typo, or a parameter that was removed). A warning, not an
-    error: launch files and params files shared by several versions may carry extra keys.
+    rclpy ignores such values silently (a typo, or a parameter that was removed), so a ``-p``
+    value, a key under the node's own name in a params file or a constructor override is an error
+    (one line naming it, with a did-you-mean). A key that only a wildcard section (``/**:``) of a
+    params file gives is logged as a warning: such a section is shared by several nodes. ``args``
+    is the process's command line (default ``sys.argv``, what ``rclpy.init`` parses).
     """
     declared = set(getattr(node, "_parameters", {}))
     unknown = sorted(name for name in getattr(node, "_parameter_overrides", {})
                      if name not in declared and not name.startswith("qos_overrides."))
-    for name in unknown:
-        node.get_logger().warning(f"parameter '{name}' is not a parameter of {node.get_name()}, ignored"
-                                  f"{did_you_mean(name, known)}")
-    return unknown
+    shared = shared_only_keys(sys.argv if args is None else args)
+    errors = [name for name in unknown if name not in shared]
+    if errors:
+        hint = did_you_mean(errors[0], known) if len(errors) == 1 else ""
+        raise ConfigError(f"unknown parameter(s) {errors} for {node.get_name()}{hint} (given with -p or under "
+                          f"the node's name in a params file); known: {sorted(known)}")
+    warned = [name for name in unknown if name in shared]
+    for name in warned:
+        node.get_logger().warning(f"parameter '{name}' (from a params file's wildcard section) is not a "
+                                  f"parameter of {node.get_name()}, ignored{did_you_mean(name, known)}")
+    return warned
+
+
+def shared_only_keys(args) -> set:
+    """Parameter names that only wildcard sections (``/**``, ``/*``) of the ``--params-file`` files in ``args`` give.
+
+    A name also given with ``-p`` or under a node's own name is not among them. A file that
+    cannot be read gives nothing (rcl has refused it before a node exists).
+    """
+    shared, own = set(), set()
+    for flag, value in _ros_arg_pairs(args):
+        if flag in ("-p", "--param") and ":=" in value:
+            own.add(value.split(":=", 1)[0].rsplit(":", 1)[-1])  # [node:]name:=value
+        elif flag == "--params-file":
+            try:
+                data = yaml.safe_load(Path(value).read_text())
+            except (OSError, yaml.YAMLError):
+                continue
+            for pattern, names in _sections(data, ()):
+                (shared if pattern[-1].strip("/") in ("*", "**") else own).update(names)
+    return shared - own
+
+
+_VALUED_FLAGS = frozenset({"-p", "--param", "--params-file", "-r", "--remap", "-e", "--enclave", "--log-level",
+                           "--log-config-file", "--log-file-name"})
+
+
+def _ros_arg_pairs(args):
+    """(flag, value) pairs of the ``--ros-args`` parts of a command line."""
+    inside, flag = False, None
+    for token in map(str, args or ()):
+        if token == "--ros-args":
+            inside, flag = True, None
+        elif token == "--":
+            inside = False
+        elif inside and flag is not None:
+            yield flag, token
+            flag = None
+        elif inside and token in _VALUED_FLAGS:  # the others (--enable-rosout-logs...) take no value
+            flag = token
+
+
+def _sections(data, path):
+    """(node pattern as a tuple of names, parameter names) for each ``ros__parameters`` section of a params file."""
+    if not isinstance(data, dict):
+        return
+    for key, value in data.items():
+        if key == "ros__parameters" and path:
+            yield path, set(_flat_names(value, ""))
+        else:
+            yield from _sections(value, path + tuple(str(key).strip("/").split("/")))
+
+
+def _flat_names(value, prefix):
+    """Parameter names in a ``ros__parameters`` mapping, nested ones joined with dots (as rcl does)."""
+    if not isinstance(value, dict):
+        yield prefix
+        return
+    for key, sub in value.items():
+        yield from _flat_names(sub, f"{prefix}.{key}" if prefix else str(key))
 
 
 def init_error_line(err: Exception) -> str:
