@@ -144,12 +144,12 @@ def test_simulated_time_between_clock_messages_follows_the_clock_not_the_late_de
         follower.update(sim0 + (sent - wall0) * rate, sent + delay)
         probe = sent + delay + rng.uniform(0, 0.005)
         now = follower.now(probe)
-        if k < 20:  # a moving clock gives no time before its rate is measured over min_span_s
+        if k < 60:  # a moving clock gives no time before its rate is measured over min_span_s (0.3 s)
             assert now is None
         errors.append(np.nan if now is None else now - (sim0 + (probe - wall0) * rate))
     errors = np.abs(errors)
-    assert np.all(errors[30:] <= 1e-3 * rate)  # rate measured over 0.15 s (worst of 200 seeds: 0.38 ms)
-    assert np.all(errors[200:] <= 2e-4 * rate)  # over the whole 1 s window (worst of 200 seeds: 0.11 ms)
+    assert np.all(errors[62:] <= 5e-4 * rate)  # rate measured over 0.3 s (worst of 200 seeds: 0.20 ms)
+    assert np.all(errors[200:] <= 1.5e-4 * rate)  # over 1 s and more (worst of 200 seeds: 0.057 ms)
     assert follower.rate == pytest.approx(rate, rel=0.01)
     follower.update(sim0, wall0 + 10.0)  # a new run: the clock went back
     assert follower.jumps == 1 and follower.now(wall0 + 10.0) is None

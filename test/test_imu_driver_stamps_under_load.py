@@ -108,8 +108,10 @@ def test_simulated_time_stamps_never_go_back_with_the_cpu_busy(tmp_path, rclpy_c
     stamps, index = _stamps_and_index(probe)
     made = (np.arange(int(seconds * 64)) + 1) / 64.0  # scenario_player writes frame k at simulated (k + 1) / 64
     residual = _check(stamps, index, made, settle_s=2.0 * rate, spread_s=0.004 * rate)
-    # and against the simulated clock itself: within 50 ms of wall time, which includes the player's own
-    # skew (its emulator thread starts its timer a moment after the simulated clock starts, more under load)
-    error = stamps[-1] * 1e-9 - (EPOCH_S + made[index[-1]])
-    assert abs(error) < 0.05 * rate, f"last stamp {error:+.4f} s off the frame's simulated time"
+    # and against the simulated clock itself: the player's frames and /clock share one zero, so the stamps
+    # sit on the frames' simulated times to within the most prompt /clock delivery and read (0.1 ms of wall
+    # time at 3x and 15.6x); before they shared it, the emulator's later start put them late (8.5 ms at 3x)
+    error = stamps * 1e-9 - (EPOCH_S + made[index])
+    settled = error[made[index] - made[index[0]] > 2.0 * rate]
+    assert abs(np.median(settled)) < 0.001 * rate, f"stamps {np.median(settled):+.4f} s off the frames' times"
     assert np.ptp(residual) < 0.6 * rate

@@ -186,9 +186,13 @@ class Emulator:
                 self.stats.rate_hz = RATE_BY_CODE[code]
                 self.log(f"RATE {self.stats.rate_hz}")
 
-    def run(self, max_frames: int | None = None) -> EmulatorStats:
-        """Stream until the source ends (or ``max_frames``); returns the stats."""
-        start = time.monotonic()
+    def run(self, max_frames: int | None = None, start: float | None = None) -> EmulatorStats:
+        """Stream until the source ends (or ``max_frames``); returns the stats.
+
+        ``start``: monotonic time (s) at which the first frame's period begins (default: now), so a
+        caller that keeps its own clock for the same run (``/clock``) shares this one's zero.
+        """
+        start = time.monotonic() if start is None else start
         next_garbage = self.faults.garbage_every_s or float("inf")
         unplug_windows = sorted(self.faults.disconnect_at_s)
         counter, index, t_model = 0, 0, 0.0
