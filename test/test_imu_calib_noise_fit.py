@@ -31,7 +31,7 @@ def _relative_errors(fits, truth, term):
 @pytest.mark.slow
 def test_two_hours_recover_n_within_3_percent_and_b_k_within_15_percent_in_90_percent_of_seeds():
     fits = [_fit(K_TARGET_CASE, seed) for seed in range(30)]
-    assert all(f.kept == ("N", "B", "K") and f.estimator == "whittle" for f in fits)
+    assert all(f.kept == ("N", "B", "K") and f.estimator == "likelihood" for f in fits)
     assert np.all(_relative_errors(fits, K_TARGET_CASE, "N") < 0.03)
     for term in ("B", "K"):
         within = np.mean(_relative_errors(fits, K_TARGET_CASE, term) < 0.15)

@@ -5,6 +5,7 @@ import subprocess
 import numpy as np
 import pytest
 import yaml
+from scipy import stats
 
 from imu_calib import model_io, synthetic
 from imu_calib.allan import overlapping_adev
@@ -37,24 +38,31 @@ def _rise_at(tau, n_coef, k_coef):
 
 
 @pytest.mark.slow
-def test_reported_case_keeps_the_random_walk_or_bounds_it_and_never_reports_zero():
+def test_reported_case_keeps_the_random_walk_as_precisely_as_the_cramer_rao_bound_allows_and_never_reports_zero():
     fits, truths = [], []
     for seed in range(20):
+        rng = np.random.default_rng(seed)  # the three axes of one record are independent draws
         for n_coef, k_coef in zip(REPORTED_N, REPORTED_K):
             assert _rise_at(800.0, n_coef, k_coef) > 2.0  # the condition
-            fits.append(_fit(n_coef, k_coef, seed))
+            x = synthetic.noise(int(TWO_HOURS_S * RATE_HZ), RATE_HZ, synthetic.NoiseTerms(N=n_coef, K=k_coef), rng)
+            fits.append(fit_noise(overlapping_adev(x, RATE_HZ), samples=x))
             truths.append(k_coef)
     truths = np.array(truths)
     kept = np.array([f.identifiable("K") for f in fits])
     reported = np.array([f.reported_value("K") for f in fits])
     assert np.all(reported > 0)
-    # the old fit kept K on 0 of these axes; measured now 56/60 (the rest pick flicker for the rise)
+    # the old fit kept K on 0 of these axes; measured 54/60 (the rest pick flicker for the rise: few bins)
     assert kept.mean() >= 0.8, kept.mean()
-    err = np.abs(reported[kept] / truths[kept] - 1)
-    # Cramer-Rao: K's relative sd is 17-26 % here, so the median |error| of an efficient estimator is ~15 %
-    bound = max(cramer_rao_relative_sd(int(TWO_HOURS_S * RATE_HZ), RATE_HZ, "NK", (n, k))[1]
-                for n, k in zip(REPORTED_N, REPORTED_K))
-    assert np.median(err) < 0.674 * bound * 1.3, (np.median(err), bound)
+    ratio = reported[kept] / truths[kept]
+    # Cramer-Rao: K's relative sd is 20-24 % here (exact likelihood); an efficient unbiased estimator has
+    # |error| < 25 % on ~75 % of axes: the pipeline must reach that within a 3-sigma binomial bound, counting
+    # an axis where K was not identified as a miss, and its median must not be biased beyond 3 sigma
+    bounds = np.array([cramer_rao_relative_sd(int(TWO_HOURS_S * RATE_HZ), RATE_HZ, "NK", (n, k))[1]
+                       for n, k in zip(REPORTED_N, REPORTED_K)])
+    p = float(np.mean(2 * stats.norm.cdf(0.25 / bounds) - 1))
+    within = np.mean(kept & (np.abs(reported / truths - 1) < 0.25))
+    assert within >= p - 3 * np.sqrt(p * (1 - p) / len(fits)), (within, p)
+    assert abs(np.median(ratio) - 1) < 3 * 1.25 * bounds.max() / np.sqrt(len(ratio)), np.median(ratio)
     covered = [f.intervals["K"][0] <= k <= f.intervals["K"][1] for f, k in zip(fits, truths)]
     assert np.mean(covered) >= 0.85, np.mean(covered)  # 95 % intervals (estimates) or [0, bound]
 

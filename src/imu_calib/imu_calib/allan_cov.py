@@ -15,11 +15,11 @@ records too; only the correlation comes from here.
 """
 from __future__ import annotations
 
+import numba
 import numpy as np
 
 MAX_GRID = 2 ** 21
 """Frequency points at most (the record's own Fourier grid up to this length)."""
-_CHUNK = 2 ** 17
 
 
 def term_spectra(f, rate_hz: float, tau_c: float = 0.0) -> dict:
@@ -37,22 +37,41 @@ def term_spectra(f, rate_hz: float, tau_c: float = 0.0) -> dict:
     return out
 
 
+@numba.njit(cache=True)
+def _haar_sums(ms, spectrum, size, gram):
+    """Sum over f = k/size (k = 1..len(spectrum)) of W_i = |H_{m_i}(f)|^2 S(f): into gram[i, j] += W_i W_j, or
+    (``gram`` of one row) gram[0, i] += W_i. One pass, no temporaries (the arrays would be taus x 10^6)."""
+    k_count = len(ms)
+    w = np.empty(k_count)
+    for k in range(len(spectrum)):
+        f = (k + 1.0) / size
+        sin_f = np.sin(np.pi * f)
+        for i in range(k_count):
+            s = np.sin(np.pi * f * ms[i])
+            s *= s
+            w[i] = 2.0 * s * s / (ms[i] * ms[i] * sin_f * sin_f) * spectrum[k]
+        if gram.shape[0] == 1:
+            for i in range(k_count):
+                gram[0, i] += w[i]
+        else:
+            for i in range(k_count):
+                for j in range(i + 1):
+                    gram[i, j] += w[i] * w[j]
+
+
 def allan_correlation(taus, n_samples: int, rate_hz: float, coefficients_sq: dict, tau_c: float = 0.0) -> np.ndarray:
     """(k, k) correlation of overlapping Allan-variance estimates at ``taus`` s for a noise of squared
     coefficients ``coefficients_sq`` (term -> c, SI, as in the Allan fit)."""
     ms = np.round(np.asarray(taus, dtype=float) * rate_hz)
     size = int(min(max(n_samples, 4 * ms.max()), MAX_GRID))
     freqs = np.arange(1, size // 2 + 1) / size
+    spectra = term_spectra(freqs, rate_hz, tau_c)
+    s = sum(c * spectra[t] for t, c in coefficients_sq.items() if c > 0)
+    if np.isscalar(s):
+        return np.eye(len(ms))
     gram = np.zeros((len(ms), len(ms)))
-    for start in range(0, len(freqs), _CHUNK):
-        f = freqs[start:start + _CHUNK]
-        spectra = term_spectra(f, rate_hz, tau_c)
-        s = sum(c * spectra[t] for t, c in coefficients_sq.items() if c > 0)
-        if np.isscalar(s):
-            return np.eye(len(ms))
-        sin_f = np.sin(np.pi * f)
-        w = 2.0 * np.sin(np.pi * np.outer(ms, f)) ** 4 / (ms[:, None] ** 2 * sin_f ** 2) * s
-        gram += w @ w.T
+    _haar_sums(ms, np.asarray(s, dtype=float), float(size), gram)
+    gram = np.tril(gram) + np.tril(gram, -1).T
     d = np.sqrt(np.diag(gram))
     if not np.all(d > 0):
         return np.eye(len(ms))
@@ -68,10 +87,7 @@ def flicker_avar(taus, n_samples: int, rate_hz: float) -> np.ndarray:
     """
     ms = np.round(np.asarray(taus, dtype=float) * rate_hz)
     size = int(min(2 * n_samples, 2 * MAX_GRID))
-    out = np.zeros(len(ms))
-    for start in range(1, size // 2 + 1, _CHUNK):
-        f = np.arange(start, min(start + _CHUNK, size // 2 + 1)) / size
-        s = np.sinc(f) ** 2 / (2.0 * np.pi * f)
-        h2 = 2.0 * np.sin(np.pi * np.outer(ms, f)) ** 4 / (ms[:, None] ** 2 * np.sin(np.pi * f) ** 2)
-        out += 2.0 * (h2 * s).sum(axis=1) / size
-    return out
+    f = np.arange(1, size // 2 + 1) / size
+    out = np.zeros((1, len(ms)))
+    _haar_sums(ms, np.sinc(f) ** 2 / (2.0 * np.pi * f), float(size), out)
+    return 2.0 * out[0] / size

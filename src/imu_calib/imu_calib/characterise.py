@@ -105,7 +105,8 @@ def characterise(rec: ImuRecording, per_decade: int | None = None, taus=None, pr
     sensor_model.stamp_provenance(model, "imu_calib allan", rec.source or "<memory>",
                                   n_samples=len(rec), duration_s=float(len(rec) / rate), **extra,
                                   estimator="overlapping Allan variance, 5-term IRLS WLS fit and term selection, "
-                                            "Whittle likelihood refinement where the model fits")
+                                            "maximum likelihood (exact, sine basis of the differences) where "
+                                            "the model fits")
     return Characterisation(adevs, fits, model, white, line)
 
 

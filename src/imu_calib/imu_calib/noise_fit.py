@@ -27,9 +27,11 @@ the few precise short-tau points from dictating the fit and widens the
 intervals honestly; ``fit_quality`` then says ``poor``.
 
 Given the samples (``fit_noise(..., samples=x)``, as the pipeline does), the
-kept terms are then refined by the Whittle likelihood (:mod:`imu_calib.whittle`),
-whose Fisher information gives the intervals; the Allan fit stays the term
-selector and the fallback where the model misfits.
+long-cluster-time terms (B, K, R) are chosen on the exact Gaussian likelihood of
+the samples and the kept terms re-estimated by maximum likelihood
+(:mod:`imu_calib.whittle`), whose Fisher information gives the intervals; the
+Allan fit chooses Q and N, checks the choice against the curve, and stays the
+fallback where the five-term model misfits.
 """
 from __future__ import annotations
 
@@ -43,7 +45,7 @@ from imu_calib.allan import (ALPHA_FLICKER_FM, ALPHA_RW_FM, ALPHA_WHITE_FM, ALPH
                              edf_overlapping)
 from imu_calib.allan_cov import allan_correlation, flicker_avar
 from imu_calib.synthetic import FLICKER_LEVEL, gm_avar
-from imu_calib.whittle import WHITTLE_TERMS, WhittleProblem
+from imu_calib.whittle import VARIANCE_TERMS, WHITTLE_TERMS, WhittleProblem
 
 TERMS = ("Q", "N", "B", "K", "R")
 """Term names: quantization, white noise, bias instability, rate random walk, rate ramp."""
@@ -84,7 +86,7 @@ class NoiseFit:
     slope_readings: dict = field(default_factory=dict)
     gauss_markov: dict = field(default_factory=dict)
     estimator: str = "avar_wls"
-    """``whittle`` when the values and intervals come from the likelihood refinement, else ``avar_wls``."""
+    """``likelihood`` when the values and intervals come from the ML refinement on the samples, else ``avar_wls``."""
     upper_bounds: dict = field(default_factory=dict)
     """Dropped term -> 95 % upper bound of its coefficient (from the last fit that included it)."""
     fit_quality: dict = field(default_factory=dict)
@@ -238,7 +240,7 @@ def fit_noise(adev: AllanDeviation, terms=TERMS, min_share: float = 0.1, try_gau
     """Fit the noise terms to one axis of an overlapping Allan deviation (see module doc).
 
     With ``samples`` (the axis's rate samples the Allan deviation came from) the
-    kept terms are refined by the Whittle likelihood (:func:`refine_whittle`).
+    long-cluster-time terms are chosen and the kept terms refined by the likelihood (:func:`refine_whittle`).
     """
     if adev.adev.ndim != 1:
         raise ValueError("fit_noise takes one axis: use AllanDeviation.axis(i)")
@@ -328,36 +330,31 @@ def _add_what_the_residual_asks_for(prob: _Problem, terms, kept, upper, tau_c: f
 
 
 def _whittle_select(prob: _Problem, whittle: WhittleProblem, terms, kept, upper, tau_c: float):
-    """Settle the long-cluster-time terms (B, K) on the samples (more powerful than the Allan points: a
-    random walk that one record shows in a few low-frequency bins is judged on those bins), then keep a rate
-    ramp only if the Allan fit still needs it beside them. Q and N stay as the Allan fit chose them: their
-    short cluster times carry thousands of degrees of freedom there.
+    """Settle the long-cluster-time terms (B, K, R) on the samples (more powerful than the Allan points: a
+    random walk that one record shows in a few low-frequency coefficients and in its end-to-end drift is judged
+    on exactly those). Q and N stay as the Allan fit chose them: their short cluster times carry thousands of
+    degrees of freedom there.
 
-    Every subset of B, K beside the Allan fit's Q, N is fitted; the one with the least
-    ``2 nll / taper inflation + DROP_CHI2 * terms`` wins: in nested pairs that is the likelihood-ratio test at
-    DROP_CHI2, and it also decides between rivals that are not nested (flicker or random walk for a rise seen
-    in few bins), where stepwise tests stop early.
+    Every subset of B, K, R beside the Allan fit's Q, N is fitted; the one with the least
+    ``2 nll + DROP_CHI2 * terms`` (profile likelihood; a ramp costs DROP_CHI2_NEGLIGIBLE) wins: in nested
+    pairs that is the likelihood-ratio test at DROP_CHI2, and it also decides between rivals that are not
+    nested (flicker, random walk or ramp for a rise seen in few coefficients), where stepwise tests stop early.
     """
     start = _start_values(prob, terms, tau_c)
     base = [t for t in terms if t in kept and t in SHORT_TAU_TERMS]
-    candidates = [t for t in terms if t in LONG_TAU_TERMS]
+    candidates = [t for t in terms if t in LONG_TAU_TERMS + ("R",)]
     best = None
-    for size in range(0 if base else 1, len(candidates) + 1):
+    for size in range(len(candidates) + 1):
         for extra in itertools.combinations(candidates, size):
             subset = _ordered(terms, base + list(extra))
-            w = whittle.fit(subset, [start[t] for t in subset])
-            score = 2.0 * w.nll / whittle.inflation + DROP_CHI2 * len(subset)
-            # L-BFGS-B often stops on a line-search flag at the optimum of a long sum: judge by the value
+            if not any(t in VARIANCE_TERMS for t in subset):
+                continue
+            w = whittle.fit(subset, [start[t] for t in subset if t != "R"])
+            # a ramp pays the strict penalty: one record's random walk often looks like a ramp (see _select)
+            score = 2.0 * w.nll + DROP_CHI2 * len(subset) + (DROP_CHI2_NEGLIGIBLE - DROP_CHI2) * ("R" in subset)
             if np.isfinite(w.nll) and (best is None or score < best[0]):
                 best = (score, subset)
-    cur = best[1] if best is not None else [t for t in terms if t in kept and t in WHITTLE_TERMS]
-    if "R" in kept and _ramp_needed(prob, terms, cur, tau_c):
-        # the likelihood removes the differences' mean, i.e. the end-to-end drift a walk shows as a ramp; the
-        # last Allan points have 1-2 dof, so a walk's drift can look like a ramp there: if the walk explains
-        # the curve within its dof, it is the walk (a ramp only when nothing else can)
-        with_k = _ordered(terms, cur + ["K"])
-        cur = with_k if "K" in terms and "K" not in cur and \
-            prob.fit(with_k, tau_c, 0.0).p_value() >= MISFIT_P_VALUE else _ordered(terms, cur + ["R"])
+    cur = best[1] if best is not None else [t for t in terms if t in kept]
     for t in terms:
         if t not in cur:
             trial = _ordered(terms, cur + [t])
@@ -367,13 +364,6 @@ def _whittle_select(prob: _Problem, whittle: WhittleProblem, terms, kept, upper,
         else:
             upper.pop(t, None)
     return cur
-
-
-def _ramp_needed(prob: _Problem, terms, cur, tau_c: float) -> bool:
-    """Whether adding a ramp to ``cur`` raises the Allan fit by the 99.9 % point (kappa-adjusted)."""
-    trial = _ordered(terms, cur + ["R"])
-    with_r = prob.fit(trial, tau_c, 0.0)
-    return (prob.fit(cur, tau_c, 0.0).chi2 - with_r.chi2) / with_r.kappa[trial.index("R")] >= DROP_CHI2_NEGLIGIBLE
 
 
 def _ordered(terms, subset) -> list:
@@ -409,28 +399,32 @@ def _quality(prob: _Problem, kept, tau_c: float, floor: float) -> dict:
 
 
 def refine_whittle(fit: NoiseFit, samples, rate_hz: float) -> bool:
-    """Replace the kept terms' values and intervals by the Whittle ML estimate (in place); True if done.
+    """Replace the kept terms' values and intervals by the maximum-likelihood estimate (in place); True if done.
 
     Skipped (the Allan fit stays) when the Allan fit needed a model-error floor
     (the five-term spectrum does not describe the data, so a likelihood built on
-    it would be overconfident), when a rate ramp is kept (deterministic, not in
-    the likelihood) or when the optimiser does not converge. Intervals are Wald
-    intervals of log theta from the Fisher information: theta = coefficient^2.
+    it would be overconfident) or when the optimiser does not converge. Intervals
+    are Wald intervals of log theta from the Fisher information (theta =
+    coefficient^2); the ramp's from the GLS precision of its mean.
     """
     kept = fit.kept
-    if fit.model_error > 0 or any(t not in WHITTLE_TERMS for t in kept):
+    if fit.model_error > 0 or any(t not in WHITTLE_TERMS for t in kept) or \
+            not any(t in VARIANCE_TERMS for t in kept):
         return False
-    theta0 = [fit.values[t] ** 2 for t in kept]
+    theta0 = [fit.values[t] ** 2 for t in kept if t != "R"]
     problem = samples if isinstance(samples, WhittleProblem) else \
         WhittleProblem(samples, rate_hz, fit.bias_correlation_time)
     w = problem.fit(kept, theta0)
     if not w.converged or not np.all(np.isfinite(w.theta)):
         return False
     rel_sd = np.minimum(np.sqrt(np.maximum(np.diag(w.cov), 0.0)) / w.theta, 100.0)
-    for i, t in enumerate(kept):
+    for i, t in enumerate(w.terms):
         fit.values[t] = float(np.sqrt(w.theta[i]))
         fit.intervals[t] = tuple(float(fit.values[t] * np.exp(0.5 * z * rel_sd[i])) for z in (-Z95, Z95))
-    fit.estimator = "whittle"
+    if "R" in kept:
+        fit.values["R"] = w.ramp
+        fit.intervals["R"] = (max(w.ramp - Z95 * w.ramp_sd, 0.0), w.ramp + Z95 * w.ramp_sd)
+    fit.estimator = "likelihood"
     return True
 
 
