@@ -14,7 +14,9 @@
   machine and once with two busy-loop processes at nice 10 for the whole run; per run the
   horizontal RMS, the largest difference between the live odometry and the offline replay of
   the run's own bag (target 5 cm at every epoch), epochs on one side only, stamps going back,
-  and what the filter dropped or missed; the busy RMS against the quiet one (target within 10 %).
+  and what the filter dropped or missed; the driver's stamps against the simulated frames'
+  times; the load average at the start and each node's CPU share; the busy RMS against the
+  quiet one (target within 10 %).
 """
 from __future__ import annotations
 
@@ -235,44 +237,57 @@ def busy_loops(n: int = 2, niceness: int = 10) -> list:
             for _ in range(n)]
 
 
+def children_cpu(parent: int) -> dict:
+    """Node name -> CPU seconds of each child process of ``parent`` (a console script: its script's name)."""
+    out = {}
+    for stat in Path("/proc").glob("[0-9]*/stat"):
+        try:
+            fields = stat.read_text().rsplit(")", 1)[1].split()
+            if int(fields[1]) != parent:
+                continue
+            argv = (stat.parent / "cmdline").read_bytes().split(b"\0")
+        except (OSError, IndexError, ValueError):
+            continue
+        name = Path((argv[1] if len(argv) > 1 and b"python" in argv[0] else argv[0]).decode()).name
+        out[name] = (int(fields[11]) + int(fields[12])) / os.sysconf("SC_CLK_TCK")
+    return out
+
+
 def run_demo(out: Path, rate: float, duration_s: float, env: dict, busy: bool) -> dict:
-    """One `nav-demo` run (optionally with two nice-10 busy loops throughout); its summary.json and wall time."""
+    """One `nav-demo` run (optionally with two nice-10 busy loops throughout); its summary.json, wall time, CPU."""
     import json
     import subprocess
     import sys
 
     loops = busy_loops() if busy else []
-    start = time.monotonic()
+    start, load = time.monotonic(), os.getloadavg()[0]
+    cpu = {}  # node -> (first sample time, CPU s), (last sample time, CPU s)
     try:
         cmd = [str(Path(sys.executable).parent / "nav-demo"), "--rate", str(rate), "--out", str(out)]
         if duration_s:
             cmd += ["--duration", str(duration_s)]
-        done = subprocess.run(cmd, env=env, capture_output=True, text=True)
+        demo = subprocess.Popen(cmd, env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+        reader = threading.Thread(target=lambda: setattr(demo, "output", demo.communicate()), daemon=True)
+        reader.start()
+        while demo.poll() is None:
+            now = time.monotonic()
+            for name, seconds in children_cpu(demo.pid).items():
+                cpu[name] = (cpu.get(name, ((now, seconds),))[0], (now, seconds))
+            time.sleep(1.0)
+        reader.join()
     finally:
         for proc in loops:
             proc.kill()
             proc.wait()
     runs = sorted(out.glob("run_*"), key=lambda p: p.stat().st_mtime)
     if not runs or not (runs[-1] / "summary.json").exists():  # a node's exit code is reported, not fatal
-        raise RuntimeError(f"nav-demo failed (exit {done.returncode}):\n{done.stdout[-3000:]}\n{done.stderr[-2000:]}")
+        stdout, stderr = getattr(demo, "output", ("", ""))
+        raise RuntimeError(f"nav-demo failed (exit {demo.returncode}):\n{stdout[-3000:]}\n{stderr[-2000:]}")
     summary = json.loads((runs[-1] / "summary.json").read_text())
-    summary["wall_s"] = time.monotonic() - start
-    summary["stamp_lag_s"] = raw_stamp_lag(runs[-1] / "bag")
+    summary["wall_s"], summary["load_at_start"] = time.monotonic() - start, load
+    summary["cpu_share"] = {name: (b[1] - a[1]) / (b[0] - a[0]) for name, (a, b) in cpu.items() if b[0] > a[0]}
     summary["run_dir"] = str(runs[-1])
     return summary
-
-
-def raw_stamp_lag(bag: Path, rate_hz: float = 64.0) -> float:
-    """Median of (driver stamp - frame time) over imu/data_raw, s: frame ``n`` is sent at simulated n / rate.
-
-    The simulation starts at the bag epoch, so this is how late the driver's stamps are; a few frames
-    lost at start-up shift it by a period each (it is a figure for comparing runs, not an absolute).
-    """
-    from imu_sim.simulate import BAG_EPOCH_S
-    from nav_core import recording
-
-    t = recording.read_imu(bag, topic="imu/data_raw").t - BAG_EPOCH_S
-    return float(np.median(t - np.arange(len(t)) / rate_hz))
 
 
 def bench_busy_cpu(env, rates, duration_s: float) -> None:
@@ -291,10 +306,15 @@ def bench_busy_cpu(env, rates, duration_s: float) -> None:
                   f"{off['only live']}, only offline {off['only offline']}); stamps going back: odometry "
                   f"{off['live stamps going back']}, raw {st.get('imu/data_raw stamps going back')}, denoised "
                   f"{st.get('imu/data_corrected stamps going back')}; filter dropped "
-                  f"{st.get('messages the filter dropped')}; driver stamp lag p50 {s['stamp_lag_s'] * 1e3:.0f} ms"
-                  f", missing {st.get('IMU samples missing in the filter' + chr(39) + 's input')}"
+                  f"{st.get('messages the filter dropped')}, missing "
+                  f"{st.get('IMU samples missing in the filter' + chr(39) + 's input')}"
                   f" (raw stream: {st.get('imu/data_raw samples missing')}); exit codes other than 0: "
                   f"{ {k: v for k, v in s['exit_codes'].items() if v} or 'none'}")
+            stamps = {k.split()[-2]: v for k, v in (s.get("stamps") or {}).items()}
+            print(f"           driver stamp - simulated frame time (ms): " + ", ".join(
+                f"{k} {v:.1f}" for k, v in stamps.items()) + f"; load average at start {s['load_at_start']:.1f}"
+                  "; CPU (share of one core): " + ", ".join(
+                f"{k} {v:.0%}" for k, v in sorted(s["cpu_share"].items(), key=lambda kv: -kv[1])))
         q, b = quiet["rms"]["horizontal position (m)"], busy["rms"]["horizontal position (m)"]
         print(f"  RATE={rate:g} busy RMS / quiet RMS = {b / q:.3f} (target within 10 %)")
 

@@ -3,8 +3,9 @@
 The demo's graph (scenario_player -> bp3010_driver -> wmra_node -> ins_gps_kf_node, allan_node,
 bag_record) on the first 100 s of the paper drive at 3x, with two busy-loop processes at nice 10
 for the whole run. The live odometry must equal the offline replay of the run's own bag at every
-epoch (5 cm), no stamp may go back, the filter may drop nothing, and its horizontal RMS must be
-within 10 % of the quiet offline pipeline on the simulated data (batch WMRA + replay, no graph).
+epoch (5 cm), no stamp may go back, the filter may drop nothing, the driver's stamps must sit on
+the simulated frames' times (median within 3 ms), and its horizontal RMS must be within 10 % of
+the quiet offline pipeline on the simulated data (batch WMRA + replay, no graph).
 The full-drive figures at RATE=1, 3 and 8 come from ``benchmarks/bench_graph.py --busy-cpu``.
 """
 import json
@@ -86,9 +87,11 @@ def test_on_a_busy_cpu_the_live_graph_gives_the_offline_answer(tmp_path, ros_env
     assert stream["messages the filter dropped"] == 0
     # stamp gaps the filter saw were in the driver's output already (issue 15's driver item), none were added
     assert stream["IMU samples missing in the filter's input"] <= stream["imu/data_raw samples missing"]
+    # the driver's stamps on the frames' simulated times: load does not bend them (1 ms of wall time at 3x;
+    # measured 0.2-0.8 ms of simulated time; 10-40 ms while the player's frames ran behind its /clock)
+    assert abs(summary["stamps"]["driver stamp - frame time median (ms)"]) < 3.0, summary["stamps"]
     live_rms, quiet_rms = summary["rms"]["horizontal position (m)"], _offline_rms(sim_dir, params)
-    if live_rms > 1.1 * quiet_rms:
-        # Issue 15's open item, not a pass: under load the driver's sim-time stamps run late (61-117 ms against
-        # 21-42 ms quiet) and the filter faithfully uses them; seen at 1.18x once in four fresh-clone runs.
-        # Reported as an expected failure so it stays visible in every run until the stamping is fixed.
-        pytest.xfail(f"busy RMS {live_rms:.3f} m > 1.1 x quiet {quiet_rms:.3f} m (issue 15, driver stamp lag)")
+    # hard again since the player's frames and /clock share one zero: 4 runs at 1.016, 1.017, 1.018 and 0.898 x
+    # quiet (the filter's answer flips between two values on sub-ms stamp differences near t = 1 s; 40 replays
+    # with the runs' stamp errors moved around: 0.898-1.025 x); 1.18 x once in four while stamps ran 10-40 ms late
+    assert live_rms <= 1.1 * quiet_rms, f"busy RMS {live_rms:.3f} m > 1.1 x quiet {quiet_rms:.3f} m"

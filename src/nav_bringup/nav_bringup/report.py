@@ -224,8 +224,11 @@ def write_report(run_dir: Path, sim_dir: Path | None = None, truth_csv: Path | N
         figures.append("allan.png")
     res["offline"] = offline
     res["stream"] = _stream_checks(raw, den, diags)
+    if sim_dir is not None and raw is not None and len(raw) > 8:
+        res["stamps"] = frame_time_errors(raw, sim_dir, truth.epoch_s)
     _write_html(run_dir, res, odom, gnss, raw, den, diags, figures, exit_codes or {})
-    summary = {"rms": res["rms"], "offline": offline, "stream": res["stream"], "exit_codes": exit_codes or {}}
+    summary = {"rms": res["rms"], "offline": offline, "stream": res["stream"], "stamps": res.get("stamps"),
+               "exit_codes": exit_codes or {}}
     (run_dir / "summary.json").write_text(json.dumps(summary, indent=1, default=str))
     return _summary(run_dir, res, odom, gnss, raw, den, diags, exit_codes or {})
 
@@ -245,6 +248,49 @@ def _stream_checks(raw, den, diags) -> dict:
                        ("imu_missing", "IMU samples missing in the filter's input")):
         if key in kf:
             out[label] = int(float(kf[key]))
+    return out
+
+
+def frame_time_errors(raw, sim_dir: Path, epoch_s: float) -> dict | None:
+    """Driver stamps minus the simulated times of their frames, ms (p1, median, p99, largest); None if not found.
+
+    Frame k of ``sim_dir/bp3010.bin`` is made at ``epoch_s + (k + 1) / 64``. Each recorded sample
+    is found among the frames by its values (the recorder may miss some; the stamps' steps cannot
+    tell, since stamps ahead of the model advance by less than a period).
+    """
+    from imu_driver.bp3010_codec import DEFAULT_FORMAT
+    from imu_driver.emulator import BASE_RATE_HZ, counts_from_source
+
+    rate = round(raw.rate_hz)
+    if rate != BASE_RATE_HZ:
+        return None
+    gyro = counts_from_source(str(Path(sim_dir) / "bp3010.bin"), 0.0, 0)[:, :3] * DEFAULT_FORMAT.dtheta_lsb_rad * rate
+    head = raw.gyro[:8]
+    windows = np.lib.stride_tricks.sliding_window_view(gyro[:, 0], len(head))
+    found = [k for k in np.flatnonzero(np.all(np.isclose(windows, head[:, 0], rtol=0, atol=1e-9), axis=1))
+             if np.allclose(gyro[k:k + len(head)], head, rtol=0, atol=1e-9)]
+    if len(found) != 1:
+        return None
+    k = _frame_numbers(raw.gyro, gyro, found[0])
+    ok = k >= 0
+    err = (raw.t[ok] - epoch_s - (k[ok] + 1) / rate) * 1e3
+    p1, p50, p99 = np.percentile(err, [1, 50, 99])
+    return {"driver stamp - frame time p1 (ms)": float(p1), "driver stamp - frame time median (ms)": float(p50),
+            "driver stamp - frame time p99 (ms)": float(p99),
+            "driver stamp - frame time largest (ms)": float(err[np.argmax(np.abs(err))])}
+
+
+def _frame_numbers(recorded, sent, first: int, look_ahead: int = 64) -> np.ndarray:
+    """Index in ``sent`` (n, 3) of each ``recorded`` (m, 3) row, in order from ``first``; -1 where not found."""
+    if first + len(recorded) <= len(sent) and np.allclose(recorded, sent[first:first + len(recorded)], rtol=0,
+                                                          atol=1e-9):
+        return first + np.arange(len(recorded))
+    out, j = np.full(len(recorded), -1), first
+    for i, row in enumerate(recorded):
+        hits = np.flatnonzero(np.all(np.abs(sent[j:j + look_ahead] - row) <= 1e-9, axis=1))
+        if len(hits):
+            out[i] = j = j + hits[0]
+            j += 1
     return out
 
 
@@ -283,6 +329,7 @@ def _summary(run_dir, res, odom, gnss, raw, den, diags, codes) -> str:
     lines += [f"    {k:<32} {v:10.3f}" if isinstance(v, float) else f"    {k:<32} {v:10d}"
               for k, v in _counts(odom, gnss, raw, den).items()]
     lines += [f"    {k:<38} {v:4d}" for k, v in res.get("stream", {}).items()]
+    lines += [f"    {k:<38} {v:7.1f}" for k, v in (res.get("stamps") or {}).items()]
     off = res.get("offline")
     if off and "not compared" in off:
         lines.append(f"    live against offline replay: not compared ({off['not compared']})")
@@ -322,7 +369,7 @@ table{{border-collapse:collapse;margin-bottom:1em}}</style></head><body>
 <h1>Navigation report</h1><p>Run folder: {html.escape(str(run_dir))}. Errors against {res['reference']}.</p>
 <h2>Accuracy (RMS)</h2>{_table(res['rms'])}
 <h2>Messages</h2>{_table(_counts(odom, gnss, raw, den))}
-<h2>Stamps and drops</h2>{_table(res.get("stream", {}))}
+<h2>Stamps and drops</h2>{_table({**res.get("stream", {}), **(res.get("stamps") or {})})}
 <h2>Live odometry against an offline replay of the bag</h2>{_table(res.get("offline") or no_offline)}
 <h2>Exit codes</h2>{_table(codes)}
 {imgs}
