@@ -186,12 +186,14 @@ def vibration(ctx: Context) -> Candidate:
     if lr <= thr:
         cand.params = {"frequency_hz": f0}
         return cand
-    freq = noise_tests.refine_frequency(resid[:, ch] - resid[:, ch].mean(), case.dt, f0)
-    amps, sds, lrs, phase, f_sd = noise_tests.vibration_fit(wh, resid, case.sim_t_abs, freq, ch, gls)
+    # one frequency for every channel (one source): its profile-likelihood interval holds the information of all
+    freq, f_lo, f_hi = noise_tests.fit_line_frequency(wh, resid, f0)
+    f_sd = (f_hi - f_lo) / (2 * 1.959964)
+    amps, sds, lrs, phase = noise_tests.vibration_fit(wh, resid, case.sim_t_abs, freq, ch, gls)
     cand.channels = [CHANNELS[c] for c in range(6) if lrs[c] > stats.chi2.isf(0.01, 2)]
     names = [f"gyro_amplitude_rad_per_s[{a}]" for a in "xyz"] + [f"accel_amplitude_mps2[{a}]" for a in "xyz"]
     cand.params = {"frequency_hz": freq, "phase_rad": phase, **{n: float(a) for n, a in zip(names, amps)}}
-    cand.intervals = {"frequency_hz": [freq - 1.96 * f_sd, freq + 1.96 * f_sd],
+    cand.intervals = {"frequency_hz": [f_lo, f_hi],
                       **{n: [float(a - 1.96 * s), float(a + 1.96 * s)] for n, a, s in zip(names, amps, sds)}}
     old = list((model.physics or {}).get("vibration", {}).get("sinusoids", []))
     cand.physics = {**(model.physics or {}).get("vibration", {}),

@@ -1,7 +1,8 @@
 """Tests that are not a linear regression on the truth: vibration line, quantization lattice, GM and RW bias.
 
 * vibration: the largest line of the whitened periodogram (above 10 cycles per run),
-  chi-square(2) per bin under the null; the frequency is refined on the DTFT.
+  chi-square(2) per bin under the null; the frequency is the maximum of the joint (all channels) whitened DTFT
+  power, its interval the profile-likelihood one.
 * quantization: raw recorded values lie on a lattice: Rayleigh statistic
   z = n |mean exp(2 pi i x / q)|^2 at the lattice step q found from the gaps between
   distinct values (z ~ Exp(1) for continuous values).
@@ -66,17 +67,39 @@ def vibration_scan(wh, resid_f: np.ndarray, f_min_hz: float, exclude=None):
     return float(power[ch, k]), int(ch), float(freqs[k]), int(sel.sum()) * 6
 
 
-def refine_frequency(x: np.ndarray, dt: float, f0: float) -> float:
-    """Frequency (Hz) maximising |DTFT|^2 of x within one bin of f0."""
-    n = len(x)
-    t = np.arange(n) * dt
-    df = 1.0 / (n * dt)
+def line_lr(wh, x: np.ndarray, f_hz: float, k: int) -> float:
+    """Joint whitened periodogram of the columns x (n, 6) at f_hz (off the bins too): the likelihood ratio of a line
+    with its own amplitude and phase per channel (chi-square 2 per channel under the null); weights of bin k."""
+    e = np.exp(-2j * np.pi * f_hz * wh.dt * np.arange(wh.n))
+    return float(np.sum(np.abs(e @ x) ** 2 * wh.weights[:, k] / (wh.n * wh.scale2)))
 
-    def neg_power(f):
-        return -np.abs(np.sum(x * np.exp(-2j * np.pi * f * t))) ** 2
-    res = optimize.minimize_scalar(neg_power, bounds=(f0 - df, f0 + df), method="bounded",
-                                   options={"xatol": df * 1e-4})
-    return float(res.x)
+
+def fit_line_frequency(wh, resid: np.ndarray, f0: float, z: float = 1.959964, grid: int = 20):
+    """Maximum-likelihood frequency (Hz) of one line common to all channels near bin f0, and its 95 %
+    profile-likelihood interval: (f, lo, hi).
+
+    The interval is where the joint likelihood ratio stays within z^2 (chi-square 1) of its top, searched within
+    one bin either side (a line too weak to lose z^2 within a bin gets that bin's edges). Its half-width is z times
+    the Cramer-Rao sd(f) = sqrt(6) / (pi T sqrt(n sum_c A_c^2 / sigma_c^2)), T = n dt s, from the sampled amplitudes
+    A_c (interval means: the line's amplitude times sinc(f dt)) over the noise sigma_c per sample at f (whitened).
+    """
+    x = resid - resid.mean(axis=0)
+    df = 1.0 / (wh.n * wh.dt)
+    k = int(round(f0 / df))
+    f_grid = f0 + np.linspace(-1.0, 1.0, 2 * grid + 1) * df
+    lr_grid = [line_lr(wh, x, f, k) for f in f_grid]
+    i = int(np.argmax(lr_grid))
+    res = optimize.minimize_scalar(lambda f: -line_lr(wh, x, f, k), bounds=(f_grid[max(i - 1, 0)],
+                                   f_grid[min(i + 1, len(f_grid) - 1)]), method="bounded",
+                                   options={"xatol": df * 1e-6})
+    f_hat, top = (float(res.x), -float(res.fun)) if -res.fun >= lr_grid[i] else (float(f_grid[i]), lr_grid[i])
+
+    def drop(f):
+        return top - line_lr(wh, x, f, k) - z * z
+    ends = []
+    for edge in (f_hat - df, f_hat + df):
+        ends.append(float(optimize.brentq(drop, f_hat, edge, xtol=df * 1e-6)) if drop(edge) > 0 else edge)
+    return f_hat, min(ends), max(ends)
 
 
 def vibration_fit(wh, resid: np.ndarray, t_abs: np.ndarray, freq: float, ch_peak: int, gls_fn):
@@ -93,14 +116,7 @@ def vibration_fit(wh, resid: np.ndarray, t_abs: np.ndarray, freq: float, ch_peak
     amps = np.array([p.theta @ u for p in per])
     sds = np.array([np.sqrt(u @ p.cov @ u) for p in per])
     lrs = np.array([p.lr for p in per])
-    amp_peak = np.hypot(a, b)
-    sigma = np.sqrt(wh.scale2[ch_peak] * 1.0)
-    n = wh.n
-    # Cramer-Rao bound of a sinusoid's frequency in white noise: var(w) = 12 s^2 / (A^2 n^3) (rad/sample)^2
-    noise_sd = np.std(resid[:, ch_peak] - (s * a + c * b))
-    f_sd = np.sqrt(12.0) * noise_sd / (max(amp_peak, 1e-300) * n**1.5) / (2 * np.pi * dt)
-    del sigma
-    return amps, sds, lrs, phase, f_sd
+    return amps, sds, lrs, phase
 
 
 def lattice(x: np.ndarray):
