@@ -88,3 +88,11 @@ def test_whittle_refuses_terms_it_does_not_model():
         fit_whittle(np.zeros(100), RATE_HZ, ("N", "X"), [1.0, 1.0])
     with pytest.raises(ValueError, match="likelihood terms"):
         fit_whittle(np.zeros(100), RATE_HZ, ("R",), [])
+
+
+def test_the_estimate_does_not_depend_on_the_start_even_a_zero_one():
+    x = synthetic.noise(72_000, RATE_HZ, synthetic.NoiseTerms(N=3.5e-4, K=2.2e-6), np.random.default_rng(1))
+    fits = [fit_whittle(x, RATE_HZ, "NK", start) for start in ([0.0, 0.0], [1e-6, 1e-14], [1e-8, 1e-9])]
+    assert all(f.converged for f in fits)
+    for f in fits[1:]:
+        np.testing.assert_allclose(f.theta, fits[0].theta, rtol=1e-5)

@@ -206,7 +206,10 @@ class WhittleProblem:
         ramp = "R" in terms
         var_terms = tuple(t for t in terms if t != "R")
         P = np.column_stack([self.column(t) for t in var_terms])
-        theta0 = np.maximum(np.asarray(theta0, dtype=float)[:len(var_terms)], 1e-300)
+        theta0 = np.asarray(theta0, dtype=float)[:len(var_terms)].copy()
+        bad = ~(np.isfinite(theta0) & (theta0 > 0))
+        if np.any(bad):  # no usable start (e.g. a kept term the WLS set to 0): a tenth of the most the data allow
+            theta0[bad] = 0.1 * np.min((self.zz / self.counts)[:, None] / P[:, bad], axis=0)
         Ps = P * theta0  # scaled so that the start is u = 0 for every term: a well-conditioned problem
         u = np.zeros(len(var_terms))
         f, zz, mu, a = self._nll(Ps @ np.exp(u), ramp, reml)
