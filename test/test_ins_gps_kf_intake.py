@@ -6,7 +6,7 @@ import pytest
 from hypothesis import given, settings, strategies as st
 
 from ins_gps_kf import config as kfconfig
-from ins_gps_kf import input_checks, offline
+from ins_gps_kf import input_checks
 from ins_gps_kf import synthetic as syn
 from ins_gps_kf.filter import InsGpsFilter
 from ins_gps_kf.intake import StampOrderIntake
@@ -166,22 +166,63 @@ def test_whatever_the_arrival_order_the_filter_sees_nondecreasing_stamps(message
     assert len(stamps) + c.dropped == len(messages)
 
 
+def _places(stamps, stale_s=1.0):
+    """The one arrival rule over a fix stream: (places s, whether each fix found the one before stamped ahead)."""
+    arrivals = input_checks.FixArrivals(stale_s)
+    out = [arrivals.place_of(float(t)) for t in stamps]
+    return np.array([p for p, _ in out], dtype=float), np.array([a for _, a in out], dtype=bool)
+
+
 @settings(max_examples=100, deadline=None)
-@given(st.lists(st.tuples(st.sampled_from([0.0, -100.0, 50.0, -7.0]), st.integers(1, 12), st.booleans()),
-                min_size=1, max_size=8))
-def test_fix_places_follow_the_offline_replay_rule_without_looking_ahead(segments):
-    # a 1-Hz receiver whose clock steps by whole seconds (back or ahead), with single outliers stamped 30 s ahead
-    offsets = []
-    for offset, n, spike in segments:
-        offsets += [offset] * n + ([offset + 30.0] if spike else [])
-    stamps = np.arange(len(offsets), dtype=float) + np.array(offsets)
-    places, arrivals = [], input_checks.FixArrivals(1.0)
-    for t in stamps:
-        at, outlier_place = arrivals.place_of(float(t))
-        if outlier_place is not None:
-            places[-1] = outlier_place
-        places.append(at)
-    np.testing.assert_array_equal(places, offline._arrivals(stamps))
+@given(st.lists(st.tuples(st.sampled_from([-2.5, -7.0, -100.0]), st.integers(1, 12)), max_size=6),
+       st.integers(2, 12), st.sampled_from([0.2, 1.0, 5.0]))
+def test_a_receiver_whose_clock_steps_back_has_each_fix_placed_where_it_arrived(steps, n0, period_s):
+    # a receiver keeping its rate (period_s, known after two fixes), received at 100 s + k periods; its clock steps
+    # back now and then
+    offsets = [0.0] * n0
+    for step, n in steps:
+        offsets += [offsets[-1] + step * period_s] * n
+    received = 100.0 + period_s * np.arange(len(offsets))
+    places, ahead = _places(received + np.array(offsets))
+    np.testing.assert_allclose(places, received, rtol=0, atol=1e-9)
+    assert not ahead.any()
+
+
+@settings(max_examples=200, deadline=None)
+@given(st.lists(st.one_of(st.integers(-3, 3).map(lambda k: k * 0.25), st.sampled_from([-100.0, 30.0, np.nan])),
+                max_size=40))
+def test_a_fix_stamped_a_little_back_reaches_the_filter_after_a_fix_stamped_later(moves):
+    # a 1-Hz stream, each fix moved by some quarter seconds, some far ahead or behind, some unstamped
+    stamps = np.arange(len(moves), dtype=float) + np.array(moves, dtype=float)
+    places, _ = _places(stamps)
+    order = sorted(range(len(stamps)), key=lambda k: (places[k], k))  # the intake's heap (and the replay's) order
+    rank = {k: r for r, k in enumerate(order)}
+    finite = np.isfinite(stamps)
+    assert np.all(places[finite] >= stamps[finite])  # never handed over before its stamp
+    last = None  # the last stamped fix received before this one
+    for k in np.flatnonzero(finite):
+        if last is not None and stamps[last] - 1.0 <= stamps[k] < stamps[last]:  # back, by up to stale_s
+            # the filter gets a fix stamped later first, so it drops this one (fixes_out_of_order), whenever it came
+            assert any(stamps[j] > stamps[k] and rank[j] < rank[k] for j in range(k)), (k, stamps, places)
+        last = k
+    if np.all(np.diff(stamps[finite]) >= 0):
+        assert np.array_equal(places[finite], stamps[finite])  # fixes in time order go at their stamps
+
+
+def test_an_outlier_stamped_far_ahead_stays_at_its_stamp_and_holds_up_no_other_fix():
+    stamps = np.arange(10.0)
+    stamps[4] += 30.0
+    places, ahead = _places(stamps)
+    np.testing.assert_array_equal(places, stamps)  # the filter judges the outlier when its stamp comes
+    assert ahead.tolist() == [k == 5 for k in range(10)]
+
+
+def test_a_fix_stamped_a_little_ahead_delays_no_fix_after_it():
+    stamps = np.arange(10.0)
+    stamps[4] += 1.5  # 0.5 s after the next fix: that one is placed after it (the filter drops it), the rest in line
+    places, ahead = _places(stamps)
+    assert places[5] > places[4] and ahead[5]
+    np.testing.assert_array_equal(np.delete(places, 5), np.delete(stamps, 5))
 
 
 def test_a_fix_stamped_back_goes_where_it_arrived_and_the_filter_gets_its_stamp():
@@ -213,20 +254,29 @@ def _filter():
     return InsGpsFilter(kfconfig.from_params(p))
 
 
-@pytest.mark.parametrize("clock_step_s", [0.0, -100.0], ids=["clean", "gnss_clock_stepping_back_100s"])
+def _stamped(gnss, case):
+    """The fixes of ``_drive`` as a receiver with trouble stamps them: (stamps s, when they arrive s) per fix."""
+    received, stamps = gnss.t.copy(), gnss.t.copy()
+    if case == "gnss_clock_stepping_back_100s":  # the receiver keeps its rate, its clock steps: they arrive as before
+        stamps[received >= 35.0] -= 100.0
+    elif case == "fixes_out_of_order":
+        k = int(np.searchsorted(received, 40.0))
+        stamps[k] = stamps[k - 1] - 0.6  # stamped 0.6 s (< time_jump_s) before the fix that came before it
+        stamps[k - 20] += 10.5  # and one outlier stamped 10.5 s ahead, 20 fixes before
+    return stamps, received
+
+
+@pytest.mark.parametrize("case", ["clean", "gnss_clock_stepping_back_100s", "fixes_out_of_order"])
 @pytest.mark.parametrize("batch_s, imu_lag_s", [(0.01, 0.0), (0.5, 1.5), (12.0, 0.8)],
                          ids=["every_sample", "imu_behind_the_fixes", "catching_up_after_a_12s_stall"])
-def test_the_intake_gives_the_offline_replay_numbers_however_the_input_is_batched(batch_s, imu_lag_s, clock_step_s):
+def test_the_intake_gives_the_offline_replay_numbers_however_the_input_is_batched(batch_s, imu_lag_s, case):
     imu, gnss = _drive()
-    stepped = gnss.t >= 35.0
-    gnss.t[stepped] += clock_step_s  # the receiver keeps its rate, its clock steps: the fixes arrive as before
+    gnss.t, received = _stamped(gnss, case)  # the recording keeps the fixes in the order they came
     offline_filter = _filter()
     offline = run(offline_filter, imu, gnss)
     live = []
     intake = StampOrderIntake(_filter(), 0.1, 1.0, RATE, on_run=lambda est, *_: live.extend(est))
-    # arrival order: fixes when received (at their stamp before the step), the IMU imu_lag_s after its stamp;
-    # taken every batch_s
-    received = gnss.t - np.where(stepped, clock_step_s, 0.0)
+    # arrival order: fixes when received, the IMU imu_lag_s after its stamp; taken every batch_s
     arrivals = sorted([(t, 0, i) for i, t in enumerate(received)] + [(t + imu_lag_s, 1, i) for i, t in enumerate(imu.t)])
     edge = batch_s
     for when, kind, i in arrivals:
@@ -244,10 +294,14 @@ def test_the_intake_gives_the_offline_replay_numbers_however_the_input_is_batche
         np.testing.assert_array_equal(a.position_n, b.position_n)
     assert intake.counters.dropped == 0 and intake.counters.imu_missing == 0
     assert intake.filter.input_counters == offline_filter.input_counters
-    assert intake.counters.fixes_stamped_back == (np.sum(stepped) if clock_step_s else 0)
-    if clock_step_s:  # the step is found, and the fixes after it re-stamped and used to the end
-        assert intake.filter.input_counters["gnss_clock_steps"] == 1
+    counts, c = intake.filter.input_counters, intake.counters
+    if case == "gnss_clock_stepping_back_100s":  # the step is found, and the fixes after it re-stamped and used
+        assert c.fixes_stamped_back == np.sum(gnss.t < received) and counts["gnss_clock_steps"] == 1
         assert intake.filter.last_fix_t > received[-1] - 1.0
+    elif case == "fixes_out_of_order":  # the one stamped back comes after the one before: the filter drops it
+        assert (c.fixes_stamped_back, c.fixes_stamped_ahead, counts["fixes_out_of_order"]) == (1, 1, 1)
+    else:
+        assert (c.fixes_stamped_back, c.fixes_stamped_ahead, counts["fixes_out_of_order"]) == (0, 0, 0)
 
 
 def test_warm_up_runs_the_filter_through_alignment_heading_and_gps_updates():

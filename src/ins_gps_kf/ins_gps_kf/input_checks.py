@@ -247,15 +247,22 @@ class GnssClock:
 
 
 class FixArrivals:
-    """Where each fix of a stream belongs among the IMU samples (s), decided fix by fix as they arrive (the node).
+    """Where each fix of a stream goes among the IMU samples (s), decided fix by fix in the order the fixes come.
 
-    The offline replay's arrival rule (:func:`ins_gps_kf.offline._arrivals`) without looking ahead:
-    a fix belongs at its stamp; a stamp more than ``stale_s`` before the place of the fix before
-    belongs one fix spacing (the last forward step of the stamps) after it (the receiver kept its
-    rate, its clock stepped back: the filter's :class:`GnssClock` then sees the lag, as in the
-    replay). A stamp up to ``stale_s`` back keeps its place (the intake reorders it or drops it as
-    late). When a fix stamped back follows the one before the last, the last one was an outlier
-    ahead: the stream goes on from the one before it, and the outlier belongs with it (as in the replay).
+    The one arrival rule of the node's intake and the offline replay: it looks at no later fix and
+    never moves a fix it placed, so the node hands the filter the replay's order whatever its
+    batching. A fix goes at its stamp, unless the stamp is before the stream's place (time went
+    back): then one fix spacing (the last forward step of the stamps) after it, where a receiver
+    keeping its rate sent it. The filter gets the fix's own stamp there and judges it: a fix stamped
+    before one it took already is dropped (out of order), a GNSS clock that stepped back shows as a
+    steady lag (:class:`GnssClock`).
+
+    When the stamp went back to between the two fixes before, and the fix before was stamped past
+    its slot (one spacing after the fix before it), that one was stamped ahead (the flag returned).
+    If by more than ``stale_s`` s past this stamp, it is an outlier: it waits at its stamp for the
+    filter to judge and holds up no other fix, the stream goes on from its slot. Otherwise this fix
+    still goes one spacing after it (the filter drops it), and the stream goes on as if both had
+    come in their slots, so a fix stamped a little ahead delays none of the later ones.
     """
 
     def __init__(self, stale_s: float):
@@ -264,18 +271,31 @@ class FixArrivals:
 
     def restart(self) -> None:
         """Forget the stream (a restarted recording)."""
-        self.place, self.prev_t, self.spacing = -math.inf, math.nan, 0.0
-        self._before = None  # (place, prev_t, spacing) before the last fix: to undo an outlier
+        self.place, self.prev_t, self.spacing = -math.inf, math.nan, 0.0  # the stream: last place, stamp, step
+        self._before = None  # the stream before the last fix (place, stamp, step): its slot
 
-    def place_of(self, t: float) -> tuple[float, float | None]:
-        """(place of the fix stamped ``t`` s, the new place of the fix before when it was an outlier, else None)."""
-        outlier_place = None
-        if self._before is not None and self.prev_t > t >= self._before[1] and t < self.place - self.stale_s:
-            self.place, self.prev_t, self.spacing = self._before
-            outlier_place = self.place
-        self._before = (self.place, self.prev_t, self.spacing)
-        if t > self.prev_t:
-            self.spacing = t - self.prev_t
-        at = t if t >= self.place - self.stale_s else self.place + self.spacing
-        self.place, self.prev_t = max(self.place, at), t
-        return at, outlier_place
+    def place_of(self, t: float) -> tuple[float, bool]:
+        """(place in s of the fix stamped ``t`` s, whether the fix before was found stamped ahead)."""
+        if not math.isfinite(t):  # the filter drops it; it goes with the fix before, the stream keeps going
+            self._before = None
+            return self.place, False
+        before, ahead, at = (self.place, self.prev_t, self.spacing), False, None
+        if t < self.place and t < self.prev_t and self._before is not None:
+            place0, t0, step0 = self._before
+            slot = (place0 + step0, t0 + step0, step0)  # where the fix before belonged in line
+            if not self.prev_t <= slot[1] and not t < t0:  # (NaN: no fix before it, nothing to be before)
+                if self.prev_t - t > self.stale_s:  # an outlier: this fix goes on from its slot
+                    ahead, before = True, slot
+                elif step0 > 0.0:  # this fix is the one out of order: after the fix before; the stream in line
+                    ahead, before, at = True, slot, self.place + self.spacing
+        self._before = before
+        if at is not None:  # the stream goes on in line, as if this fix had come in its slot
+            place, prev_t, spacing = before[0] + before[2], before[1] + before[2], before[2]
+        else:
+            place, prev_t, spacing = before
+            if t > prev_t:
+                spacing = t - prev_t  # the receiver's rate: the last forward step
+            at = place = t if t >= place else place + spacing
+            prev_t = t
+        self.place, self.prev_t, self.spacing = place, prev_t, spacing
+        return at, ahead

@@ -7,18 +7,21 @@ what is too late, what is a restart, and what is counted. The rules (the offline
   the newest IMU stamp is ``window_s`` past it. Only IMU stamps advance the release point: the
   denoised IMU comes later than the fixes, so a fix waits however far behind the IMU runs. Nothing
   is released by wall time, so a node that falls behind catches up with the same order;
-* a fix goes where it arrived in the fix stream (:class:`ins_gps_kf.input_checks.FixArrivals`, the
-  offline replay's rule): at its stamp, except a stamp more than ``time_jump_s`` before the fix
-  before (a GNSS clock stepped back: ``fixes_stamped_back``), which goes one fix spacing after it,
-  and an outlier stamped ahead of the fixes around it (``fixes_stamped_ahead``), which goes with the
-  fix before. The filter gets the fix's own stamp there and judges it (its GNSS clock check sees
-  the lag and re-stamps the fixes once the step is confirmed), as in the replay;
+* a fix goes where it arrived in the fix stream, by the rule the offline replay uses
+  (:class:`ins_gps_kf.input_checks.FixArrivals`, fed in arrival order): at its stamp, except a stamp
+  before the place of the fix before (time went back: ``fixes_stamped_back``), which goes one fix
+  spacing after it; a fix found stamped ahead of the next one (``fixes_stamped_ahead``) stays where
+  it is, and an outlier more than ``time_jump_s`` ahead does not hold up the ones after it. The
+  filter gets the fix's own stamp there and judges it, as in the replay: a fix stamped back (by up to
+  ``time_jump_s``) from the fix before comes after it, so the filter drops it (``fixes_out_of_order``)
+  whenever it came; a GNSS clock that stepped back is found by the lag and its fixes re-stamped. No
+  fix moves once placed, so the order never depends on what was processed when a fix came;
 * a message whose place in the stamp order was already processed is dropped and counted
   (``late_imu``, ``late_fixes``) - the only drop there is;
 * an IMU stamp more than ``time_jump_s`` before the last processed one is a restart (a bag
   looping): everything queued with the old stamps is run, then the filter is reset; what was
-  queued with stamps before the processed ones, or placed by the fix stream after a stamp that
-  went back (fixes of the new run), is kept for the new run at its stamp;
+  queued for the new run (IMU samples older than the processed ones, fixes stamped nearer the new
+  stamps than the old) is kept, the fixes placed anew as the new run's stream;
 * a non-finite stamp is rejected and counted (it has no place in the order); what the samples
   carry is the filter's to judge;
 * consecutive IMU samples go to the filter as one chunk (the same numbers as one by one).
@@ -48,8 +51,8 @@ class IntakeCounters:
     late_fixes: int = 0        # fixes older than the last processed message (or an IMU sample of their stamp)
     bad_stamps: int = 0        # non-finite stamps: rejected
     restarts: int = 0          # backward time jumps that reset the filter
-    fixes_stamped_back: int = 0   # fixes stamped > time_jump_s before the fix before: placed where they arrived
-    fixes_stamped_ahead: int = 0  # fixes stamped ahead of the fixes around them: placed with the fix before
+    fixes_stamped_back: int = 0   # fixes stamped before the fix before: placed where they arrived
+    fixes_stamped_ahead: int = 0  # fixes found stamped ahead of the fix after them (see FixArrivals)
     imu_missing: int = 0       # IMU samples missing in forward gaps of the released stream (estimate)
     last_restart: str = ""
     reasons: list = field(default_factory=list)
@@ -80,7 +83,6 @@ class StampOrderIntake:
         self.last_t: float | None = None  # newest IMU stamp released to the filter, s
         self._done = (-math.inf, GPS)  # (stamp, kind) of the last message released: the order's front
         self.fix_places = FixArrivals(time_jump_s)
-        self._last_fix = None  # heap entry of the last fix handed in (an outlier is moved when found out)
 
     @property
     def pending(self) -> int:
@@ -94,31 +96,20 @@ class StampOrderIntake:
             self.counters.bad_stamps += 1
             return
         if self.last_t is not None and t_s < self.last_t - self.time_jump_s:
-            self._restart(f"stamp jumped back {self.last_t - t_s:.3f} s (bag restart?)")
+            self._restart(f"stamp jumped back {self.last_t - t_s:.3f} s (bag restart?)", t_s)
         heapq.heappush(self._heap, (t_s, IMU, next(self._seq), (gyro, accel)))
         self.newest_t = max(self.newest_t, t_s)
 
     def add_fix(self, t_s: float, lat_rad: float, lon_rad: float, h_m: float, std_enu, status: int = 0) -> None:
         """Queue one fix (s, rad, rad, m, std ENU (3,) m, NavSatStatus); its contents are the filter's to judge."""
         self.counters.fixes += 1
+        place, ahead = self.fix_places.place_of(t_s)  # the replay gives the filter the same order
         if not math.isfinite(t_s):
             self.counters.bad_stamps += 1
             return
-        place, outlier_place = self.fix_places.place_of(t_s)
-        if outlier_place is not None:
-            self.counters.fixes_stamped_ahead += 1
-            self._move(self._last_fix, outlier_place)
+        self.counters.fixes_stamped_ahead += ahead
         self.counters.fixes_stamped_back += place != t_s
-        self._last_fix = (place, GPS, next(self._seq), (t_s, lat_rad, lon_rad, h_m, std_enu, status))
-        heapq.heappush(self._heap, self._last_fix)
-
-    def _move(self, entry, place: float) -> None:
-        """Put a queued fix ``entry`` at ``place`` (s) in the order; nothing if it was processed already."""
-        k = next((k for k, item in enumerate(self._heap) if item[2] == entry[2]), None)
-        if k is None:
-            return
-        self._heap[k] = (place, GPS, next(self._seq), entry[3])
-        heapq.heapify(self._heap)
+        heapq.heappush(self._heap, (place, GPS, next(self._seq), (t_s, lat_rad, lon_rad, h_m, std_enu, status)))
 
     def release(self) -> None:
         """Run everything ``window_s`` older than the newest IMU stamp through the filter, in stamp order."""
@@ -128,25 +119,30 @@ class StampOrderIntake:
         """Run everything still queued (shutdown)."""
         self._drain(math.inf)
 
-    def _restart(self, reason: str) -> None:
-        """Run the old stamps' tail, reset the filter, keep what already belongs to the new stamps."""
-        # what is older than the processed stamps cannot be the old run's (it would be late): the new run's
-        new_run = [item for item in self._heap if item[:2] < self._done or _moved(item)]
-        self._heap = [item for item in self._heap if not (item[:2] < self._done or _moved(item))]
-        new_run = [(item[3][0], GPS, item[2], item[3]) if _moved(item) else item for item in new_run]
+    def _restart(self, reason: str, t_new: float) -> None:
+        """Run the old stamps' tail, reset the filter, keep what belongs to the new stamps (from ``t_new`` s)."""
+        new_run = [item for item in self._heap if self._new_run(item, t_new)]
+        self._heap = [item for item in self._heap if not self._new_run(item, t_new)]
         heapq.heapify(self._heap)
         self.flush()
         self.filter.reset(reason)
-        self._heap = new_run
-        heapq.heapify(self._heap)
-        self.newest_t = max((item[0] for item in new_run if item[1] == IMU), default=-math.inf)
+        self._heap = [item for item in new_run if item[1] == IMU]
+        self.newest_t = max((item[0] for item in self._heap), default=-math.inf)
         self.last_t, self._done = None, (-math.inf, GPS)
         self.fix_places.restart()
-        for item in sorted((item for item in new_run if item[1] == GPS), key=lambda item: item[2]):
-            self.fix_places.place_of(item[0])  # the new run's fix stream so far
+        for _, _, seq, payload in sorted((item for item in new_run if item[1] == GPS), key=lambda item: item[2]):
+            self._heap.append((self.fix_places.place_of(payload[0])[0], GPS, seq, payload))  # the new run's stream
+        heapq.heapify(self._heap)
         self.counters.restarts += 1
         self.counters.last_restart = reason
         self.counters.reasons.append(reason)
+
+    def _new_run(self, item, t_new: float) -> bool:
+        """Whether a queued message belongs to the run restarting at ``t_new`` s: an IMU sample older than what was
+        processed (it would be late), a fix whose stamp is nearer ``t_new`` than the processed stamps."""
+        if item[1] == IMU:
+            return item[:2] < self._done
+        return abs(item[3][0] - t_new) < abs(item[3][0] - self._done[0])
 
     def _drain(self, until_t: float) -> None:
         run = []
@@ -178,11 +174,6 @@ class StampOrderIntake:
         accel = np.array([p[1] for _, p in run], dtype=float)
         estimates = self.filter.process_imu(t, gyro, accel)
         self.on_run(estimates, float(t[-1]), gyro[-1], accel[-1])
-
-
-def _moved(item) -> bool:
-    """Whether a heap entry is a fix placed elsewhere than at its stamp."""
-    return item[1] == GPS and item[0] != item[3][0]
 
 
 def warm_up(cfg, model=None):

@@ -16,53 +16,43 @@ from nav_core.recording import GnssRecording, ImuRecording, Trajectory
 from nav_core.units import DEG
 from ins_gps_kf.error_model import default_mems_model
 from ins_gps_kf.filter import STATUS_CODES, Estimate, InsGpsFilter
+from ins_gps_kf.input_checks import FixArrivals
+
+IMU_CHUNK = 65536  # IMU samples per filter call
 
 
-def _arrivals(t_fix: np.ndarray) -> np.ndarray:
-    """When each fix of a recording reaches the filter (s, IMU clock): IMU samples up to then go first.
-
-    A file keeps only the order, so: a fix arrives at its stamp, never before the fix ahead of it;
-    a stamp going back arrives one fix spacing after the previous one (the receiver kept its rate,
-    its clock stepped: the filter then sees the lag, as the node would); a stamp beyond the next
-    one while the next follows the previous (an outlier), or NaN, arrives with the previous fix.
-    Equal to the stamps for a time-ordered recording.
-    """
-    out = np.full(len(t_fix), -np.inf)
-    prev_arrival, prev_t, spacing = -np.inf, np.nan, 0.0
-    for k, t in enumerate(t_fix):
-        before = t_fix[k - 1] if k else -np.inf
-        after = t_fix[k + 1] if k + 1 < len(t_fix) else np.inf
-        if not np.isfinite(t) or (t > after >= before):
-            out[k] = prev_arrival
-            continue
-        spacing = t - prev_t if t > prev_t else spacing  # the receiver's rate: the last forward step
-        prev_arrival = t if t >= prev_arrival else prev_arrival + spacing
-        out[k], prev_t = prev_arrival, t
-    return out
+def fix_places(t_fix: np.ndarray, stale_s: float) -> np.ndarray:
+    """Where each fix of a recording goes among the IMU samples (s, IMU clock), by the node's rule
+    (:class:`ins_gps_kf.input_checks.FixArrivals`, the fixes taken in recorded order); ``stale_s`` s is the
+    filter's ``time_jump``. Equal to the stamps for a time-ordered recording."""
+    arrivals = FixArrivals(stale_s)
+    return np.array([arrivals.place_of(float(t))[0] for t in t_fix], dtype=float)
 
 
 def run(filt: InsGpsFilter, imu: ImuRecording, gnss: GnssRecording | None, progress: bool = False) -> list[Estimate]:
-    """Feed ``imu`` and ``gnss`` to ``filt`` by stamp, fixes in recorded order (a fix before an IMU sample of
-    equal stamp); a fix stamped back in time is the filter's to judge (counted, dropped), as in the node."""
+    """Feed ``imu`` and ``gnss`` to ``filt`` as the node's intake would: each fix at its place (:func:`fix_places`),
+    fixes of one place in recorded order and before an IMU sample of that stamp; the filter gets each fix's own
+    stamp and judges it (a stamp gone back is counted and dropped, or re-stamped after a GNSS clock step)."""
     out: list[Estimate] = []
     bar = None
     if progress:
         from tqdm import tqdm
         bar = tqdm(total=len(imu), unit="epoch", mininterval=0.5, desc="replay")
     start = 0
-    limits = _arrivals(gnss.t) if gnss is not None else []
-    for k, limit in enumerate(limits):
-        stop = int(np.searchsorted(imu.t, limit, side="left"))
-        if stop > start:
-            out += filt.process_imu(imu.t[start:stop], imu.gyro[start:stop], imu.accel[start:stop])
-            bar is not None and bar.update(stop - start)
-            start = stop
+
+    def feed(stop):  # the IMU samples up to index ``stop``
+        nonlocal start
+        for s in range(start, stop, IMU_CHUNK):  # bounded memory; the same numbers as one call
+            e = min(s + IMU_CHUNK, stop)
+            out.extend(filt.process_imu(imu.t[s:e], imu.gyro[s:e], imu.accel[s:e]))
+            bar is not None and bar.update(e - s)
+        start = max(start, stop)
+
+    places = fix_places(gnss.t, filt.cfg.time_jump) if gnss is not None else np.zeros(0)
+    for k in np.argsort(places, kind="stable"):
+        feed(int(np.searchsorted(imu.t, places[k], side="left")))
         filt.process_gps(gnss.t[k], gnss.lat[k], gnss.lon[k], gnss.h[k], gnss.std_enu[k], gnss.status[k])
-    chunk = 65536
-    for s in range(start, len(imu), chunk):
-        e = min(s + chunk, len(imu))
-        out += filt.process_imu(imu.t[s:e], imu.gyro[s:e], imu.accel[s:e])
-        bar is not None and bar.update(e - s)
+    feed(len(imu))
     if bar is not None:
         bar.close()
     return out
