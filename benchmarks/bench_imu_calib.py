@@ -1,6 +1,8 @@
 """Benchmark of imu_calib: Allan deviation speed and memory, fit time, parameter accuracy.
 
 Usage: python benchmarks/bench_imu_calib.py [--quick] [--samples N] [--seeds S] [--only speed|accuracy|reported]
+       [--reported-rate HZ]   (issue 14's case at HZ: 1 Hz holds the same information on K as 100 Hz, so
+       --only reported --reported-rate 1 --seeds 100 checks the bound on 300 axes in about a minute)
 
 Peers measured in the same run on the same data: ``allantools.oadev`` (same
 estimator, same octave grid) and a brute-force non-overlapping Allan variance
@@ -230,7 +232,7 @@ def main(argv=None) -> None:
     if args.only in (None, "accuracy"):
         bench_fit_and_accuracy(2 if args.quick else args.seeds)
     if args.only in (None, "reported"):
-        bench_reported_case(2 if args.quick else min(args.seeds, 20), 10.0 if args.quick else args.reported_rate)
+        bench_reported_case(2 if args.quick else args.seeds, 10.0 if args.quick else args.reported_rate)
 
 
 if __name__ == "__main__":
