@@ -111,6 +111,27 @@ def test_a_stamp_jumping_back_resets_the_filter_after_running_all_that_came_befo
     assert intake.counters.late_imu == 0
 
 
+def test_a_fix_stamped_a_little_back_when_the_bag_restarts_stays_with_the_old_run():
+    rec, intake = _intake()
+    for k in range(int(12 * RATE)):
+        _imu(intake, k / RATE)
+        if k % int(RATE) == 0:
+            _fix(intake, k / RATE)
+    intake.release()
+    _fix(intake, 10.6)  # received at 12 s, stamped 0.4 s before the fix before: queued where it arrived
+    _fix(intake, 2.5)  # the restarted bag's first fix
+    _imu(intake, 2.0)  # the bag restarts
+    reset_at = [kind for kind, _ in rec.calls].index("reset")
+    assert ("gps", 10.6) in rec.calls[:reset_at]  # run before the reset (the filter drops it as out of order)
+    for k in range(1, 40):
+        _imu(intake, 2.0 + k / RATE)
+    intake.flush()
+    assert [c for c in rec.calls[reset_at:] if c[0] == "gps"] == [("gps", 2.5)]  # the new run's, in its place
+    new_run = [t for _, t in rec.calls[reset_at + 1:]]
+    assert new_run == sorted(new_run)
+    assert intake.counters.dropped == 0 and intake.counters.fixes_stamped_back == 2
+
+
 def test_a_non_finite_stamp_is_rejected_and_counted():
     rec, intake = _intake()
     _imu(intake, math.nan)
