@@ -238,7 +238,7 @@ def busy_loops(n: int = 2, niceness: int = 10) -> list:
 
 
 def children_cpu(parent: int) -> dict:
-    """Node name -> CPU seconds of each child process of ``parent`` (a console script: its script's name)."""
+    """(pid, node name) -> CPU seconds of each child process of ``parent`` (a console script: its script's name)."""
     out = {}
     for stat in Path("/proc").glob("[0-9]*/stat"):
         try:
@@ -249,7 +249,8 @@ def children_cpu(parent: int) -> dict:
         except (OSError, IndexError, ValueError):
             continue
         name = Path((argv[1] if len(argv) > 1 and b"python" in argv[0] else argv[0]).decode()).name
-        out[name] = (int(fields[11]) + int(fields[12])) / os.sysconf("SC_CLK_TCK")
+        if name:  # an exited child (zombie) has no command line
+            out[int(stat.parent.name), name] = (int(fields[11]) + int(fields[12])) / os.sysconf("SC_CLK_TCK")
     return out
 
 
@@ -261,7 +262,7 @@ def run_demo(out: Path, rate: float, duration_s: float, env: dict, busy: bool) -
 
     loops = busy_loops() if busy else []
     start, load = time.monotonic(), os.getloadavg()[0]
-    cpu = {}  # node -> (first sample time, CPU s), (last sample time, CPU s)
+    cpu = {}  # (pid, node) -> (first sample time, CPU s), (last sample time, CPU s)
     try:
         cmd = [str(Path(sys.executable).parent / "nav-demo"), "--rate", str(rate), "--out", str(out)]
         if duration_s:
@@ -271,8 +272,8 @@ def run_demo(out: Path, rate: float, duration_s: float, env: dict, busy: bool) -
         reader.start()
         while demo.poll() is None:
             now = time.monotonic()
-            for name, seconds in children_cpu(demo.pid).items():
-                cpu[name] = (cpu.get(name, ((now, seconds),))[0], (now, seconds))
+            for key, seconds in children_cpu(demo.pid).items():
+                cpu[key] = (cpu.get(key, ((now, seconds),))[0], (now, seconds))
             time.sleep(1.0)
         reader.join()
     finally:
@@ -285,7 +286,7 @@ def run_demo(out: Path, rate: float, duration_s: float, env: dict, busy: bool) -
         raise RuntimeError(f"nav-demo failed (exit {demo.returncode}):\n{stdout[-3000:]}\n{stderr[-2000:]}")
     summary = json.loads((runs[-1] / "summary.json").read_text())
     summary["wall_s"], summary["load_at_start"] = time.monotonic() - start, load
-    summary["cpu_share"] = {name: (b[1] - a[1]) / (b[0] - a[0]) for name, (a, b) in cpu.items() if b[0] > a[0]}
+    summary["cpu_share"] = {name: (b[1] - a[1]) / (b[0] - a[0]) for (_, name), (a, b) in cpu.items() if b[0] > a[0]}
     summary["run_dir"] = str(runs[-1])
     return summary
 
@@ -308,7 +309,8 @@ def bench_busy_cpu(env, rates, duration_s: float) -> None:
                   f"{st.get('imu/data_corrected stamps going back')}; filter dropped "
                   f"{st.get('messages the filter dropped')}, missing "
                   f"{st.get('IMU samples missing in the filter' + chr(39) + 's input')}"
-                  f" (raw stream: {st.get('imu/data_raw samples missing')}); exit codes other than 0: "
+                  f" (in the bag: raw {st.get('imu/data_raw samples missing')}, denoised "
+                  f"{st.get('imu/data_corrected samples missing')}); exit codes other than 0: "
                   f"{ {k: v for k, v in s['exit_codes'].items() if v} or 'none'}")
             stamps = {k.split()[-2]: v for k, v in (s.get("stamps") or {}).items()}
             print(f"           driver stamp - simulated frame time (ms): " + ", ".join(

@@ -189,12 +189,13 @@ class ClockFollower:
     The window is long because the line is extrapolated to the newest read: in the demo at 8x
     with two busy loops, a 1 s window's rate erred enough to put the time 10-12 ms
     (simulated) early at its worst reads, a 4 s one 3-6 ms (typically 1 ms: the most prompt
-    delivery's delay). The rate is first given after 0.3 s of messages (after 0.1 s it put
-    the first reads up to 12 ms early).
+    delivery's delay). The rate is first given after 1 s of messages (after 0.1 s it put the
+    first reads up to 12 ms early, after 0.3 s up to 6 ms, and an early read holds the driver's
+    stamps early for its whole window).
     """
 
-    def __init__(self, window_s: float = 4.0, max_extrapolation_s: float = 1.0, refit_every: int = 20,
-                 min_span_s: float = 0.3):
+    def __init__(self, window_s: float = 4.0, max_extrapolation_s: float = 5.0, refit_every: int = 20,
+                 min_span_s: float = 1.0):
         self.window_s, self.max_extrapolation_s, self.refit_every = window_s, max_extrapolation_s, refit_every
         self.min_span_s = min_span_s
         """A clock that moves gives no time until its rate is measured over this much wall time (s)."""
@@ -231,13 +232,19 @@ class ClockFollower:
         self._best = float(np.max(sim - self.rate * recv))
 
     def now(self, wall_s: float):
-        """Simulated time at ``wall_s`` (s; also a past one); None before the clock's rate is known."""
+        """Simulated time at ``wall_s`` (s; also a past one); None before the clock's rate is known or when no
+        message came for ``max_extrapolation_s``."""
         if self._best is None:
             return None
         paused = len(self._sim) >= 2 and self._sim[-1] == self._sim[0]
         if not paused and self._recv[-1] - self._recv[0] < self.min_span_s:
             return None  # moving (or not known to stand still) at a rate not yet measured
-        wall = min(wall_s - self._ref[1], self._recv[-1] + self.max_extrapolation_s)
+        wall = wall_s - self._ref[1]
+        if wall > self._recv[-1] + self.max_extrapolation_s:
+            # /clock has gone quiet: no time. Up to then the line runs on: held at its end 1 s after the last
+            # delivery (as before), a read after a 1.1 s gap in deliveries (RATE=1, CPU busy) was 106 ms early,
+            # and one early read sets the driver's stamps for its whole window (10 s).
+            return None
         return self._ref[0] + self._best + self.rate * wall  # on or above every message: never behind /clock
 
 

@@ -239,9 +239,12 @@ def _stream_checks(raw, den, diags) -> dict:
     for name, rec in (("imu/data_raw", raw), ("imu/data_corrected", den)):
         if rec is not None:
             out[f"{name} stamps going back"] = int(np.sum(np.diff(rec.t) <= 0))
-    if raw is not None and len(raw) > 1:  # samples missing upstream of the denoiser and the filter
-        steps = np.round(np.diff(raw.t) * raw.rate_hz)
-        out["imu/data_raw samples missing"] = int(np.sum(steps[steps > 1] - 1))
+    # samples missing in the bag: upstream of the denoiser and the filter (raw), or lost by the recorder
+    # where the filter's own count says it missed none (then the offline replay lacks what the node had)
+    for name, rec in (("imu/data_raw", raw), ("imu/data_corrected", den)):
+        if rec is not None and len(rec) > 1:
+            steps = np.round(np.diff(rec.t) * rec.rate_hz)
+            out[f"{name} samples missing"] = int(np.sum(steps[steps > 1] - 1))
     kf = next((v for n, (_, _, v) in diags.items() if n.startswith("ins_gps_kf")), {})
     for key, label in (("imu_received", "IMU samples the filter received"),
                        ("late_dropped", "messages the filter dropped"),
