@@ -31,6 +31,9 @@ PARAMS = (
     Param("storage", "sqlite3", "storage plugin", choices=("sqlite3", "mcap")),
     Param("discovery_period_s", 0.5, "how often to look for the topics, s", 0.05, 60.0),
     Param("intake_period_s", 0.01, "queues are drained at this period, s", 0.0005, 1.0),
+    Param("input_queue_depth", 20000, "messages each topic's subscription holds until written: a recorder held up "
+          "(a busy CPU, a slow disk) catches up instead of losing what the filter received; as the filter's", 100,
+          1000000),
 )
 
 
@@ -68,7 +71,8 @@ class BagRecorder(Node):
                     continue  # only subscribers so far: wait for a publisher and its QoS
                 self.writer.add_topic(topic, types[0], [bag_qos(q) for q in offered])
                 self._subs[topic] = PolledSubscription(self, cls, topic, self._writer_for(topic, types[0]),
-                                                       self.p["intake_period_s"], subscription_qos(offered))
+                                                       self.p["intake_period_s"],
+                                                       subscription_qos(offered, self.p["input_queue_depth"]))
                 self.counts[topic] = 0
                 self.get_logger().info(f"recording {topic} ({types[0]}, "
                                        f"{subscription_qos(offered).reliability.name.lower()})")
@@ -95,13 +99,13 @@ class BagRecorder(Node):
         self.get_logger().info(f"closed {self.p['output']}: {self.counts}")
 
 
-def subscription_qos(offered) -> QoSProfile:
+def subscription_qos(offered, depth: int = 20000) -> QoSProfile:
     """The QoS that receives everything the publishers (their ``offered`` QoSProfiles) send: reliable only when
     every one is reliable, transient local only when every one is (a reliable subscriber does not match a
     best-effort publisher, a transient-local one does not match a volatile one)."""
     reliable = all(q.reliability == ReliabilityPolicy.RELIABLE for q in offered)
     latched = all(q.durability == DurabilityPolicy.TRANSIENT_LOCAL for q in offered)
-    return QoSProfile(depth=5000, reliability=ReliabilityPolicy.RELIABLE if reliable else ReliabilityPolicy.BEST_EFFORT,
+    return QoSProfile(depth=depth, reliability=ReliabilityPolicy.RELIABLE if reliable else ReliabilityPolicy.BEST_EFFORT,
                       durability=DurabilityPolicy.TRANSIENT_LOCAL if latched else DurabilityPolicy.VOLATILE)
 
 
