@@ -70,12 +70,11 @@ class BagRecorder(Node):
                 if not offered:
                     continue  # only subscribers so far: wait for a publisher and its QoS
                 self.writer.add_topic(topic, types[0], [bag_qos(q) for q in offered])
+                qos = subscription_qos(offered, self.p["input_queue_depth"])
                 self._subs[topic] = PolledSubscription(self, cls, topic, self._writer_for(topic, types[0]),
-                                                       self.p["intake_period_s"],
-                                                       subscription_qos(offered, self.p["input_queue_depth"]))
+                                                       self.p["intake_period_s"], qos)
                 self.counts[topic] = 0
-                self.get_logger().info(f"recording {topic} ({types[0]}, "
-                                       f"{subscription_qos(offered).reliability.name.lower()})")
+                self.get_logger().info(f"recording {topic} ({types[0]}, {qos.reliability.name.lower()})")
 
     def _writer_for(self, topic: str, msgtype: str):
         def write(taken):
@@ -99,10 +98,10 @@ class BagRecorder(Node):
         self.get_logger().info(f"closed {self.p['output']}: {self.counts}")
 
 
-def subscription_qos(offered, depth: int = 20000) -> QoSProfile:
-    """The QoS that receives everything the publishers (their ``offered`` QoSProfiles) send: reliable only when
-    every one is reliable, transient local only when every one is (a reliable subscriber does not match a
-    best-effort publisher, a transient-local one does not match a volatile one)."""
+def subscription_qos(offered, depth: int) -> QoSProfile:
+    """The QoS (queue ``depth`` messages) that receives everything the publishers (their ``offered`` QoSProfiles)
+    send: reliable only when every one is reliable, transient local only when every one is (a reliable subscriber
+    does not match a best-effort publisher, a transient-local one does not match a volatile one)."""
     reliable = all(q.reliability == ReliabilityPolicy.RELIABLE for q in offered)
     latched = all(q.durability == DurabilityPolicy.TRANSIENT_LOCAL for q in offered)
     return QoSProfile(depth=depth, reliability=ReliabilityPolicy.RELIABLE if reliable else ReliabilityPolicy.BEST_EFFORT,
