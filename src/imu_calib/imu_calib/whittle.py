@@ -172,7 +172,6 @@ class WhittleProblem:
         self.zz = np.add.reduceat(z * z, starts)
         self.zu = np.add.reduceat(z * u, starts)
         self.uu = np.add.reduceat(u * u, starts)
-        self.inflation = 1.0  # the coefficients are independent (exactly so for N, K): no taper to pay for
         self._columns: dict = {}
 
     def column(self, term: str) -> np.ndarray:
