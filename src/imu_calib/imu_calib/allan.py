@@ -125,6 +125,21 @@ equal, 4-32 K and one whole-record block slower)."""
 
 
 @numba.njit(cache=True)
+def _column_means(x2):
+    """Mean of each column of a 2-D array in one pass over its rows (sums of 4096-row blocks, then of blocks)."""
+    n, k = x2.shape
+    total = np.zeros(k)
+    part = np.empty(k)
+    for r0 in range(0, n, 4096):
+        part[:] = 0.0
+        for i in range(r0, min(r0 + 4096, n)):
+            for c in range(k):
+                part[c] += x2[i, c]
+        total += part
+    return total / n
+
+
+@numba.njit(cache=True)
 def _phase_into(x, mean, dt, theta):
     """Integrated (mean-removed) signal into ``theta`` (n+1 points, starting at 0); ``x`` may be strided."""
     theta[0] = 0.0
@@ -200,9 +215,9 @@ def _avar_columns(x, rate_hz, ms, overlapping: bool):
     ms = np.ascontiguousarray(ms, dtype=np.int64)
     theta = np.empty(len(x2) + 1)
     kernel = _second_difference_means if overlapping else _nonoverlapping_second_difference_means
+    means = _column_means(x2)  # one pass over the rows, not one strided pass per column
     for c in range(x2.shape[1]):
-        col = x2[:, c]
-        _phase_into(col, float(col.mean()), dt, theta)
+        _phase_into(x2[:, c], means[c], dt, theta)
         # eqs. 8-9 for the non-overlapping case: the cluster means are diff(theta[::m]) / (m dt)
         out[:, c] = kernel(theta, ms) / (2.0 * (ms * dt) ** 2)
     return out
