@@ -21,12 +21,18 @@ from pathlib import Path  # noqa: E402
 
 import yaml  # noqa: E402
 
-from nav_core import recording  # noqa: E402
+import numpy as np  # noqa: E402
+
+from nav_core import recording, units  # noqa: E402
+from nav_core.units import DEG  # noqa: E402
 from nav_core.cli import add_common, run_cli  # noqa: E402
 from nav_core.outputs import check_out_file, staged_file  # noqa: E402
 from ins_gps_kf import config as kfconfig  # noqa: E402
-from ins_gps_kf.filter import InsGpsFilter  # noqa: E402
+from ins_gps_kf.filter import ALIGNING, InsGpsFilter  # noqa: E402
 from ins_gps_kf.offline import load_model, plot_north_east, run, to_trajectory  # noqa: E402
+
+
+GNSS_END_WARN_S = 10.0  # IMU beyond the last fix by more than this: said (a cut GNSS file looks like an outage)
 
 
 def replay_files(recording_path, gnss_path, model_path, out_path, params: dict | None = None,
@@ -40,16 +46,73 @@ def replay_files(recording_path, gnss_path, model_path, out_path, params: dict |
     for damage in dict.fromkeys(r.damage for r in (imu, gnss) if r.damage):  # read past it: say what was lost
         print(f"ins-gps-kf: warning: {damage}", file=sys.stderr)
     cfg = kfconfig.from_params(p)
+    for warning in check_recordings(imu, gnss, cfg, imu_topic or p["imu_topic"]):
+        print(f"ins-gps-kf: warning: {warning}", file=sys.stderr)
     filt = InsGpsFilter(cfg, load_model(model_path))
     estimates = run(filt, imu, gnss, progress=progress)
     if filt.frame is None:
         raise recording.RecordingError(f"{gnss_src}: no valid GPS fix, so no datum for the local frame")
+    if not estimates:
+        raise recording.RecordingError(f"{imu.source}: no filter epoch, nothing to write: {_why_no_epoch(filt)}")
     traj = to_trajectory(estimates, filt.frame)
     recording.write_trajectory_csv(out_path, traj)
     if plot and len(traj):
         with staged_file(Path(out_path).with_suffix(".png"), force=True) as tmp:  # checked by the caller
             plot_north_east(tmp, traj, gnss, filt.frame)
     return traj, filt
+
+
+def check_recordings(imu, gnss, cfg, imu_topic: str) -> list[str]:
+    """Warnings about ``imu`` and ``gnss`` for the filter configured by ``cfg``; RecordingError (naming the file
+    and the field) when they cannot give a navigation solution: no samples, stamps that are not seconds of
+    one clock (median interval longer than a filter epoch, fixes outside the IMU's time), impossible units."""
+    src = imu.source
+    csv = src.endswith(".csv")
+    if len(imu) < 2:
+        raise recording.RecordingError(f"{src}: {len(imu)} IMU sample(s){'' if csv else f' on {imu_topic}'}, "
+                                       "the filter needs a recording")
+    t_name = "column t" if csv else f"{imu_topic} header stamps"
+    dt = float(np.median(np.diff(imu.t)))
+    if not 0.0 < dt <= 0.5 / cfg.filter_rate_hz:
+        raise recording.RecordingError(
+            f"{src}: {t_name}: median sample interval {dt:.6g} s, expected a positive interval shorter than half "
+            f"the filter's {1.0 / cfg.filter_rate_hz:g}-s epoch (time in ms or ns? rows in reverse order?)")
+    unit = units.imu_unit_problem(imu.gyro, imu.accel, "columns gx, gy, gz" if csv else f"{imu_topic} angular_velocity",
+                                  "columns ax, ay, az" if csv else f"{imu_topic} linear_acceleration")
+    if unit:
+        raise recording.RecordingError(f"{src}: {unit}")
+    out = []
+    check = recording.check_timestamps(imu.t, src, max_gap_s=cfg.time_jump)
+    if not check.ok:
+        out.append(check.summary())
+    if gnss is not None and len(gnss):
+        t0, t1 = imu.t[0] - cfg.time_jump, imu.t[-1] + cfg.time_jump
+        inside = int(np.sum((gnss.t >= t0) & (gnss.t <= t1)))
+        spans = (f"fixes t {np.nanmin(gnss.t):.6g} to {np.nanmax(gnss.t):.6g} s, IMU t {imu.t[0]:.6g} to "
+                 f"{imu.t[-1]:.6g} s")
+        if inside < min(2, len(gnss)):
+            raise recording.RecordingError(f"{gnss.source}: {inside} of {len(gnss)} fixes fall within the IMU "
+                                           f"recording's time ({spans}): not one clock, or not seconds?")
+        if inside < len(gnss):
+            out.append(f"{gnss.source}: {len(gnss) - inside} of {len(gnss)} fixes fall outside the IMU recording's "
+                       f"time ({spans}); the filter drops them")
+        lead = imu.t[-1] - np.nanmax(gnss.t)
+        if lead > GNSS_END_WARN_S:
+            out.append(f"{gnss.source}: the last fix is {lead:.4g} s before the end of the IMU recording ({spans}); "
+                       "the INS runs alone after it (GNSS file cut short?)")
+    return out
+
+
+def _why_no_epoch(filt: InsGpsFilter) -> str:
+    """Why a run produced no epoch, in the filter's parameters' words."""
+    cfg = filt.cfg
+    if filt.counters.resets:
+        return f"the filter was reset {filt.counters.resets} time(s), last: {filt.counters.reset_reasons[-1]}"
+    if filt.status == ALIGNING and cfg.alignment_mode == "stationary":
+        return (f"it never finished aligning: it needs {cfg.min_alignment_time_s:g} s or more at rest (block-mean "
+                f"rate below {cfg.stationary_gyro / DEG:g} deg/s: stationary_gyro_dps) before the vehicle moves; "
+                "for a recording that starts moving set alignment_mode: in_motion")
+    return f"the filter is still {filt.status!r} at the end of the recording"
 
 
 def _parse_overrides(pairs) -> dict:

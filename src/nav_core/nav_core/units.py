@@ -51,3 +51,27 @@ def dph2rps(value_deg_per_h):
 def rps2dph(value_rad_per_s):
     """rad/s to deg/h."""
     return np.asarray(value_rad_per_s, dtype=float) / DEG_PER_H
+
+
+def imu_unit_problem(gyro, accel, gyro_name: str = "gyro", accel_name: str = "accel") -> str | None:
+    """Why ``gyro`` (n, 3) and ``accel`` (n, 3) cannot be rad/s and m/s^2 of an IMU on Earth, or None;
+    the text names the fields as ``gyro_name`` / ``accel_name`` (columns, message fields).
+
+    A resting or driving IMU reads about 1 g of specific force most of the time, so a median
+    |f| outside [0.5 g, 2 g] means another unit (g, mg, ft/s^2...); a vehicle turns faster than
+    1 rad/s (57 deg/s) only briefly, so a median |rate| above it means deg/s. Non-finite rows are
+    ignored. Only what no real recording in SI can show is flagged: a gyro in deg/s with a
+    median rate below 1 deg/s passes.
+    """
+    gyro, accel = np.asarray(gyro, dtype=float), np.asarray(accel, dtype=float)
+    ok = np.all(np.isfinite(gyro), axis=1) & np.all(np.isfinite(accel), axis=1)
+    if not ok.any():
+        return None
+    f = float(np.median(np.linalg.norm(accel[ok], axis=1)))
+    w = float(np.median(np.linalg.norm(gyro[ok], axis=1)))
+    if not 0.5 * G0 <= f <= 2.0 * G0:
+        hint = " (in g? multiply by 9.80665)" if 0.5 <= f <= 2.0 else " (in mg?)" if 500 <= f <= 2000 else ""
+        return f"{accel_name}: median |specific force| {f:.4g}, expected about 9.8 m/s^2 on Earth{hint}"
+    if w > 1.0:
+        return f"{gyro_name}: median |angular rate| {w:.4g}, expected well below 1 rad/s for a vehicle (in deg/s?)"
+    return None
