@@ -102,6 +102,8 @@ def write_params(out: Path, name: str, imu_rate: float, gps_rate: float, kf_para
 def convert(name: str, out: Path, csv: Path | None = None) -> dict:
     """Write the bag, truth, model and params of a source into ``out``; return a summary."""
     imu, gnss, truth, kf_params = load(name, csv)
+    for damage in dict.fromkeys(r.damage for r in (imu, gnss) if r.damage):  # read past it: say what was lost
+        print(f"nav-convert: warning: {damage}", file=sys.stderr)
     out.mkdir(parents=True, exist_ok=True)
     shifted_imu = ImuRecording(imu.t + EPOCH_S, imu.gyro, imu.accel, imu.temp_c, source=imu.source)
     shifted_gnss = recording.GnssRecording(gnss.t + EPOCH_S, gnss.lat, gnss.lon, gnss.h, gnss.std_enu, gnss.status,

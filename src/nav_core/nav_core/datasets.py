@@ -75,28 +75,85 @@ def load_adis_npz(path) -> ImuRecording:
 # ---------------------------------------------------------------- balzer82 car
 
 
+BALZER_IMU_COLUMNS = ("millis", "ax", "ay", "az", "rollrate", "pitchrate", "yawrate")
+BALZER_GNSS_COLUMNS = ("millis", "time", "latitude", "longitude", "altitude", "epe", "fix")
+
+
+def _read_balzer_table(path, need, finite):
+    """Columns of the balzer82 CSV (the project's CSV reader: malformed rows skipped and counted) with the rows
+    whose ``finite`` columns are not all finite, or whose ``millis`` is not after every earlier row's, dropped;
+    time ``t`` (s from the first row) added. Returns (columns, damage text or None).
+
+    A repeated ``millis`` is the logger's habit (dropped without a word); a stamp before an earlier one, a
+    NaN or a text field is damage, named by its line; more than 1 % of the rows bad is a RecordingError.
+    """
+    from nav_core.recording import MAX_BAD_ROW_FRACTION, _read_csv_table
+
+    path = Path(path)
+    if not path.is_file():
+        raise RecordingError(f"{path}: file not found")
+    cols, damage, skipped = _read_csv_table(path, need, strict=False)
+    n = len(cols["millis"])
+    lines = _row_lines(n, skipped)
+    values = np.column_stack([cols[c] for c in finite])
+    bad = ~np.all(np.isfinite(values), axis=1)
+    millis = np.where(bad, -np.inf, cols["millis"])
+    latest = np.maximum.accumulate(np.concatenate(([-np.inf], millis[:-1])))
+    back = ~bad & (millis < latest)
+    repeated = ~bad & (millis == latest)
+    notes = []
+    if bad.any():
+        k = int(np.flatnonzero(bad)[0])
+        column = finite[int(np.flatnonzero(~np.isfinite(values[k]))[0])]
+        notes.append(f"{int(bad.sum())} row(s) with a value that is not a finite number dropped "
+                     f"(line {lines[k]}: column {column!r})")
+    if back.any():
+        k = int(np.flatnonzero(back)[0])
+        notes.append(f"{int(back.sum())} row(s) stamped before an earlier row dropped (line {lines[k]}: millis "
+                     f"{cols['millis'][k]:.12g} after {latest[k]:.12g})")
+    n_bad = int(bad.sum() + back.sum()) + len(skipped)
+    if notes:
+        text = f"{path}: " + "; ".join(notes)
+        if n_bad > 1 and n_bad > MAX_BAD_ROW_FRACTION * (n + len(skipped)):
+            raise RecordingError(f"{text}: {n_bad} bad row(s) of {n + len(skipped)}, more than "
+                                 f"{MAX_BAD_ROW_FRACTION:.0%}, so the file is not used")
+        damage = "; ".join(d for d in (damage, text) if d)
+    keep = ~(bad | back | repeated)
+    if keep.sum() < 2:
+        raise RecordingError(f"{path}: {int(keep.sum())} usable row(s), a recording needs at least 2")
+    out = {c: v[keep] for c, v in cols.items()}
+    out["t"] = (out["millis"] - cols["millis"][np.isfinite(cols["millis"])][0]) / 1e3  # one base for IMU and GNSS
+    return out, damage
+
+
+def _row_lines(n: int, skipped) -> np.ndarray:
+    """File line numbers of the ``n`` rows a CSV read kept, given the skipped ones (header = line 1; blank lines
+    are assumed absent)."""
+    lines, skip, line = np.empty(n, dtype=int), set(skipped), 2
+    for i in range(n):
+        while line in skip:
+            line += 1
+        lines[i] = line
+        line += 1
+    return lines
+
+
 def read_balzer_csv(path, sample_rate_hz: float = 50.0) -> ImuRecording:
     """The balzer82/Kalman car CSV (deg/s, m/s^2, millis) as an ImuRecording in SI on a uniform time grid.
 
     Axes as logged; ``nav_eval.datasets.load_balzer`` turns them into FLU (found from the data).
 
     The logger's sample interval jitters (11-36 ms for 1-99 %), so the channels are
-    linearly interpolated onto ``sample_rate_hz``; the WMRA assumes uniform samples.
+    linearly interpolated onto ``sample_rate_hz``; the WMRA assumes uniform samples. Damaged rows
+    are dropped (the interpolation bridges them) and named in ``damage``.
     """
-    path = Path(path)
-    data = np.genfromtxt(path, delimiter=",", names=True)
-    need = ("millis", "ax", "ay", "az", "rollrate", "pitchrate", "yawrate")
-    missing = [c for c in need if c not in (data.dtype.names or ())]
-    if missing:
-        raise ValueError(f"{path}: missing column(s) {missing}")
-    t_raw = (data["millis"] - data["millis"][0]) / 1e3
-    keep = np.concatenate([[True], np.diff(t_raw) > 0])  # drop repeated stamps
-    t_raw = t_raw[keep]
+    cols, damage = _read_balzer_table(path, BALZER_IMU_COLUMNS, BALZER_IMU_COLUMNS)
+    t_raw = cols["t"]
     t = np.arange(0.0, t_raw[-1], 1.0 / sample_rate_hz)
-    gyro = np.column_stack([np.interp(t, t_raw, data[c][keep]) for c in ("rollrate", "pitchrate", "yawrate")]) * DEG
-    accel = np.column_stack([np.interp(t, t_raw, data[c][keep]) for c in ("ax", "ay", "az")])
-    temp = np.interp(t, t_raw, data["temp"][keep]) if "temp" in data.dtype.names else None
-    return ImuRecording(t, gyro, accel, temp, source=str(path))
+    gyro = np.column_stack([np.interp(t, t_raw, cols[c]) for c in ("rollrate", "pitchrate", "yawrate")]) * DEG
+    accel = np.column_stack([np.interp(t, t_raw, cols[c]) for c in ("ax", "ay", "az")])
+    temp = np.interp(t, t_raw, cols["temp"]) if "temp" in cols else None
+    return ImuRecording(t, gyro, accel, temp, source=str(path), damage=damage)
 
 
 def read_balzer_gnss(path) -> GnssRecording:
@@ -106,19 +163,13 @@ def read_balzer_gnss(path) -> GnssRecording:
     logger reports EPE (m); it is used as the horizontal 1-sigma and twice it as the
     vertical one. ``fix`` below 2 is published as NO_FIX.
     """
-    path = Path(path)
-    data = np.genfromtxt(path, delimiter=",", names=True)
-    need = ("millis", "time", "latitude", "longitude", "altitude", "epe", "fix")
-    missing = [c for c in need if c not in (data.dtype.names or ())]
-    if missing:
-        raise RecordingError(f"{path}: missing column(s) {missing}")
-    t_all = (data["millis"] - data["millis"][0]) / 1e3
-    new_fix = np.concatenate([[True], np.diff(data["time"]) != 0])
-    d = data[new_fix]
+    cols, damage = _read_balzer_table(path, BALZER_GNSS_COLUMNS, ("millis", "time"))
+    new_fix = np.concatenate([[True], np.diff(cols["time"]) != 0])
+    d = {c: v[new_fix] for c, v in cols.items()}
     std = np.column_stack([d["epe"], d["epe"], 2.0 * d["epe"]])
     status = np.where(d["fix"] >= 2, 0, -1)
-    return GnssRecording(t_all[new_fix], d["latitude"] * DEG, d["longitude"] * DEG, d["altitude"], std, status,
-                         source=str(path))
+    return GnssRecording(d["t"], d["latitude"] * DEG, d["longitude"] * DEG, d["altitude"], std, status,
+                         source=str(path), damage=damage)
 
 
 # ---------------------------------------------------------------- NaveGo rovers

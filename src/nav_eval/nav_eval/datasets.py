@@ -116,7 +116,7 @@ def load_balzer(path=BALZER):
     latency measured against the gyro (the logger stamps a fix when it receives it)."""
     raw = read_balzer_csv(path)
     imu = ImuRecording(raw.t, raw.gyro @ BALZER_GYRO_TO_FLU.T, raw.accel @ BALZER_ACCEL_TO_FLU.T, raw.temp_c,
-                       source=raw.source)
+                       source=raw.source, damage=raw.damage)
     gnss = read_balzer_gnss(path)
     lag = gps_latency(imu, gnss)
     gnss.t = gnss.t - lag

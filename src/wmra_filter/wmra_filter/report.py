@@ -162,6 +162,8 @@ def _real_section(args) -> list[str]:
     if not args.balzer.exists():
         return [f"## Real car\n\nNot run: {args.balzer} not found."]
     rec = read_balzer_csv(args.balzer)
+    if rec.damage:  # read past it: say what was lost
+        print(f"wmra-report: warning: {rec.damage}", file=sys.stderr)
     cfg = WmraConfig.for_bandwidth(50.0, noise="mad")
     with tqdm(total=1, desc="real car", unit="run") as bar:
         out = ev.evaluate_real(rec, cfg)
