@@ -42,12 +42,15 @@ def test_time_going_backwards_is_an_error_naming_the_sample():
         characterise(_with_stamps(rec, t))
 
 
-def test_a_duplicated_stamp_counts_as_a_step_back():
+def test_a_stamp_repeated_with_other_values_is_a_break_but_not_a_step_back():
     rec = _recording(30.0)
     t = rec.t.copy()
     t[100] = t[99]
     line = timeline(_with_stamps(rec, t))
-    assert [i for i, _, _ in line.backward_steps] == [100]
+    assert [i for i, _, _ in line.repeated] == [100] and line.backward_steps == [] and line.broken
+    with pytest.raises(AllanError, match="stamp repeated with different values 1 time.*sample 100") as err:
+        characterise(_with_stamps(rec, t))
+    assert "backwards" not in str(err.value)
 
 
 def test_split_analyses_the_longest_segment_and_the_yaml_records_what_was_skipped(tmp_path):

@@ -42,8 +42,9 @@ PARAMS = (
     Param("exit_when_done", False, "shut the node down after publishing the result"),
     Param("diagnostics_period_s", 1.0, "period of the /diagnostics status, s", 0.05, 60.0),
     Param("worker_nice", 10, "niceness added to the characterisation process (0 = same priority)", 0, 19),
-    Param("split_at_gaps", True, "analyse the longest unbroken segment when stamps go back or have a gap "
-                                 "(what was skipped is in the YAML); false = report an ERROR"),
+    Param("split_at_gaps", True, "analyse the longest unbroken segment when stamps go back, repeat with other "
+                                 "values or have a gap, or a sample is NaN/inf (what was skipped is in the YAML); "
+                                 "false = report an ERROR"),
 )
 
 
@@ -63,6 +64,7 @@ class AllanNode(Node):
         self.proc = None
         self.conn = None
         self.n_collected = 0
+        self.n_non_finite = 0  # live samples with a NaN or infinite value: kept, the worker's time line breaks there
         if self.values["recording"]:
             self._start_worker(self.values["recording"])
         else:
@@ -74,6 +76,8 @@ class AllanNode(Node):
         if self.final is not None or self.proc is not None:
             return
         self.samples.append(imu_to_arrays(msg))
+        if not (np.all(np.isfinite(self.samples[-1][1])) and np.all(np.isfinite(self.samples[-1][2]))):
+            self.n_non_finite += 1
         if self.samples[-1][0] - self.samples[0][0] >= self.values["duration_s"]:
             self.destroy_subscription(self.sub)
             self.sub = None
@@ -122,7 +126,7 @@ class AllanNode(Node):
         if level == "OK":
             self._finish("OK", f"wrote {payload['sensor_model_path']}", payload)
         else:
-            self._finish("ERROR", payload, {"samples": self.n_collected})
+            self._finish("ERROR", payload, {"samples": self.n_collected, "non_finite_samples": self.n_non_finite})
 
     def close(self) -> None:
         """Stop a running worker (shutdown before the result)."""
@@ -144,7 +148,8 @@ class AllanNode(Node):
             return
         if self.final is None:
             collected = (self.samples[-1][0] - self.samples[0][0]) if len(self.samples) > 1 else 0.0
-            self.diag.publish("OK", "collecting", {"samples": len(self.samples), "collected_s": collected})
+            self.diag.publish("OK", "collecting", {"samples": len(self.samples), "collected_s": collected,
+                                                   "non_finite_samples": self.n_non_finite})
             return
         self.diag.publish(*self.final)
         self.ticks_after_done += 1

@@ -12,7 +12,7 @@ from pathlib import Path
 import numpy as np
 
 from imu_calib.allan import AllanDeviation, AllanError, log_taus, octave_taus, overlapping_adev, psd
-from imu_calib import model_io
+from imu_calib import model_io, screen
 from imu_calib.noise_fit import SCHEMA_NAMES, TERMS, fit_noise
 from imu_calib.timeline import timeline
 from nav_core import sensor_model
@@ -49,30 +49,41 @@ def grid(n_samples: int, rate_hz: float, per_decade: int | None = None) -> np.nd
 
 
 def check_uniform(rec: ImuRecording, tolerance: float = 0.05) -> float:
-    """Sample rate (Hz) of ``rec``; AllanError naming the source if it is irregular, goes back or has a gap."""
+    """Sample rate (Hz) of ``rec``; AllanError naming the source if its record is broken (see :func:`unbroken`)."""
     line = timeline(rec)
     if line.broken:
-        raise AllanError(line.describe(rec.source or "recording") + SPLIT_HINT)
+        raise AllanError(line.describe(rec) + SPLIT_HINT)
     return line.rate_hz
 
 
-SPLIT_HINT = ("; the Allan variance needs one unbroken record: fix the stamps, or analyse the longest unbroken "
+SPLIT_HINT = ("; the Allan variance needs one unbroken record: fix the recording, or analyse the longest unbroken "
               "segment with --split-at-gaps (allan_node: split_at_gaps)")
 
 
 def unbroken(rec: ImuRecording, split: bool = False) -> tuple:
-    """(recording, rate Hz, time-line report or None): ``rec`` itself if its time line is unbroken; with
-    ``split`` its longest unbroken segment and what was skipped; else AllanError naming the first breaks."""
+    """(recording, rate Hz, time-line report or None): ``rec`` itself if its time line is unbroken and has no
+    exact duplicate rows; without breaks, ``rec`` less its exact duplicates and a report of them; with
+    ``split`` its longest unbroken segment and what was skipped; else AllanError naming the first breaks.
+
+    Breaks: time going back, a stamp repeated with different values, a gap, a NaN or infinite sample.
+    """
     line = timeline(rec)
+    dup = screen.describe_duplicates(rec, line.duplicates) if line.duplicates.any() else None
     if not line.broken:
-        return rec, line.rate_hz, None
+        if dup is None:
+            return rec, line.rate_hz, None
+        whole = (0, len(rec))
+        report = line.report(whole, rec)
+        report["warning"] = dup
+        return line.select(rec, whole), line.rate_hz, report
     if not split:
-        raise AllanError(line.describe(rec.source or "recording") + SPLIT_HINT)
+        raise AllanError(line.describe(rec) + SPLIT_HINT)
     used = line.longest()
-    report = line.report(used, rec.t)
-    report["warning"] = line.describe(rec.source or "recording") + \
-        f"; analysed the longest unbroken segment only ({used[1] - used[0]} of {len(rec)} samples)"
-    return rec.select(slice(*used)), line.rate_hz, report
+    report = line.report(used, rec)
+    report["warning"] = line.describe(rec) + \
+        f"; analysed the longest unbroken segment only ({line.size(used)} of {len(rec)} samples, " \
+        f"from sample {used[0]})" + (f" | {dup}" if dup else "")
+    return line.select(rec, used), line.rate_hz, report
 
 
 def characterise(rec: ImuRecording, per_decade: int | None = None, taus=None, progress=None,
@@ -81,8 +92,9 @@ def characterise(rec: ImuRecording, per_decade: int | None = None, taus=None, pr
 
     ``progress`` is called with a short label after each of the six axes (for tqdm).
     ``base_model`` keeps its deterministic terms (bias, scale, misalignment).
-    A stamp going back or a gap is an AllanError; with ``split`` the longest unbroken segment is analysed
-    and the provenance's ``timeline`` records what was skipped (``Characterisation.timeline``).
+    A break (a stamp going back or repeated with other values, a gap, a NaN or infinite sample) is an
+    AllanError; with ``split`` the longest unbroken segment is analysed and the provenance's ``timeline``
+    records what was skipped (``Characterisation.timeline``); exact duplicate rows are dropped and counted there.
     """
     n_total = len(rec)
     rec, rate, line = unbroken(rec, split)
@@ -102,6 +114,8 @@ def characterise(rec: ImuRecording, per_decade: int | None = None, taus=None, pr
         white[triad] = psd(data, rate).white_noise
         _write_fits(model.triad(triad), fits[triad], white[triad])
     extra = {} if line is None else {"timeline": line, "n_samples_in_file": n_total}
+    if rec.damage:  # rows the reader skipped (bad cells, a cut last row): part of what was not analysed
+        extra["read_damage"] = rec.damage
     sensor_model.stamp_provenance(model, "imu_calib allan", rec.source or "<memory>",
                                   n_samples=len(rec), duration_s=float(len(rec) / rate), **extra,
                                   estimator="overlapping Allan variance, 5-term IRLS WLS fit and term selection, "
@@ -156,7 +170,7 @@ def warnings_of(result: Characterisation) -> list:
                 out.append(f"{triad} {AXIS_NAMES[i]}: {fit.fit_quality['note']}")
     out += model_io.kalibr_warnings(result.model)
     if result.timeline is not None:
-        out.insert(0, result.timeline["warning"])
+        out[:0] = result.timeline["warning"].split(" | ")
     return out
 
 
@@ -164,9 +178,11 @@ def characterise_to_dir(source, out_dir, topic: str = "imu/data_raw", per_decade
                         split: bool = True) -> dict:
     """Read ``source`` (an ImuRecording, or a bag/CSV path read on ``topic``), characterise it, write
     ``out_dir``; return the summary a node reports (samples, duration, paths, white noise, warnings)."""
-    from nav_core.recording import read_imu
-
-    rec = source if isinstance(source, ImuRecording) else read_imu(source, topic=topic)
+    read_notes = []
+    if isinstance(source, ImuRecording):
+        rec = source
+    else:
+        rec, read_notes = screen.read(source, topic=topic)
     result = characterise(rec, per_decade=per_decade, split=split)
     paths = write_outputs(result, out_dir, rostopic="/" + topic.lstrip("/"))
     prov = result.model.provenance
@@ -174,10 +190,12 @@ def characterise_to_dir(source, out_dir, topic: str = "imu/data_raw", per_decade
               **{f"{k}_path": str(v) for k, v in paths.items()}}
     if result.timeline is not None:
         values["skipped_samples"] = result.timeline["skipped_samples"]
+        values["non_finite_samples"] = result.timeline["non_finite_samples"]
+        values["exact_duplicates_dropped"] = result.timeline["exact_duplicates_dropped"]
     for triad in ("gyro", "accel"):
         for i, n in enumerate(result.model.triad(triad).white_noise):
             values[f"{triad}_{AXIS_NAMES[i]}_white_noise"] = float(n)
-    warnings = warnings_of(result)
+    warnings = read_notes + warnings_of(result)
     if warnings:
         values["warnings"] = " | ".join(warnings)
     return values

@@ -15,39 +15,59 @@ recordings of ``shared/data``. The calibration subcommands update MODEL.yaml if 
 from __future__ import annotations
 
 import argparse
+import difflib
+import logging
 import sys
 
 import numpy as np
 
-from imu_calib import model_io, multi_position, rate_table, two_position
-from nav_core import datasets
+from imu_calib import model_io, multi_position, rate_table, screen, two_position
 from nav_core import sensor_model
 from nav_core.cli import add_common, run_cli
 from nav_core.outputs import check_out_dir, check_out_file, rebase, staged_dir
-from nav_core.recording import IMU_TOPIC, RecordingError, read_imu
+from nav_core.recording import IMU_TOPIC
 from nav_core.units import DEG
 
 
 def load_recording(path, topic: str = IMU_TOPIC, fmt: str = "auto", gyro_file=None):
-    """A recording from a bag/CSV (auto) or one of the real text formats (ucalgary, imutk)."""
-    if fmt == "ucalgary":
-        return datasets.load_ucalgary_updown(path)
-    if fmt == "adis":
-        return datasets.load_adis_npz(path)
-    if fmt == "imutk":
-        if gyro_file is None:
-            raise RecordingError("--format imutk needs --gyro-file (REC is the accelerometer file)")
-        return datasets.load_imutk(path, gyro_file)
-    rec = read_imu(path, topic=topic)
-    if rec.damage:  # read on past the damage: say what was lost (rec.damage, rec.skipped_rows)
-        print(f"imu-calib: warning: {rec.damage}", file=sys.stderr)
+    """A recording from a bag/CSV (auto) or one of the real formats (ucalgary, imutk, adis); what was lost
+    reading it is said on stderr (:func:`imu_calib.screen.read`)."""
+    rec, notes = screen.read(path, topic, fmt, gyro_file)
+    for line in notes:
+        warn(line)
     return rec
 
 
-def _add_format(p) -> None:
+def warn(line: str) -> None:
+    """One warning line on stderr."""
+    print(f"imu-calib: warning: {line}", file=sys.stderr)
+
+
+def load_screened(path, topic: str, fmt: str, columns=None, gyro_file=None):
+    """A recording for a calibration that averages static samples (``columns`` of :data:`screen.COLUMNS`
+    used) or, with ``columns=None``, steps through every sample: non-finite samples dropped and said
+    (averages) or refused (stepping); exact duplicate rows dropped and said (both)."""
+    rec = load_recording(path, topic, fmt, gyro_file)
+    if columns is None:
+        rec, notes = screen.refuse_non_finite(rec, "multi-position steps through every sample at one rate (static "
+                                                   "detection, gyro integration): remove or repair those rows")
+    else:
+        rec, notes = screen.for_means(rec, columns)
+    for line in notes:
+        warn(line)
+    return rec
+
+
+def _add_format(p, imutk: bool = True) -> None:
     p.add_argument("--topic", default=IMU_TOPIC, help="IMU topic in a bag (default %(default)s)")
+    if not imutk:  # imutk needs a second (gyro) file per recording: only where one REC is read
+        p.add_argument("--format", default="auto", choices=("auto", "ucalgary", "adis"),
+                       help="recording format: auto (bag or CSV), ucalgary text, adis .npz")
+        return
     p.add_argument("--format", default="auto", choices=("auto", "ucalgary", "imutk", "adis"),
-                   help="recording format: auto (bag or CSV), ucalgary text, imutk text (raw counts), adis .npz")
+                   help="recording format: auto (bag or CSV), ucalgary text, imutk text (raw counts; REC is the "
+                        "accelerometer file, --gyro-file the gyro file), adis .npz")
+    p.add_argument("--gyro-file", help="gyro file for --format imutk")
 
 
 def _add_site(p, required: bool = True) -> None:
@@ -71,7 +91,8 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--no-progress", action="store_true", help="no progress bar")
     p.add_argument("--split-at-gaps", action="store_true",
                    help="where the stamps go back or have a gap, analyse the longest unbroken segment (what was "
-                        "skipped is recorded in the YAML) instead of refusing the recording")
+                        "skipped is recorded in the YAML) instead of refusing the recording; a NaN or infinite "
+                        "sample and a stamp repeated with other values break the record the same way")
     _add_format(p)
     p.set_defaults(func=cmd_allan)
 
@@ -82,7 +103,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--out", required=True, help="sensor-model YAML to create or update")
     add_common(p, sub=True)
     _add_site(p)
-    _add_format(p)
+    _add_format(p, imutk=False)
     p.set_defaults(func=cmd_two_position)
 
     p = sub.add_parser("rate-table", help="gyro scale and bias of one axis at two table rates (eqs. 5-7)")
@@ -96,7 +117,7 @@ def build_parser() -> argparse.ArgumentParser:
                    help="direction (ENU) the gyro axis points along on the table")
     p.add_argument("--out", required=True)
     _add_site(p)
-    _add_format(p)
+    _add_format(p, imutk=False)
     p.set_defaults(func=cmd_rate_table)
 
     p = sub.add_parser("multi-position", help="accel bias, scale, misalignment, gyro bias, scale and misalignment "
@@ -104,7 +125,6 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("recording")
     p.add_argument("--out", required=True, help="sensor-model YAML to create or update")
     add_common(p, sub=True)
-    p.add_argument("--gyro-file", help="gyro file for --format imutk")
     p.add_argument("--gravity", type=float, help="gravity magnitude in the data's units (default: WGS-84 at site)")
     p.add_argument("--init-static-s", type=float, default=30.0, help="initial static interval, s")
     p.add_argument("--threshold-factor", type=float, default=4.0,
@@ -126,11 +146,12 @@ def cmd_allan(args) -> int:
 
     inputs = (args.recording, args.base_model)
     check_out_dir(args.out, args.force, inputs=inputs)  # before the work: a bad --out fails now, not after it
-    rec = load_recording(args.recording, args.topic, args.format)
+    rec = load_recording(args.recording, args.topic, args.format, args.gyro_file)
     base = sensor_model.load(args.base_model) if args.base_model else None
-    span = float(rec.t[-1] - rec.t[0]) if len(rec) > 1 else 0.0
-    print(f"{args.recording}: {len(rec)} samples, stamps span {span:.1f} s, median rate {rec.rate_hz:.3g} Hz",
-          flush=True)
+    t = rec.t[np.isfinite(rec.t)]
+    span = float(t[-1] - t[0]) if len(t) > 1 else 0.0
+    rate = 1.0 / np.median(np.diff(t)) if len(t) > 1 else float("nan")
+    print(f"{args.recording}: {len(rec)} samples, stamps span {span:.1f} s, median rate {rate:.3g} Hz", flush=True)
     bar = tqdm(total=6, desc="Allan deviation", unit="axis", disable=args.no_progress)
 
     def progress(label):
@@ -169,10 +190,11 @@ def _print_noise(result) -> None:
 def cmd_two_position(args) -> int:
     """Eqs. 1-4 for one axis; update the model."""
     check_out_file(args.out, update=True)
-    up = load_recording(args.up, args.topic, args.format)
-    down = load_recording(args.down, args.topic, args.format)
+    i = two_position.axis_index(args.axis)
+    up = load_screened(args.up, args.topic, args.format, columns=(i, 3 + i))
+    down = load_screened(args.down, args.topic, args.format, columns=(i, 3 + i))
+    model = model_io.load_or_new(args.out, up.rate_hz)  # a bad existing MODEL.yaml fails before the work
     res = two_position.two_position_from_recordings(up, down, args.axis, args.lat_deg * DEG, args.height_m)
-    model = model_io.load_or_new(args.out, up.rate_hz)
     two_position.apply_to_model(model, res)
     model.accel.info.setdefault("two_position", {})[args.axis] = {"gravity_mps2": res.gravity,
                                                                   "mean_up": res.mean_up, "mean_down": res.mean_down}
@@ -191,11 +213,11 @@ def cmd_rate_table(args) -> int:
     """Eqs. 5-7 for one axis; update the model."""
     i = two_position.axis_index(args.axis)
     check_out_file(args.out, update=True)
-    rec1 = load_recording(args.rec1, args.topic, args.format)
-    rec2 = load_recording(args.rec2, args.topic, args.format)
+    rec1 = load_screened(args.rec1, args.topic, args.format, columns=(i,))
+    rec2 = load_screened(args.rec2, args.topic, args.format, columns=(i,))
+    model = model_io.load_or_new(args.out, rec1.rate_hz)  # a bad existing MODEL.yaml fails before the work
     res = rate_table.rate_table(rec1.gyro[:, i], args.rate1_dps * DEG, rec2.gyro[:, i], args.rate2_dps * DEG,
                                 args.lat_deg * DEG, args.direction, i)
-    model = model_io.load_or_new(args.out, rec1.rate_hz)
     rate_table.apply_to_model(model, res)
     sensor_model.stamp_provenance(model, "imu_calib rate-table", f"{args.rec1} + {args.rec2}",
                                   lat_deg=args.lat_deg, axis_direction=args.direction)
@@ -211,12 +233,12 @@ def cmd_rate_table(args) -> int:
 def cmd_multi_position(args) -> int:
     """Static detection, least-squares accel fit, gyro scale/misalignment from the moves; update the model."""
     check_out_file(args.out, update=True)
-    rec = load_recording(args.recording, args.topic, args.format, args.gyro_file)
+    rec = load_screened(args.recording, args.topic, args.format, gyro_file=args.gyro_file)
+    model = model_io.load_or_new(args.out, rec.rate_hz)  # a bad existing MODEL.yaml fails before the fit
     lat = None if args.lat_deg is None else args.lat_deg * DEG
     res = multi_position.multi_position(rec, lat, args.height_m, args.gravity, init_static_s=args.init_static_s,
                                         threshold_factor=args.threshold_factor, min_static_s=args.min_static_s,
                                         with_gyro=not args.no_gyro_scale)
-    model = model_io.load_or_new(args.out, rec.rate_hz)
     multi_position.apply_to_model(model, res)
     sensor_model.stamp_provenance(model, "imu_calib multi-position", args.recording, lat_deg=args.lat_deg,
                                   gravity=res.gravity, static_segments=len(res.segments))
@@ -237,9 +259,27 @@ def cmd_multi_position(args) -> int:
     return 0
 
 
+def parse(argv=None) -> argparse.Namespace:
+    """The arguments; an unknown option is a usage error of its subcommand naming the closest known one."""
+    parser = build_parser()
+    args, extra = parser.parse_known_args(argv)
+    if extra:
+        sub = next(a for a in parser._actions if isinstance(a, argparse._SubParsersAction)).choices[args.command]
+        known = [o for a in sub._actions for o in a.option_strings if o.startswith("--")]
+        hints = []
+        for word in extra:
+            close = difflib.get_close_matches(word.split("=")[0], known, n=1, cutoff=0.6)
+            if word.startswith("-") and close:
+                hints.append(f"{word.split('=')[0]!r}: did you mean {close[0]!r}?")
+        sub.error(f"unrecognized arguments: {' '.join(extra)}" + (f" ({'; '.join(hints)})" if hints else ""))
+    return args
+
+
 def main(argv=None) -> int:
     """Console-script entry point."""
-    args = build_parser().parse_args(argv)
+    args = parse(argv)
+    # the reader logs what it skipped and load_recording says it once on stderr: not twice
+    logging.getLogger("nav_core.recording").addHandler(logging.NullHandler())
     return run_cli(f"imu-calib {args.command}", args.func, args)  # AllanError etc. are ValueErrors: exit 2
 
 

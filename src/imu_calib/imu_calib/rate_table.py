@@ -64,6 +64,10 @@ def rate_table(gyro1_rps, rate1_rps: float, gyro2_rps, rate2_rps: float, lat_rad
     wg1, wg2 = g1.mean(), g2.mean()
     dw = rate1_rps - rate2_rps
     s = ((wg1 - wg2) - dw) / dw
+    if not s > -1.0:  # the gyro saw no rate difference, or the opposite one: not a scale factor
+        raise ValueError(f"the gyro's mean rates differ by {np.degrees(wg1 - wg2):.4g} deg/s where the table rates "
+                         f"differ by {np.degrees(dw):.4g} deg/s (scale factor {s:.4g}, must be > -1): check the "
+                         f"table rates, their signs, the axis and which recording is which")
     b = 0.5 * (wg1 + wg2) - 0.5 * (s + 1.0) * (rate1_rps + rate2_rps + 2.0 * w_ex)
     se1, se2 = (_se(g1), _se(g2))
     se_s = np.hypot(se1, se2) / abs(dw)

@@ -30,31 +30,54 @@ NAVEGO = Path(__file__).resolve().parents[3] / ".." / "shared" / "data" / "naveg
 
 # ---------------------------------------------------------------- calibration recordings
 
-def _load_text(path, n_cols: int) -> np.ndarray:
+def _load_text(path, n_cols: int):
+    """(rows (n, n_cols), damage text or None, skipped line numbers) of a whitespace table.
+
+    A row without ``n_cols`` numbers (a bad cell, a cut last line) is skipped and counted, as the CSV reader
+    does (``nav_core.recording``); more than 1 % bad rows, or none good, is a RecordingError naming the file.
+    """
+    from nav_core.recording import MAX_BAD_ROW_FRACTION, _csv_damage
+    from nav_core.table_rows import numbers
+
     path = Path(path)
-    if not path.exists():
+    if not path.is_file():
         raise RecordingError(f"{path}: file not found")
-    try:
-        data = np.loadtxt(path, ndmin=2)
-    except ValueError as err:
-        raise RecordingError(f"{path}: not a whitespace-separated numeric table: {err}") from err
-    if data.shape[1] != n_cols:
-        raise RecordingError(f"{path}: expected {n_cols} columns, found {data.shape[1]}")
-    return data
+    rows, bad = [], []
+    with open(path, errors="replace") as fh:  # undecodable bytes fail as numbers: a bad row
+        for line_no, line in enumerate(fh, start=1):
+            fields = line.split("#", 1)[0].split()
+            if not fields:
+                continue
+            try:
+                if len(fields) != n_cols:
+                    raise ValueError(f"{len(fields)} fields, expected {n_cols}")
+                rows.append(numbers(fields, [str(k) for k in range(1, n_cols + 1)]))  # names column k (1-based)
+            except ValueError as err:
+                bad.append((line_no, str(err)))
+    if not rows:
+        first = f" (line {bad[0][0]}: {bad[0][1]})" if bad else ""
+        raise RecordingError(f"{path}: no rows of {n_cols} whitespace-separated numbers{first}")
+    damage = _csv_damage(path, bad, len(rows), MAX_BAD_ROW_FRACTION)
+    return np.array(rows, dtype=float), damage, tuple(n for n, _ in bad)
 
 
 def load_ucalgary_updown(path) -> ImuRecording:
     """``x_adi_{up,down}.txt``: GPS seconds of week, gyro x y z (deg/s), accel x y z (m/s^2)."""
-    data = _load_text(path, 7)
-    return ImuRecording(data[:, 0], data[:, 1:4] * DEG, data[:, 4:7], source=str(path))
+    data, damage, skipped = _load_text(path, 7)
+    return ImuRecording(data[:, 0], data[:, 1:4] * DEG, data[:, 4:7], source=str(path), damage=damage,
+                        skipped_rows=skipped)
 
 
 def load_imutk(acc_path, gyro_path) -> ImuRecording:
     """imu_tk's ``xsens_{acc,gyro}.mat`` text files: time (s), raw counts x y z. Keeps raw counts."""
-    acc, gyro = _load_text(acc_path, 4), _load_text(gyro_path, 4)
+    (acc, acc_damage, _), (gyro, gyro_damage, _) = _load_text(acc_path, 4), _load_text(gyro_path, 4)
+    damage = "; ".join(d for d in (acc_damage, gyro_damage) if d) or None
+    if damage:  # a row skipped in one file: pair the rest by their common stamps
+        _, ia, ig = np.intersect1d(acc[:, 0], gyro[:, 0], assume_unique=False, return_indices=True)
+        acc, gyro = acc[np.sort(ia)], gyro[np.sort(ig)]
     if len(acc) != len(gyro) or not np.allclose(acc[:, 0], gyro[:, 0]):
         raise RecordingError(f"{acc_path} and {gyro_path}: time columns differ")
-    return ImuRecording(acc[:, 0], gyro[:, 1:4], acc[:, 1:4], source=f"{acc_path} (raw counts)")
+    return ImuRecording(acc[:, 0], gyro[:, 1:4], acc[:, 1:4], source=f"{acc_path} (raw counts)", damage=damage)
 
 
 def load_adis_npz(path) -> ImuRecording:
@@ -62,13 +85,17 @@ def load_adis_npz(path) -> ImuRecording:
     path = Path(path)
     if not path.exists():
         raise RecordingError(f"{path}: file not found")
-    with np.load(path) as data:
-        try:
+    import zipfile
+
+    try:
+        with np.load(path) as data:
             rate = float(data["rate_hz"])
             gyro = data["gyro_counts"] * float(data["gyro_lsb_dps"]) * DEG
             accel = data["accel_counts"] * float(data["accel_lsb_g"]) * G0
-        except KeyError as err:
-            raise RecordingError(f"{path}: missing field {err}") from err
+    except KeyError as err:
+        raise RecordingError(f"{path}: missing field {err}") from err
+    except (zipfile.BadZipFile, EOFError, ValueError, OSError, AttributeError) as err:  # cut, empty or not .npz
+        raise RecordingError(f"{path}: not a readable .npz archive (cut or another format?): {err}") from err
     return ImuRecording(np.arange(len(gyro)) / rate, gyro, accel, source=str(path))
 
 

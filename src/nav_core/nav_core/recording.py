@@ -24,6 +24,7 @@ from pathlib import Path
 import numpy as np
 
 from nav_core import timestamps
+from nav_core.table_rows import numbers
 from nav_core.timestamps import TimeCheck  # noqa: F401  (part of this module's API)
 from nav_core.units import DEG
 
@@ -198,7 +199,7 @@ def _read_csv_table(path: Path, required, strict: bool, max_bad_fraction: float 
             try:
                 if len(row) != len(header):
                     raise ValueError(f"{len(row)} fields, header has {len(header)}")
-                values = [float(c) for c in row]
+                values = numbers(row, header)  # a bad field is named by its column
                 if not math.isfinite(values[header.index("t")] if "t" in header else 0.0):
                     raise ValueError("time t is not finite")
                 rows.append(values)
