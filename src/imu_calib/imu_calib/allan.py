@@ -155,8 +155,9 @@ def _second_difference_means(theta, ms, block=SECOND_DIFFERENCE_BLOCK):
 
     One pass over ``theta`` in blocks of ``block`` samples, every m per block: for the small m the three
     streams of a block stay in cache, so they cost one memory pass together instead of one each. The inner
-    loop indexes slices from 0 so that Numba drops its negative-index check and LLVM vectorizes it (4x);
-    each block's sum is added to its m's total, which also keeps the rounding error per m small.
+    loop indexes slices from 0: with ``theta[k + m]`` Numba's per-element negative-index wraparound made
+    LLVM vectorize with gather loads, 4x slower. Each block's sum is added to its m's total, which also keeps
+    the rounding error per m small.
     """
     n1 = theta.shape[0]
     out = np.zeros(ms.shape[0])
