@@ -313,3 +313,58 @@ def test_screen_names_the_line_of_a_sample_after_blank_and_skipped_rows(tmp_path
     rec = recording.read_imu(path)
     assert screen.where(rec, 700) == "sample 700 (line 704, t = 7 s)"
     assert lines[703].startswith("7,")
+
+
+# -- allan_node: a NaN in the live stream --------------------------------------------------------------------
+
+
+@pytest.mark.ros
+@pytest.mark.slow
+def test_allan_node_counts_a_live_nan_sample_and_analyses_the_longest_finite_segment(tmp_path, ros_env,
+                                                                                      rclpy_context):
+    import time
+
+    import rclpy
+    from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus
+    from sensor_msgs.msg import Imu
+
+    from imu_calib import synthetic
+    from nav_core.processes import NodeProcess
+    from nav_core.ros_node import SENSOR_QOS, Probe, imu_from_arrays
+
+    model = sensor_model.SensorModel(gyro=sensor_model.TriadModel(white_noise=np.full(3, 1e-3)),
+                                     accel=sensor_model.TriadModel(white_noise=np.full(3, 2e-3)), sample_rate_hz=50.0)
+    out = tmp_path / "live"
+    node = NodeProcess("allan_node", env=ros_env, ros_args={"duration_s": 4.0, "out_dir": str(out),
+                                                            "diagnostics_period_s": 0.2})
+    statuses = []
+    try:
+        probe = Probe({"/diagnostics": DiagnosticArray})
+        probe.create_subscription(DiagnosticArray, "/diagnostics",
+                                  lambda arr: statuses.extend(s for s in arr.status if "allan_node" in s.name), 50)
+        feeder = rclpy.create_node("feeder")
+        pub = feeder.create_publisher(Imu, "imu/data_raw", SENSOR_QOS)
+        assert probe.spin_until(lambda p: pub.get_subscription_count() > 0, 20), node.output
+        rec = synthetic.static_recording(model, 6.0, np.random.default_rng(0), t0=1000.0)
+        rec.gyro[60, 1] = np.nan  # 1.2 s in: the segment after it is the longest
+        for t, g, a in zip(rec.t, rec.gyro, rec.accel):
+            pub.publish(imu_from_arrays(t, g, a))
+            rclpy.spin_once(probe, timeout_sec=0.0)
+            time.sleep(0.004)
+        done = lambda p: any(s.message not in ("collecting", "characterising") for s in statuses)
+        assert probe.spin_until(done, 30), node.output
+        feeder.destroy_node()
+        probe.destroy_node()
+    finally:
+        node.stop()
+    assert "Traceback" not in node.output, node.output  # the NaN did not kill the node or its worker
+    values = lambda s: {kv.key: kv.value for kv in s.values}
+    collecting = [values(s) for s in statuses if s.message == "collecting"]
+    assert any(v.get("non_finite_samples") == "1" for v in collecting), collecting[-3:]
+    final = next(s for s in statuses if s.message not in ("collecting", "characterising"))
+    assert final.level == DiagnosticStatus.OK, final.message
+    v = values(final)
+    assert v["non_finite_samples"] == "1" and "angular_velocity.y" in v["warnings"]
+    assert 1 <= int(v["skipped_samples"]) <= 61  # those received before the NaN (best effort) and the NaN
+    assert 150 <= int(v["samples"]) + int(v["skipped_samples"]) <= 202  # 4 s of stamps at 50 Hz, best effort
+    assert sensor_model.load(out / "sensor_model.yaml").provenance["timeline"]["non_finite_samples"] == 1
