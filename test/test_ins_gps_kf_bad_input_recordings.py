@@ -114,3 +114,33 @@ def test_imu_unit_problem_flags_only_what_si_cannot_be(scale, flagged):
     gyro[5] = np.nan  # ignored
     text = imu_unit_problem(gyro, accel, "GYRO", "ACCEL")
     assert (text is None) if flagged is None else (flagged.upper() in text)
+
+
+@pytest.mark.parametrize("back", ["swapped_pair", "block_reversed", "step_back_0.5_s"])
+def test_imu_samples_stamped_a_little_back_are_dropped_and_counted_not_a_reset(inputs, back):
+    from ins_gps_kf import config
+    from ins_gps_kf.filter import InsGpsFilter
+    from ins_gps_kf.offline import run
+
+    imu, gnss = inputs
+    k = int(30.0 * RATE)  # moving
+    t = imu.t.copy()
+    if back == "swapped_pair":
+        t[k], t[k + 1] = t[k + 1], t[k]
+        dropped = 1
+    elif back == "block_reversed":
+        t[k:k + 16] = t[k:k + 16][::-1]
+        dropped = 15
+    else:
+        t[k:] -= 0.5  # the IMU clock steps back by less than time_jump_s: the node's intake drops what is late
+        dropped = int(0.5 * RATE) - 1  # and one that repeats the last stamp before the step: a duplicate
+    runs = []
+    for stamps in (imu.t, t):
+        filt = InsGpsFilter(config.from_params({"alignment_time_s": 20.0}))
+        runs.append((filt, run(filt, _copy(imu, t=stamps), gnss)))
+    (clean_filt, clean), (filt, est) = runs
+    assert filt.counters.resets == 0  # was: a reset, and no output until the filter had its heading again
+    assert filt.input_counters["imu_out_of_order"] == dropped
+    assert len(est) >= len(clean) - 1
+    err = [np.linalg.norm(a.position_n - b.position_n) for a, b in zip(clean, est) if a.t == b.t]
+    assert max(err) < (1.0 if back != "step_back_0.5_s" else 10.0)

@@ -137,7 +137,7 @@ class InsGpsFilter:
         gyro = np.atleast_2d(np.asarray(gyro, dtype=float))
         accel = np.atleast_2d(np.asarray(accel, dtype=float))
         keep = input_checks.screen_imu(t, gyro, accel, self.t_last, self.cfg.imu_max_gyro, self.cfg.imu_max_accel,
-                                       self.input)
+                                       self.input, self.cfg.time_jump)
         if keep is not None:
             t, gyro, accel = t[keep], gyro[keep], accel[keep]
         if self.cfg.apply_calibration:

@@ -8,6 +8,9 @@ in ``/diagnostics``, the replay in its summary. Every rejected input is counted 
 * ``imu_out_of_range`` - a |rate| or |specific force| component beyond ``imu_max_gyro_dps`` /
   ``imu_max_accel_mps2`` (the sensor cannot output it); dropped;
 * ``imu_duplicate_stamps`` - a sample with the stamp of the one before; dropped;
+* ``imu_out_of_order`` - a sample stamped before the one before by up to ``time_jump_s`` (rows swapped, a
+  stamp jittered back); dropped, not a reset (the node's intake puts such a sample in its place, or drops it
+  as late); a step back beyond ``time_jump_s`` is a restart, which resets the filter;
 * ``fixes_invalid`` - NO_FIX status or a NaN/Inf stamp, latitude, longitude or height; dropped;
 * ``fixes_out_of_range`` - latitude outside [-90, 90] deg or longitude outside [-180, 180] deg; dropped;
 * ``fixes_std_unknown`` - a std <= 0 or not finite: taken as unknown (the configured ``gps_std_m``,
@@ -47,6 +50,7 @@ class InputCounters:
     imu_nonfinite: int = 0
     imu_out_of_range: int = 0
     imu_duplicate_stamps: int = 0
+    imu_out_of_order: int = 0
     fixes_invalid: int = 0
     fixes_out_of_range: int = 0
     fixes_std_unknown: int = 0
@@ -68,34 +72,57 @@ class InputCounters:
         return sum(v for k, v in asdict(self).items() if k != "last_rejection")
 
 
-def screen_imu(t, gyro, accel, t_prev, max_gyro, max_accel, counters: InputCounters) -> np.ndarray | None:
-    """Mask (n,) of the IMU samples to keep: finite, within the sensor range (rad/s, m/s^2), stamp not repeated;
-    None when all are kept (the common case, checked first in a few whole-array reductions).
+def screen_imu(t, gyro, accel, t_prev, max_gyro, max_accel, counters: InputCounters,
+               time_jump: float = math.inf) -> np.ndarray | None:
+    """Mask (n,) of the IMU samples to keep: finite, within the sensor range (rad/s, m/s^2), stamp after the
+    latest kept one (a repeat, or a step back of up to ``time_jump`` s, is dropped; a longer step back is kept:
+    a restart); None when all are kept (the common case, checked first in a few whole-array reductions).
 
     ``t_prev`` is the stamp of the last sample already processed (None at the start); counts go to
     ``counters`` and the last one is described in ``counters.last_rejection``.
     """
     with np.errstate(invalid="ignore"):  # NaN fails every comparison: it falls to the slow path
         if (len(t) and np.abs(gyro).max() <= max_gyro and np.abs(accel).max() <= max_accel
-                and math.isfinite(t.sum()) and t[0] != t_prev and np.all(t[1:] != t[:-1])):
+                and math.isfinite(t.sum()) and not (t_prev is not None and t[0] <= t_prev)
+                and np.all(t[1:] > t[:-1])):
             return None
     finite = np.isfinite(t) & np.all(np.isfinite(gyro), axis=1) & np.all(np.isfinite(accel), axis=1)
     with np.errstate(invalid="ignore"):
         in_range = np.all(np.abs(gyro) <= max_gyro, axis=1) & np.all(np.abs(accel) <= max_accel, axis=1)
     keep = finite & in_range
-    idx = np.flatnonzero(keep)
-    prev = np.concatenate(([np.nan if t_prev is None else t_prev], t[idx[:-1]]))
-    dup = idx[t[idx] == prev]
+    dup, back = _stamp_order(t, np.flatnonzero(keep), t_prev, time_jump)
     keep[dup] = False
+    keep[back] = False
     n_bad, n_range = int(np.sum(~finite)), int(np.sum(finite & ~in_range))
     counters.imu_nonfinite += n_bad
     counters.imu_out_of_range += n_range
     counters.imu_duplicate_stamps += len(dup)
-    if n_bad or n_range or len(dup):
+    counters.imu_out_of_order += len(back)
+    if n_bad or n_range or len(dup) or len(back):
         k = int(np.flatnonzero(~keep)[-1])
-        why = "not finite" if not finite[k] else "beyond the sensor range" if not in_range[k] else "repeated stamp"
+        why = ("not finite" if not finite[k] else "beyond the sensor range" if not in_range[k]
+               else "repeated stamp" if k in set(dup) else "stamped before the sample before")
         counters.last_rejection = f"IMU sample at t={t[k]:.3f} s dropped: {why}"
     return keep
+
+
+def _stamp_order(t, idx, t_prev, time_jump):
+    """Indices among ``idx`` whose stamp repeats the latest kept one, and those stamped back from it by up to
+    ``time_jump`` s (a longer step back is a restart: kept, and the latest stamp starts again from it)."""
+    stamps = t[idx]
+    prev = np.concatenate(([np.nan if t_prev is None else t_prev], stamps[:-1]))
+    if not np.any(stamps < prev):  # in order but for repeats: the vectorised common case
+        return idx[stamps == prev], idx[:0]
+    dup, back = [], []
+    latest = -math.inf if t_prev is None else t_prev
+    for i, ti in zip(idx, stamps):
+        if ti == latest:
+            dup.append(i)
+        elif latest - time_jump <= ti < latest:
+            back.append(i)
+        else:
+            latest = ti
+    return np.array(dup, dtype=int), np.array(back, dtype=int)
 
 
 def state_ok(nav, cov, velocity_n, t, max_speed, counters: InputCounters) -> bool:
