@@ -154,13 +154,13 @@ class WmraNode(Node):
                   "thresholds_gyro_rad_s": "pending" if lam is None else _levels_text(lam[:, :3]),
                   "thresholds_accel_m_s2": "pending" if lam is None else _levels_text(lam[:, 3:]),
                   "received": p.received, "published": s["published"], "restarts": p.restarts,
-                  "filled_samples": p.filled_samples,
+                  "filled_samples": p.filled_samples, "nonfinite_samples": p.nonfinite,
                   "last_restart": p.last_restart,
                   "processing_mean_us": 1e6 * s["busy_s"] / max(p.received, 1),
                   "intake_period_s": self.intake_period_s,
                   "bad_messages": self.intake.bad_messages,
                   "processing_max_us": 1e6 * s["busy_max_s"]}
-        level = "WARN" if p.restarts else "OK"
+        level = "WARN" if p.restarts or p.nonfinite else "OK"
         self.diagnostics.publish(level, "denoising" if p.received else "waiting for imu/data_raw", values)
 
     def close(self) -> None:
