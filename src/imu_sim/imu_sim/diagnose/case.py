@@ -25,6 +25,7 @@ CHANNELS = ("gyro_x", "gyro_y", "gyro_z", "accel_x", "accel_y", "accel_z")
 DETERMINISTIC_TERMS = ("bias", "scale_factor", "misalignment")
 MIN_SAMPLES = 256
 COVER_TOL = 0.005
+GAP_FACTOR = 1.5  # stamps more than this many sample periods apart (or not after the one before) break the pairing
 """Largest fraction of the recording the scenario may leave uncovered (cut with a note); beyond it: an error."""
 
 
@@ -86,8 +87,12 @@ def make_case(rec: ImuRecording, sc: Scenario, model: SensorModel, gnss=None, wh
     """Match a recording to a scenario at the recording's rate; the recording is cut to the scenario span."""
     if len(rec) < MIN_SAMPLES:
         raise DiagnosisInputError(f"{where}: {len(rec)} samples; the diagnosis needs at least {MIN_SAMPLES}")
-    if not (np.all(np.isfinite(rec.gyro)) and np.all(np.isfinite(rec.accel))):
-        raise DiagnosisInputError(f"{where}: gyro/accel contain NaN or infinite values")
+    bad = ~(np.all(np.isfinite(rec.gyro), axis=1) & np.all(np.isfinite(rec.accel), axis=1))
+    if bad.any():
+        k = int(np.flatnonzero(bad)[0])
+        raise DiagnosisInputError(f"{where}: {int(bad.sum())} sample(s) with a NaN or infinite rate or specific force "
+                                  f"(first: sample {k}, t = {rec.t[k]:.6f} s); the diagnosis needs every sample")
+    _check_uniform(rec, where)
     rate = rec.rate_hz
     sc = copy.deepcopy(sc)
     sc.rate_hz = rate
@@ -122,6 +127,18 @@ def make_case(rec: ImuRecording, sc: Scenario, model: SensorModel, gnss=None, wh
         notes.append("a separate turn-on bias per joined file (a step on every channel at each join is a nuisance)")
     return Case(rec, sc, model, t, 1.0 / rate, temp, gyro_true, accel_true, t_abs[:n], gnss, notes, masked=masked,
                 bias_resets=resets)
+
+
+def _check_uniform(rec: ImuRecording, where: str) -> None:
+    """DiagnosisInputError naming the first sample where the stamps are not one sample period (+-50 %) apart:
+    the recording is paired with the simulation by sample index, so a gap, a repeat or a step back would shift
+    every sample after it against the truth (a 5-s gap gave no finding at all, silently)."""
+    period = float(np.median(np.abs(np.diff(rec.t))))
+    check = recording.check_timestamps(rec.t, where, max_gap_s=GAP_FACTOR * period)
+    if not check.ok:
+        raise DiagnosisInputError(
+            f"{check.summary()}: the diagnosis pairs samples with the scenario by index, so everything after it "
+            f"would be compared with the wrong time; cut the recording there (or repair it)")
 
 
 def _unrecorded_motion(rec, gyro_true, where, sc_where):

@@ -1,0 +1,62 @@
+"""``imu-sim diagnose`` on a damaged recording: it pairs samples with the scenario by index, so a gap, a repeated
+or stepped-back stamp or a NaN sample is an input error naming the file, the sample and its time (a 5-s gap had
+given no finding at all, silently; a NaN sample an error naming neither)."""
+import numpy as np
+import pytest
+import yaml
+
+from imu_sim.cli import main
+from imu_sim.diagnose.case import DiagnosisInputError, load_case
+from nav_core import recording
+from nav_core.recording import ImuRecording
+from nav_core.sensor_model import SensorModel, TriadModel, save as save_model
+
+RATE = 50.0
+N = 1500
+
+
+def _files(tmp_path, damage=None):
+    rng = np.random.default_rng(2)
+    t = np.arange(1, N + 1) / RATE
+    gyro, accel = rng.normal(0, 1e-3, (N, 3)), rng.normal(0, 1e-2, (N, 3)) + [0, 0, 9.8]
+    if damage == "gap":
+        keep = np.ones(N, bool)
+        keep[700:850] = False  # 3 s lost
+        t, gyro, accel = t[keep], gyro[keep], accel[keep]
+    elif damage == "repeat":
+        t[700] = t[699]
+    elif damage == "back":
+        t[700], t[701] = t[701], t[700]
+    elif damage == "nan":
+        gyro[700, 1] = np.nan
+    rec = recording.write_imu_csv(tmp_path / "imu.csv", ImuRecording(t, gyro, accel))
+    sc = {"latitude_deg": 45.0, "longitude_deg": 7.0, "height_m": 200.0, "rate_hz": RATE, "gps": False,
+          "static_segments": [{"t0": 0.0, "t1": N / RATE + 1.0, "roll_deg": 0.0, "pitch_deg": 0.0, "yaw_deg": 0.0}]}
+    (tmp_path / "scenario.yaml").write_text(yaml.safe_dump(sc))
+    model = SensorModel(gyro=TriadModel(white_noise=np.full(3, 1e-4)), accel=TriadModel(white_noise=np.full(3, 1e-3)),
+                        sample_rate_hz=RATE)
+    return rec, tmp_path / "scenario.yaml", save_model(model, tmp_path / "model.yaml")
+
+
+def test_a_clean_recording_is_paired_sample_by_sample(tmp_path):
+    case = load_case(*_files(tmp_path))
+    assert case.n == N and np.allclose(np.diff(case.t), 1 / RATE)
+
+
+@pytest.mark.parametrize("damage, words", [
+    ("gap", ["gaps longer than", "sample 700: 14.000000 -> 17.020000 s", "by index"]),
+    ("repeat", ["duplicate stamps", "sample 700"]),
+    ("back", ["time going backwards", "sample 701"]),
+    ("nan", ["NaN or infinite", "sample 700", "t = 14.020000 s"]),
+])
+def test_a_gap_repeat_step_back_or_nan_sample_is_an_input_error_naming_file_and_sample(tmp_path, capsys, damage,
+                                                                                        words):
+    rec, sc, model = _files(tmp_path, damage)
+    with pytest.raises(DiagnosisInputError) as err:
+        load_case(rec, sc, model)
+    for w in ["imu.csv", *words]:
+        assert w in str(err.value), (w, str(err.value))
+    code = main(["diagnose", "--recording", str(rec), "--scenario", str(sc), "--model", str(model),
+                 "--out", str(tmp_path / "out")])
+    out = capsys.readouterr().err
+    assert code == 2 and "Traceback" not in out and not (tmp_path / "out").exists()
