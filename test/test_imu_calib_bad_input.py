@@ -197,6 +197,22 @@ def test_multi_position_refuses_a_non_finite_sample_naming_file_column_and_line(
     assert not (tmp_path / "m.yaml").exists()
 
 
+def test_multi_position_leaves_a_move_whose_stamps_break_out_of_the_gyro_fit():
+    from test_imu_calib_gyro_multi_position import GYRO_MIS, GYRO_SCALE, LAT, _recording
+
+    from imu_calib.multi_position import multi_position
+    from nav_core.earth import normal_gravity
+
+    rec, n_pos = _recording(1)
+    lost = (rec.t >= 60.8) & (rec.t < 61.1)  # 0.3 s missing in the middle of move 5 (60-62 s)
+    res = multi_position(rec.select(~lost), gravity=normal_gravity(LAT))
+    assert [k for k, _, _ in res.moves_skipped] == [5] and res.moves_skipped[0][2] == pytest.approx(61.1)
+    assert res.gyro.n_moves == n_pos - 2
+    # integrated across the gap, that move cost 0.019 rad of misalignment; left out, the fit keeps its accuracy
+    np.testing.assert_allclose(res.gyro.scale_factor, GYRO_SCALE, atol=1e-3)
+    np.testing.assert_allclose(res.gyro.misalignment, GYRO_MIS, atol=1e-3)
+
+
 # -- files cut, empty or not what they claim -------------------------------------------------------------
 
 
@@ -304,6 +320,16 @@ def test_an_existing_model_that_is_not_valid_fails_before_the_calibration(tmp_pa
     assert out.read_text() == "garbage: [\n"
 
 
+def test_lines_stay_the_files_after_duplicates_are_dropped(tmp_path):
+    path = _csv(tmp_path)
+    lines = path.read_text().splitlines()
+    lines.insert(11, lines[10])  # an exact duplicate of line 11 (sample 9) at line 12
+    path.write_text("\n".join(lines) + "\n")
+    rec, notes = screen.refuse_non_finite(recording.read_imu(path), "why")
+    assert len(rec) == N and "sample 10 (line 12" in notes[0]
+    assert screen.where(rec, 700) == "sample 700 (line 703, t = 7 s)"  # sample 700 of what is left
+
+
 def test_screen_names_the_line_of_a_sample_after_blank_and_skipped_rows(tmp_path):
     path = _csv(tmp_path)
     lines = path.read_text().splitlines()
@@ -368,3 +394,14 @@ def test_allan_node_counts_a_live_nan_sample_and_analyses_the_longest_finite_seg
     assert 1 <= int(v["skipped_samples"]) <= 61  # those received before the NaN (best effort) and the NaN
     assert 150 <= int(v["samples"]) + int(v["skipped_samples"]) <= 202  # 4 s of stamps at 50 Hz, best effort
     assert sensor_model.load(out / "sensor_model.yaml").provenance["timeline"]["non_finite_samples"] == 1
+
+
+@pytest.mark.parametrize("option,value", [("--lat-deg", "200"), ("--lat-deg", "nan"), ("--height-m", "inf")])
+def test_a_site_out_of_range_is_a_usage_error_not_a_model(tmp_path, capsys, option, value):
+    up, down = _up_down(tmp_path)  # --lat-deg 200 and nan wrote a model before
+    argv = ["two-position", "--up", str(up), "--down", str(down), "--axis", "z", "--lat-deg", "45",
+            "--out", str(tmp_path / "m.yaml"), f"{option}={value}"]
+    with pytest.raises(SystemExit) as exit_:
+        cli.main(argv)
+    assert exit_.value.code == 2 and option in capsys.readouterr().err
+    assert not (tmp_path / "m.yaml").exists()

@@ -23,7 +23,7 @@ import numpy as np
 
 from imu_calib import model_io, multi_position, rate_table, screen, two_position
 from nav_core import sensor_model
-from nav_core.cli import add_common, run_cli
+from nav_core.cli import add_common, number, run_cli
 from nav_core.outputs import check_out_dir, check_out_file, rebase, staged_dir
 from nav_core.recording import IMU_TOPIC
 from nav_core.units import DEG
@@ -71,8 +71,8 @@ def _add_format(p, imutk: bool = True) -> None:
 
 
 def _add_site(p, required: bool = True) -> None:
-    p.add_argument("--lat-deg", type=float, required=required, help="site latitude, deg")
-    p.add_argument("--height-m", type=float, default=0.0, help="site ellipsoidal height, m")
+    p.add_argument("--lat-deg", type=number(-90.0, 90.0), required=required, help="site latitude, deg")
+    p.add_argument("--height-m", type=number(-1.2e4, 1e5), default=0.0, help="site ellipsoidal height, m")
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -85,7 +85,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("recording", help="rosbag2 bag or recording CSV of a static IMU")
     p.add_argument("--out", required=True, help="output folder (new or empty; --force replaces it)")
     add_common(p, force=True, sub=True)
-    p.add_argument("--per-decade", type=int, default=0,
+    p.add_argument("--per-decade", type=number(0, 100, integer=True), default=0,
                    help="log-spaced cluster times per decade (default 0: octave grid)")
     p.add_argument("--base-model", help="sensor model whose deterministic terms are kept")
     p.add_argument("--no-progress", action="store_true", help="no progress bar")
@@ -108,9 +108,9 @@ def build_parser() -> argparse.ArgumentParser:
 
     p = sub.add_parser("rate-table", help="gyro scale and bias of one axis at two table rates (eqs. 5-7)")
     p.add_argument("--rec1", required=True)
-    p.add_argument("--rate1-dps", type=float, required=True, help="table rate of rec1, deg/s")
+    p.add_argument("--rate1-dps", type=number(), required=True, help="table rate of rec1, deg/s")
     p.add_argument("--rec2", required=True)
-    p.add_argument("--rate2-dps", type=float, required=True, help="table rate of rec2, deg/s")
+    p.add_argument("--rate2-dps", type=number(), required=True, help="table rate of rec2, deg/s")
     add_common(p, sub=True)
     p.add_argument("--axis", required=True, choices=("x", "y", "z"))
     p.add_argument("--direction", default="up", choices=sorted(rate_table.DIRECTIONS),
@@ -125,11 +125,11 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("recording")
     p.add_argument("--out", required=True, help="sensor-model YAML to create or update")
     add_common(p, sub=True)
-    p.add_argument("--gravity", type=float, help="gravity magnitude in the data's units (default: WGS-84 at site)")
-    p.add_argument("--init-static-s", type=float, default=30.0, help="initial static interval, s")
-    p.add_argument("--threshold-factor", type=float, default=4.0,
+    p.add_argument("--gravity", type=number(0.0, low_open=True), help="gravity magnitude in the data's units (default: WGS-84 at site)")
+    p.add_argument("--init-static-s", type=number(0.0, low_open=True), default=30.0, help="initial static interval, s")
+    p.add_argument("--threshold-factor", type=number(0.0, low_open=True), default=4.0,
                    help="static if window variance < factor x initial level")
-    p.add_argument("--min-static-s", type=float, default=2.0, help="shortest static segment kept, s")
+    p.add_argument("--min-static-s", type=number(0.0), default=2.0, help="shortest static segment kept, s")
     p.add_argument("--no-gyro-scale", action="store_true",
                    help="skip the gyro scale/misalignment fit from the moves (gyro bias only)")
     _add_site(p, required=False)
@@ -146,8 +146,8 @@ def cmd_allan(args) -> int:
 
     inputs = (args.recording, args.base_model)
     check_out_dir(args.out, args.force, inputs=inputs)  # before the work: a bad --out fails now, not after it
-    rec = load_recording(args.recording, args.topic, args.format, args.gyro_file)
     base = sensor_model.load(args.base_model) if args.base_model else None
+    rec = load_recording(args.recording, args.topic, args.format, args.gyro_file)
     t = rec.t[np.isfinite(rec.t)]
     span = float(t[-1] - t[0]) if len(t) > 1 else 0.0
     rate = 1.0 / np.median(np.diff(t)) if len(t) > 1 else float("nan")
@@ -248,6 +248,10 @@ def cmd_multi_position(args) -> int:
     print(f"accel bias {np.round(res.bias, 5)}, scale factor {np.round(res.scale_factor, 5)}")
     print(f"misalignment (upper triangle) {np.round(res.misalignment[[0, 0, 1], [1, 2, 2]], 6)}")
     print(f"gyro bias {np.round(res.gyro_bias, 6)}")
+    if res.moves_skipped:
+        k, i, t = res.moves_skipped[0]
+        warn(f"{args.recording}: {len(res.moves_skipped)} move(s) left out of the gyro fit because their stamps go "
+             f"back, repeat or leave a gap, the first move {k} at {screen.where(rec, i)}")
     if res.gyro is not None:
         gyro = res.gyro
         print(f"gyro from {gyro.n_moves} moves: gravity direction error RMS "

@@ -19,6 +19,10 @@ vertical Earth rate along the sensed "up" (when the latitude is given and the
 data are in rad/s); the unknown horizontal Earth rate (heading unknown) is
 added to its interval. Gyro scale factors and misalignment then come from the
 moves between the static positions (:mod:`imu_calib.gyro_multi_position`).
+The gyro is integrated one sample interval per sample, so a move whose stamps
+break (go back, repeat, or leave a gap) cannot be integrated: it is left out of
+that fit and listed in ``moves_skipped``; static segments only average samples
+and keep them.
 """
 from __future__ import annotations
 
@@ -30,7 +34,7 @@ from scipy.ndimage import uniform_filter1d
 
 from imu_calib.gyro_multi_position import GyroCalibration, fit_gyro, moves_between
 from nav_core.earth import RATE, normal_gravity
-from nav_core.recording import ImuRecording
+from nav_core.recording import ImuRecording, check_timestamps
 
 Z95 = 1.959963984540054
 MISALIGNMENT_INDEX = ((0, 1), (0, 2), (1, 2))
@@ -63,6 +67,8 @@ class MultiPositionResult:
     segments: list = field(default_factory=list)
     gyro: GyroCalibration | None = None
     """Gyro scale factors and misalignment from the moves (None when not asked for)."""
+    moves_skipped: list = field(default_factory=list)
+    """(move index, sample index, stamp s) of each move left out of the gyro fit: its stamps break there."""
 
     @property
     def rms_residual(self) -> float:
@@ -163,11 +169,27 @@ def multi_position(rec: ImuRecording, lat_rad: float | None = None, height_m: fl
                     "misalignment": _mis_interval(mis, sd[6:9])}
     gyro_bias, gyro_ci = _gyro_bias(rec, segs, bias, scale, mis, lat_rad, detect_kwargs.get("init_static_s", 30.0))
     intervals_95["gyro_bias"] = gyro_ci
-    gyro = None
+    gyro, skipped = None, []
     if with_gyro:
         moves = moves_between(segs, rec.gyro, gyro_bias, np.eye(3) + np.diag(scale) + mis, bias)
-        gyro = fit_gyro(moves, rate)
-    return MultiPositionResult(bias, scale, mis, gyro_bias, intervals_95, gravity, resid, before, segs, gyro)
+        skipped = broken_moves(rec.t, segs)
+        gone = {k for k, _, _ in skipped}
+        gyro = fit_gyro([m for k, m in enumerate(moves) if k not in gone], rate)
+    return MultiPositionResult(bias, scale, mis, gyro_bias, intervals_95, gravity, resid, before, segs, gyro,
+                               skipped)
+
+
+def broken_moves(t, segments, gap_factor: float = 1.5) -> list:
+    """(move index, sample index, stamp s) of the first break of each move between consecutive ``segments``
+    whose stamps ``t`` (s) go back, repeat or leave a gap (> ``gap_factor`` median intervals)."""
+    check = check_timestamps(t, gap_factor=gap_factor)
+    breaks = np.unique(np.concatenate([check.backwards, check.duplicates, check.gaps]).astype(int))
+    out = []
+    for k, (a, b) in enumerate(zip(segments[:-1], segments[1:])):
+        inside = breaks[(breaks >= a.stop) & (breaks <= b.start)]  # step t[i-1] -> t[i] within the move
+        if len(inside):
+            out.append((k, int(inside[0]), float(t[inside[0]])))
+    return out
 
 
 def _ci(value, sd):

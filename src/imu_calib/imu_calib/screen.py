@@ -221,7 +221,17 @@ def for_means(rec: ImuRecording, columns) -> tuple:
     if keep.sum() < 2:
         raise RecordingError(f"{rec.source or 'recording'}: fewer than 2 usable samples "
                              f"({int(bad.sum())} of {len(rec)} have a NaN or infinite value)")
-    return rec.select(keep), notes
+    return drop(rec, ~keep), notes
+
+
+def drop(rec: ImuRecording, gone: np.ndarray) -> ImuRecording:
+    """``rec`` without the samples of mask ``gone``; their lines join ``skipped_rows``, so later messages
+    still name the file's lines."""
+    out = rec.select(~gone)
+    lines = file_lines(rec, np.flatnonzero(gone))
+    if lines:
+        out.skipped_rows = tuple(sorted(set(rec.skipped_rows) | set(lines.values())))
+    return out
 
 
 def refuse_non_finite(rec: ImuRecording, why: str) -> tuple:
@@ -232,4 +242,4 @@ def refuse_non_finite(rec: ImuRecording, why: str) -> tuple:
     dup = exact_duplicates(rec)
     if not dup.any():
         return rec, []
-    return rec.select(~dup), [describe_duplicates(rec, dup)]
+    return drop(rec, dup), [describe_duplicates(rec, dup)]
