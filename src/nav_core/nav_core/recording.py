@@ -24,6 +24,7 @@ from pathlib import Path
 import numpy as np
 
 from nav_core import timestamps
+from nav_core import table_rows
 from nav_core.table_rows import numbers
 from nav_core.timestamps import TimeCheck  # noqa: F401  (part of this module's API)
 from nav_core.units import DEG
@@ -172,14 +173,15 @@ def _read_csv_table(path: Path, required, strict: bool, max_bad_fraction: float 
     with open(path, newline="", errors="replace") as fh:  # undecodable bytes fail as numbers: a bad row
         reader = csv.reader(fh)
         try:
-            header = [h.strip() for h in next(reader)]
+            header = table_rows.header_names(next(reader))
         except StopIteration:
             raise RecordingError(f"{path}: empty file, expected a header row") from None
         except (csv.Error, UnicodeDecodeError) as err:
             raise RecordingError(f"{path}: line 1: unreadable header ({err})") from None
         missing = [c for c in required if c not in header]
         if missing:
-            raise RecordingError(f"{path}: missing column(s) {missing}; header is {header}")
+            raise RecordingError(f"{path}: missing column(s) {missing}{table_rows.missing_hint(missing, header)}; "
+                                 f"header is {header}")
         rows = []
         line_no = 1
         while True:
@@ -267,10 +269,10 @@ def read_gnss_csv(path, strict: bool = False) -> GnssRecording:
     """Read the GNSS CSV (``t, lat_deg, lon_deg, h_m, std_e, std_n, std_u[, status]``)."""
     path = Path(path)
     cols, damage, skipped = _read_csv_table(path, GNSS_CSV_COLUMNS, strict)
-    status = cols["status"].astype(int) if "status" in cols else None
+    status, bad_status = table_rows.status_column(cols.get("status"), cols["t"], str(path))
     return GnssRecording(cols["t"], cols["lat_deg"] * DEG, cols["lon_deg"] * DEG, cols["h_m"],
-                         np.column_stack([cols["std_e"], cols["std_n"], cols["std_u"]]), status,
-                         source=str(path), damage=damage, skipped_rows=skipped)
+                         np.column_stack([cols["std_e"], cols["std_n"], cols["std_u"]]), status, source=str(path),
+                         damage="; ".join(d for d in (damage, bad_status) if d) or None, skipped_rows=skipped)
 
 
 def write_gnss_csv(path, gnss: GnssRecording) -> Path:
