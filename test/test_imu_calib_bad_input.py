@@ -3,10 +3,13 @@ empty files, bad cells, damaged archives, option typos. One line naming file, co
 damage counted, skipped and recorded; never a traceback or a silent wrong answer."""
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from imu_calib import characterise as char_mod
 from imu_calib import cli, screen
 from imu_calib.allan import AllanError
+from imu_calib.timeline import timeline as timeline_of
 from nav_core import datasets, recording, sensor_model
 from nav_core.recording import ImuRecording, RecordingError
 
@@ -405,3 +408,68 @@ def test_a_site_out_of_range_is_a_usage_error_not_a_model(tmp_path, capsys, opti
         cli.main(argv)
     assert exit_.value.code == 2 and option in capsys.readouterr().err
     assert not (tmp_path / "m.yaml").exists()
+
+
+@pytest.mark.parametrize("command", ["two-position", "rate-table", "multi-position"])
+def test_an_unwritable_out_fails_before_any_calibration(tmp_path, capsys, monkeypatch, command):
+    def forbidden(*args, **kwargs):
+        raise AssertionError("calibrated before checking --out")
+    for name in ("two_position_from_recordings", "rate_table", "multi_position"):
+        for mod in (cli.two_position, cli.rate_table, cli.multi_position):
+            if hasattr(mod, name):
+                monkeypatch.setattr(mod, name, forbidden)
+    up, down = _up_down(tmp_path)
+    out = "/proc/nav_bad_input_test/m.yaml"  # not creatable, even as root
+    argv = {"two-position": ["--up", str(up), "--down", str(down), "--axis", "z", "--lat-deg", "45"],
+            "rate-table": ["--rec1", str(up), "--rate1-dps", "10", "--rec2", str(down), "--rate2-dps", "-10",
+                           "--axis", "x", "--lat-deg", "45"],
+            "multi-position": [str(up), "--gravity", "9.81"]}[command]
+    assert cli.main([command, *argv, "--out", out]) == 2
+    _one_error_line(capsys, "/proc/nav_bad_input_test")
+
+
+def test_a_non_finite_stamp_in_a_text_format_is_a_break_named_by_column_t(tmp_path, capsys):
+    path = _ucalgary(tmp_path / "x_up.txt", _rec())
+    lines = path.read_text().splitlines()
+    lines[500] = "nan " + lines[500].split(None, 1)[1]
+    path.write_text("\n".join(lines) + "\n")
+    assert _allan(path, tmp_path / "o", "--format", "ucalgary") == 2
+    _one_error_line(capsys, "x_up.txt", "by column: t 1", "sample 500 (line 501, t = nan after 4.99 s)")
+
+
+@settings(max_examples=60, deadline=None)
+@given(n=st.integers(20, 300),
+       events=st.lists(st.tuples(st.sampled_from(["nan", "inf_t", "dup", "repeat", "gap"]), st.integers(0, 299),
+                                 st.integers(0, 5)), max_size=6, unique_by=lambda e: e[1]))
+def test_timeline_segments_hold_every_finite_sample_once_and_nothing_broken(n, events):
+    t = np.arange(n) / RATE
+    v = np.random.default_rng(n).normal(0, 1, (n, 6))
+    for kind, i, col in sorted(events, key=lambda e: e[1]):
+        if i >= n or i == 0:
+            continue
+        if kind == "nan":
+            v[i, col] = np.nan
+        elif kind == "inf_t":
+            t[i] = np.inf
+        elif kind == "dup":
+            t[i], v[i] = t[i - 1], v[i - 1]
+        elif kind == "repeat":
+            t[i] = t[i - 1]
+        else:
+            t[i:] += 0.5
+    rec = ImuRecording(t, v[:, :3], v[:, 3:])
+    try:
+        line = timeline_of(rec)
+    except AllanError:
+        return  # too few usable samples, or too irregular: refused with a message
+    bad = screen.non_finite_rows(rec)
+    dup = screen.exact_duplicates(rec)
+    used = [i for a, b in line.segments for i in range(a, b) if not dup[i]]
+    assert sorted(used) == used and len(set(used)) == len(used)
+    assert set(used) == set(np.flatnonzero(~bad & ~dup))  # every finite, non-duplicate sample, once
+    for seg in line.segments:
+        part = line.select(rec, seg)
+        assert np.all(np.isfinite(screen.values(part))) and np.all(np.isfinite(part.t))
+        dt = np.diff(part.t)
+        assert np.all(dt > 0) and np.all(dt <= 1.5 * np.median(np.diff(rec.t[~bad & ~dup])) + 1e-12)
+    assert line.broken == bool(bad.any() or len(line.segments) > 1)
