@@ -128,6 +128,31 @@ def _use_converted_folder(args) -> None:
         args.params = folder / "navigation.yaml"
 
 
+def check_inputs(args) -> None:
+    """The files the graph will read, checked before anything starts (a user error, exit 2, naming the file):
+    the params file (the filter's section validated as ``ins-gps-kf replay`` does), the sensor model, the
+    recording and the truth. Each node checks its own parameters again when it starts."""
+    from ins_gps_kf.config import load_params_yaml
+    from nav_core import bagio, recording, sensor_model
+
+    if not args.params.is_file():
+        raise DemoError(f"{args.params}: params file not found (--params)")
+    try:
+        data = yaml.safe_load(args.params.read_text())
+    except (yaml.YAMLError, UnicodeDecodeError) as err:
+        raise DemoError(f"{args.params}: not valid YAML: {' '.join(str(err).split())}") from None
+    if not isinstance(data, dict):
+        raise DemoError(f"{args.params}: expected a mapping of node names to 'ros__parameters:' (--params)")
+    if "ins_gps_kf_node" in data:
+        load_params_yaml(args.params)
+    sensor_model.load(args.model)
+    if args.recording is not None and not bagio.is_bag(args.recording):
+        raise DemoError(f"{args.recording}: --recording is not a rosbag2 bag (folder with metadata.yaml, .db3, "
+                        ".mcap) or a nav-convert folder" + ("" if args.recording.exists() else ": not found"))
+    if args.truth is not None:
+        recording.read_trajectory_csv(args.truth)
+
+
 def graph_specs(args, run_dir: Path, sim_dir: Path | None) -> list:
     """The nodes of this run, in start order (the player last: it waits for the graph)."""
     sim = {"use_sim_time": True}
@@ -170,6 +195,7 @@ def main(argv=None) -> int:
     env.setdefault("ROS_AUTOMATIC_DISCOVERY_RANGE", "LOCALHOST")
     os.environ.update({k: env[k] for k in ("ROS_DOMAIN_ID", "ROS_AUTOMATIC_DISCOVERY_RANGE")})
     try:
+        check_inputs(args)
         check_out_dir(args.out, allow_existing=True)  # a file or an unwritable --out fails before any work
         sim_dir = None if args.recording else simulate_once(args.scenario, args.model, args.seed, args.out)
     except (DemoError,) + USER_ERRORS as err:
@@ -190,7 +216,7 @@ def main(argv=None) -> int:
     except GraphError as err:
         print(f"[demo] {err}", file=sys.stderr)
         graph.stop()
-        return 1
+        return 2 if err.exit_code == 2 else 1  # a node refused its configuration: a user error
     except KeyboardInterrupt:
         print("[demo] interrupted")
     codes = graph.stop()

@@ -27,7 +27,11 @@ class NodeSpec:
 
 
 class GraphError(RuntimeError):
-    """A node did not start or died; the message carries its output."""
+    """A node did not start or died; the message carries its output, ``exit_code`` the node's (None: running)."""
+
+    def __init__(self, message: str, exit_code: int | None = None):
+        super().__init__(message)
+        self.exit_code = exit_code
 
 
 class Graph:
@@ -47,9 +51,11 @@ class Graph:
                                ros_args=spec.overrides)
             self.procs[spec.executable] = proc
             if not proc.wait_for_line(spec.ready, timeout_s):
+                code = proc.proc.poll()
+                why = f"exited with code {code} before it was ready" if code is not None and code >= 0 else \
+                    f"did not become ready within {timeout_s} s (exit {code})"
                 self.stop()
-                raise GraphError(f"{spec.executable} did not become ready within {timeout_s} s "
-                                 f"(exit {proc.proc.poll()}):\n{proc.output[-3000:]}")
+                raise GraphError(f"{spec.executable} {why}:\n{proc.output[-3000:]}", code)
 
     def dead(self) -> dict:
         """Nodes that have exited: executable -> exit code."""
