@@ -42,3 +42,26 @@ def test_a_non_finite_sample_is_dropped_counted_and_filled_like_a_lost_message(w
     ref = dict((tag, v) for tag, v in clean)
     far = [tag for tag in published if abs(tag - k) > 64]  # beyond the filter's reach the output is the clean one
     np.testing.assert_allclose([published[j] for j in far], [ref[j] for j in far], rtol=0, atol=1e-12)
+
+
+@pytest.mark.parametrize("case, words", [("missing", ["nofile.csv", "not found"]), ("empty", ["car.csv", "empty"]),
+                                         ("seed", ["--seed", "-1"])])
+def test_wmra_report_refuses_a_bad_car_csv_or_seed_before_any_simulated_run(tmp_path, monkeypatch, capsys, case,
+                                                                            words):
+    from wmra_filter import evaluation, report
+
+    def forbidden(*args, **kwargs):
+        raise AssertionError("simulated before checking the inputs")
+    monkeypatch.setattr(evaluation, "rate_table_run", forbidden)
+    (tmp_path / "car.csv").write_text("")
+    argv = {"missing": ["--balzer", str(tmp_path / "nofile.csv")], "empty": ["--balzer", str(tmp_path / "car.csv")],
+            "seed": ["--seed", "-1"]}[case]
+    try:
+        code = report.main(["--out", str(tmp_path / "out"), *argv])  # was: a missing --balzer skipped with a note
+    except SystemExit as exit_:  # argparse's usage error
+        code = exit_.code
+    err = capsys.readouterr().err
+    assert code == 2 and "Traceback" not in err and not (tmp_path / "out").exists()
+    line = err.strip().splitlines()[-1]
+    for w in words:
+        assert w in line, (w, line)

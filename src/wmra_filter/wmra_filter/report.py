@@ -16,7 +16,7 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 from tqdm import tqdm  # noqa: E402
 
-from nav_core.cli import add_common, run_cli  # noqa: E402
+from nav_core.cli import add_common, number, run_cli  # noqa: E402
 from nav_core.outputs import check_out_dir, staged_dir  # noqa: E402
 from nav_core.units import rad2deg  # noqa: E402
 from nav_core.datasets import read_balzer_csv  # noqa: E402
@@ -120,15 +120,20 @@ def main(argv=None) -> int:
                                      description="WMRA evidence: plots and numbers (simulated runs, real car).")
     parser.add_argument("--out", required=True, type=Path, help="output folder (new or empty; --force replaces it)")
     add_common(parser, force=True)
-    parser.add_argument("--seed", type=int, default=2024, help="RNG seed of the simulated runs")
-    parser.add_argument("--balzer", type=Path, default=BALZER / "2014-03-26-000-Data.csv",
-                        help="balzer82/Kalman car CSV (skipped with a note if absent)")
+    parser.add_argument("--seed", type=number(0, 2**63 - 1, integer=True), default=2024,
+                        help="RNG seed of the simulated runs (an integer >= 0)")
+    parser.add_argument("--balzer", type=Path, default=None,
+                        help="balzer82/Kalman car CSV (default: the shared data's, skipped with a note if absent)")
     return run_cli("wmra-report", _report, parser.parse_args(argv))
 
 
 def _report(args) -> int:
     """Check --out first, then write every file into a temporary folder renamed into place at the end."""
+    given = args.balzer is not None
+    args.balzer = args.balzer or BALZER / "2014-03-26-000-Data.csv"
     check_out_dir(args.out, args.force, inputs=(args.balzer,))
+    # the car CSV is read first: a bad one fails before minutes of simulated runs; a path given is never skipped
+    args.car = read_balzer_csv(args.balzer) if given or args.balzer.exists() else None
     final = args.out
     with staged_dir(final, args.force, inputs=(args.balzer,)) as tmp:
         args.out = tmp
@@ -159,9 +164,9 @@ def _write_report(args, final: Path) -> None:
 
 
 def _real_section(args) -> list[str]:
-    if not args.balzer.exists():
+    rec = args.car
+    if rec is None:
         return [f"## Real car\n\nNot run: {args.balzer} not found."]
-    rec = read_balzer_csv(args.balzer)
     if rec.damage:  # read past it: say what was lost
         print(f"wmra-report: warning: {rec.damage}", file=sys.stderr)
     cfg = WmraConfig.for_bandwidth(50.0, noise="mad")
