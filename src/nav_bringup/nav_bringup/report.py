@@ -342,7 +342,8 @@ def _summary(run_dir, res, odom, gnss, raw, den, diags, codes) -> str:
                      f"{off['offline epochs']}; only live {off['only live']}, only offline {off['only offline']})")
     for name, (level, message, values) in sorted(diags.items()):
         keys = [k for k in ("frames_received", "checksum_errors", "lost_frames", "rejected_fixes", "fixes",
-                            "restarts", "state") if k in values]
+                            "restarts", "nonfinite_samples", "state")
+                if k in values and (k != "nonfinite_samples" or str(values[k]) != "0")]  # why wmra_node WARNs
         detail = ", ".join(f"{k} {values[k]}" for k in keys)
         lines.append(f"    [{('OK', 'WARN', 'ERROR', 'STALE')[min(level, 3)]:5}] {name}: {message}"
                      + (f" ({detail})" if detail else ""))
