@@ -181,8 +181,9 @@ def where(rec: ImuRecording, i: int, lines: dict | None = None) -> str:
     return f"sample {i} ({line}{when})"
 
 
-def describe_non_finite(rec: ImuRecording, bad: np.ndarray, columns=range(6)) -> str:
-    """``file: N sample(s) with a NaN or infinite value (column counts), first at sample i (line, t)``."""
+def describe_non_finite(rec: ImuRecording, bad: np.ndarray, columns=range(6), named: bool = True) -> str:
+    """``file: N sample(s) with a NaN or infinite value (column counts), first at sample i (line, t)``
+    (without ``file: `` when not ``named``)."""
     source = rec.source or "recording"
     idx = np.flatnonzero(bad)
     counts = []
@@ -194,8 +195,8 @@ def describe_non_finite(rec: ImuRecording, bad: np.ndarray, columns=range(6)) ->
         k = int(np.sum(~np.isfinite(v[:, j])))
         if k:
             counts.append(f"{column_name(source, j)} {k}")
-    return (f"{source}: {len(idx)} sample(s) with a NaN or infinite value (by column: {', '.join(counts)}), "
-            f"first at {where(rec, int(idx[0]))}")
+    return (f"{source}: " if named else "") + (f"{len(idx)} sample(s) with a NaN or infinite value (by column: "
+                                               f"{', '.join(counts)}), first at {where(rec, int(idx[0]))}")
 
 
 def describe_duplicates(rec: ImuRecording, dup: np.ndarray) -> str:

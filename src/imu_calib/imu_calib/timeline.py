@@ -69,7 +69,7 @@ class Timeline:
         source = rec.source or "recording"
         parts = []
         if self.non_finite.any():
-            parts.append(screen.describe_non_finite(rec, self.non_finite).split(": ", 1)[1])
+            parts.append(screen.describe_non_finite(rec, self.non_finite, named=False))
         if self.repeated:
             i, _, b = self.repeated[0]
             parts.append(f"a stamp repeated with different values {len(self.repeated)} time(s), first at "
