@@ -473,3 +473,18 @@ def test_timeline_segments_hold_every_finite_sample_once_and_nothing_broken(n, e
         dt = np.diff(part.t)
         assert np.all(dt > 0) and np.all(dt <= 1.5 * np.median(np.diff(rec.t[~bad & ~dup])) + 1e-12)
     assert line.broken == bool(bad.any() or len(line.segments) > 1)
+
+
+def test_imutk_pairs_the_two_files_by_stamp_when_one_loses_a_row(tmp_path):
+    rec = _rec()
+    for name, data in (("acc.mat", rec.accel), ("gyro.mat", rec.gyro)):
+        np.savetxt(tmp_path / name, np.column_stack([rec.t, data]))
+    lines = (tmp_path / "gyro.mat").read_text().splitlines()
+    lines[300] = lines[300][:20]  # a cut row in the gyro file only
+    (tmp_path / "gyro.mat").write_text("\n".join(lines) + "\n")
+    both = datasets.load_imutk(tmp_path / "acc.mat", tmp_path / "gyro.mat")
+    assert len(both) == N - 1 and "gyro.mat" in both.damage and "line 301" in both.damage
+    keep = np.arange(N) != 300
+    np.testing.assert_array_equal(both.t, rec.t[keep])
+    np.testing.assert_allclose(both.gyro, rec.gyro[keep], rtol=1e-15)
+    np.testing.assert_allclose(both.accel, rec.accel[keep], rtol=1e-15)
