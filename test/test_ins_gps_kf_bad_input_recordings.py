@@ -144,3 +144,18 @@ def test_imu_samples_stamped_a_little_back_are_dropped_and_counted_not_a_reset(i
     assert len(est) >= len(clean) - 1
     err = [np.linalg.norm(a.position_n - b.position_n) for a, b in zip(clean, est) if a.t == b.t]
     assert max(err) < (1.0 if back != "step_back_0.5_s" else 10.0)
+
+
+def test_the_filter_never_takes_a_specific_force_far_from_g_as_rest_and_says_so(inputs):
+    from ins_gps_kf import config
+    from ins_gps_kf.filter import ALIGNING, InsGpsFilter
+    from ins_gps_kf.offline import run
+
+    imu, gnss = inputs
+    filt = InsGpsFilter(config.from_params({"alignment_time_s": 20.0}))
+    est = run(filt, _copy(imu, accel=imu.accel / G0), gnss)  # the node's path: no whole-file unit check there
+    counts = filt.input_counters
+    assert est == [] and filt.status == ALIGNING  # was: aligned on 1 m/s^2 of "gravity" and navigated
+    assert counts["alignment_not_gravity"] >= 20 and "in g" in counts["last_rejection"]
+    filt = InsGpsFilter(config.from_params({"alignment_time_s": 20.0}))
+    assert run(filt, imu, gnss) and filt.input_counters["alignment_not_gravity"] == 0

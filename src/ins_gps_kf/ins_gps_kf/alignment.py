@@ -10,6 +10,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from nav_core import earth, frames
+from nav_core.units import G0
 
 
 @dataclass
@@ -41,6 +42,10 @@ def gyro_bias_at_rest(mean_gyro, roll, pitch, lat_rad, yaw=None):
     if yaw is None:
         w_ie_n[:2] = 0.0
     return np.asarray(mean_gyro, dtype=float) - mat_nb.T @ w_ie_n
+
+
+REST_FORCE_MIN, REST_FORCE_MAX = 0.5 * G0, 2.0 * G0
+"""m/s^2: the mean specific force of an IMU at rest on Earth lies well inside (g = 9.78-9.83)."""
 
 
 class _ImuSums:
@@ -76,15 +81,18 @@ class StationaryAligner(_ImuSums):
     (m/s^2) stay within ``gyro_threshold`` and ``accel_threshold`` of the mean so far, and
     its mean rate is below ``max_rate`` (rad/s: a steady turn in place keeps a constant
     mean, which is not rest). Motion before ``min_duration_s`` restarts the accumulation
-    (the period was not stationary).
+    (the period was not stationary). A block whose mean |specific force| is outside
+    [0.5 g, 2 g] is not rest on Earth either (an accelerometer in g reads 1.0): it restarts the
+    accumulation too, and ``on_refused(text)`` is told why (the filter counts it).
     """
 
     def __init__(self, duration_s, min_duration_s, gyro_threshold, accel_threshold, block_s=1.0,
-                 max_rate=np.inf):
+                 max_rate=np.inf, on_refused=None):
         self.duration_s, self.min_duration_s = duration_s, min_duration_s
         self.gyro_threshold, self.accel_threshold = gyro_threshold, accel_threshold
         self.max_rate = max_rate
         self.block_s = block_s
+        self.on_refused = on_refused or (lambda text: None)
         self.restarts = -1
         self.restart()
 
@@ -114,6 +122,12 @@ class StationaryAligner(_ImuSums):
 
     def _close_block(self, t) -> bool:
         mean_g, mean_a = self.block_gyro / self.block_n, self.block_accel / self.block_n
+        f = float(np.linalg.norm(mean_a))
+        if not REST_FORCE_MIN <= f <= REST_FORCE_MAX:
+            self.on_refused(f"IMU block ending at t={t:.3f} s reads |specific force| {f:.4g} m/s^2, not about "
+                            "9.8: not at rest on Earth (accelerometer in g or another unit?)")
+            self.restart()
+            return False
         if np.linalg.norm(mean_g) > self.max_rate:
             if self.n > 0 and self.elapsed_s >= self.min_duration_s:
                 self.moving = True

@@ -65,7 +65,8 @@ class InsGpsFilter:
             # block means: the per-block noise is far below the per-sample thresholds, hence a quarter
             self.aligner = StationaryAligner(cfg.alignment_time_s, cfg.min_alignment_time_s,
                                              0.25 * cfg.stationary_gyro, cfg.stationary_accel,
-                                             max_rate=cfg.stationary_gyro)
+                                             max_rate=cfg.stationary_gyro,
+                                             on_refused=self.input.counter("alignment_not_gravity"))
         self.alignment = None
         self.nav = None
         self.mem = None

@@ -29,6 +29,9 @@ in ``/diagnostics``, the replay in its summary. Every rejected input is counted 
   whether it is used;
 * ``gps_resets_refused`` - after ``max_rejected_fixes`` rejected fixes in a row, no reset to them
   because their track jumped away from the last accepted fix (a glitch: the INS is kept);
+* ``alignment_not_gravity`` - a 1-s block fed to the stationary alignment whose mean |specific force| is
+  outside [0.5 g, 2 g]: no IMU at rest reads that (an accelerometer in g reads 1.0), so it is not taken
+  as rest and the alignment waits; ``last_rejection`` says what it read;
 * ``state_resets`` - a non-finite navigation state or covariance, or an INS speed beyond twice
   ``max_speed_mps``: the filter resets and re-aligns (never publishes it).
 """
@@ -61,11 +64,19 @@ class InputCounters:
     gps_jumps: int = 0
     gps_resets_refused: int = 0
     state_resets: int = 0
+    alignment_not_gravity: int = 0
     last_rejection: str = ""
 
     def as_dict(self) -> dict:
         """Name -> count, and ``last_rejection``: what the node's diagnostics and the replay's JSON show."""
         return asdict(self)
+
+    def counter(self, key: str):
+        """A callable ``(text)`` that counts one event under ``key`` and makes ``text`` the ``last_rejection``."""
+        def count(text: str) -> None:
+            setattr(self, key, getattr(self, key) + 1)
+            self.last_rejection = text
+        return count
 
     def total(self) -> int:
         """Number of counted events (all keys but ``last_rejection``)."""

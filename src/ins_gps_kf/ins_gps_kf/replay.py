@@ -108,6 +108,8 @@ def _why_no_epoch(filt: InsGpsFilter) -> str:
     cfg = filt.cfg
     if filt.counters.resets:
         return f"the filter was reset {filt.counters.resets} time(s), last: {filt.counters.reset_reasons[-1]}"
+    if filt.input.alignment_not_gravity:
+        return f"it never found the IMU at rest: {filt.input.last_rejection}"
     if filt.status == ALIGNING and cfg.alignment_mode == "stationary":
         return (f"it never finished aligning: it needs {cfg.min_alignment_time_s:g} s or more at rest (block-mean "
                 f"rate below {cfg.stationary_gyro / DEG:g} deg/s: stationary_gyro_dps) before the vehicle moves; "
