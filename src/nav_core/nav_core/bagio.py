@@ -261,9 +261,9 @@ def _describe_damage(storage: Path, scanner, read: dict, wanted) -> str:
     for r in res.regions:
         when = ""
         if r["before_ns"] is not None or r["after_ns"] is not None:
-            t0 = "start" if r["before_ns"] is None else f"{r['before_ns'] * 1e-9:.3f}"
-            t1 = "end" if r["after_ns"] is None else f"{r['after_ns'] * 1e-9:.3f}"
-            when = f" (messages logged between {t0} and {t1} s lost)"
+            t0 = "the start" if r["before_ns"] is None else f"{r['before_ns'] * 1e-9:.3f} s"
+            t1 = "the end" if r["after_ns"] is None else f"{r['after_ns'] * 1e-9:.3f} s"
+            when = f" (messages logged between {t0} and {t1} lost)"
         parts.append(f"bytes {r['start']}-{r['end']} unreadable{when}")
     if res.dropped:
         parts.append(f"{res.dropped} message(s) ending where damage begins dropped")

@@ -105,6 +105,22 @@ class Scanner:
             return None
         return start_ns, end_ns, usize, comp, p + 8, body_end
 
+    def _cut_chunk(self, pos, end):
+        """(time span, records end, records start) of an uncompressed chunk whose header is intact but whose
+        length runs past the end of the file (a file cut inside it), else None: not damage up to the cut."""
+        if pos + 9 > end or self.buf[pos] != OP_CHUNK:
+            return None
+        (length,) = struct.unpack_from("<Q", self.buf, pos + 1)
+        try:
+            start_ns, end_ns, _, _ = _CHUNK.unpack_from(self.buf, pos + 9)
+            comp, p = _str(self.buf, pos + 9 + _CHUNK.size)
+            (rec_len,) = struct.unpack_from("<Q", self.buf, p)
+        except (struct.error, UnicodeDecodeError):
+            return None
+        if comp != "" or start_ns > end_ns or p + 8 + rec_len != pos + 9 + length or p + 8 > end:
+            return None
+        return (start_ns, end_ns), p + 8 + rec_len, p + 8
+
     def _valid_at(self, pos, end, span) -> bool:
         """Whether an intact record starts at ``pos`` (used to resynchronise after damage)."""
         head = self._header(pos, end)
@@ -169,6 +185,11 @@ class Scanner:
             if chunk_end is not None and pos >= chunk_end:
                 span, chunk_end = None, None
             head = self._header(pos, end)
+            cut = self._cut_chunk(pos, end) if head is None and base == 0 else None
+            if cut is not None:  # the file ends inside this chunk: read its records up to the cut
+                self.result.truncated = True
+                span, chunk_end, pos = cut
+                continue
             op, length = head if head else (0, 0)
             ok = head is not None and (op != OP_MESSAGE or self._message_ok(pos, length, end, span))
             fields = self._chunk_fields(pos, length) if ok and op == OP_CHUNK else None
