@@ -252,14 +252,43 @@ def counts_from_source(source: str, seconds: float, seed: int, fmt: FrameFormat 
         from imu_driver.bp3010_codec import StreamDecoder
 
         dec = StreamDecoder(fmt=fmt, lookahead=True)  # offline: catch sync-valued drops
-        batch = dec.feed(path.read_bytes())
+        raw = path.read_bytes()
+        batch = dec.feed(raw)
         tail = dec.flush()
         dtheta = np.vstack([batch.dtheta, tail.dtheta])
         dv = np.vstack([batch.dv, tail.dv])
+        if len(dtheta) == 0:
+            raise ValueError(f"{path}: no BP3010 frame in its {len(raw)} bytes")
         return to_counts(dtheta, dv, fmt)
     from nav_core.recording import read_imu
 
     rec = read_imu(path, topic=topic)
     if abs(rec.rate_hz - BASE_RATE_HZ) > 1.0:
         raise ValueError(f"{path}: recording is at {rec.rate_hz:.1f} Hz; the BP3010 emulator plays 64 Hz")
-    return to_counts(*increments_from_rates(rec.t, rec.gyro, rec.accel), fmt)
+    return recording_counts(rec, str(path), fmt)
+
+
+def recording_counts(rec, where: str, fmt: FrameFormat = DEFAULT_FORMAT) -> np.ndarray:
+    """Counts (n, 6) of a 64-Hz recording, one frame per sample; ValueError naming the sample, its time and the
+    channel when a sample is not finite, the stamps are not one period apart in order, or an increment does not
+    fit the frame's int16 (a gyro in deg/s, a gap of seconds integrated as one sample)."""
+    from nav_core.recording import check_timestamps
+
+    bad = ~(np.all(np.isfinite(rec.gyro), axis=1) & np.all(np.isfinite(rec.accel), axis=1))
+    if bad.any():
+        k = int(np.flatnonzero(bad)[0])
+        raise ValueError(f"{where}: {int(bad.sum())} sample(s) not finite (first: sample {k}, t = {rec.t[k]:.6f} s); "
+                         "a frame carries numbers")
+    check = check_timestamps(rec.t, where, max_gap_s=1.5 / BASE_RATE_HZ)
+    if not check.ok:
+        raise ValueError(f"{check.summary()}: the emulator plays one frame per 64-Hz sample, in order")
+    counts = to_counts(*increments_from_rates(rec.t, rec.gyro, rec.accel), fmt)
+    over = np.abs(counts) > 32767
+    if over.any():
+        k, c = (int(i) for i in np.argwhere(over)[0])
+        value = (rec.gyro if c < 3 else rec.accel)[k, c % 3]
+        full = 32767 * fmt.lsb()[c] * BASE_RATE_HZ
+        unit, hint = ("rad/s", " (in deg/s?)") if c < 3 else ("m/s^2", "")
+        raise ValueError(f"{where}: sample {k} (t = {rec.t[k]:.6f} s): {'gx gy gz ax ay az'.split()[c]} = "
+                         f"{value:.4g} {unit} is beyond the frame's +-{full:.3g} {unit} at 64 Hz{hint}")
+    return counts
