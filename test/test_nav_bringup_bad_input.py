@@ -77,3 +77,20 @@ def test_a_node_refusing_its_configuration_makes_nav_demo_exit_2(tmp_path, bag, 
     monkeypatch.setattr(demo.Graph, "stop", lambda self: {})
     assert demo.main(["--recording", str(bag), "--out", str(tmp_path / "out")]) == 2
     assert "exited with code 2" in capsys.readouterr().err
+
+
+@pytest.mark.parametrize("broken", ["gnss.csv", "bp3010.bin"])
+def test_scenario_player_on_an_empty_file_in_its_sim_dir_is_a_config_error_naming_it(tmp_path, rclpy_context, broken):
+    from rclpy.parameter import Parameter
+
+    from imu_driver.bp3010_codec import encode_stream
+    from nav_bringup.scenario_player_node import ScenarioPlayer
+    from nav_core.params import ConfigError
+
+    (tmp_path / "bp3010.bin").write_bytes(encode_stream(np.zeros((64, 3)), np.tile([0, 0, 0.15], (64, 1))))
+    recording.write_gnss_csv(tmp_path / "gnss.csv", recording.GnssRecording(
+        np.arange(3.0), np.full(3, 0.8), np.full(3, 0.1), np.zeros(3), np.ones((3, 3))))
+    (tmp_path / broken).write_bytes(b"")  # was: a RecordingError / ValueError traceback, exit 1
+    with pytest.raises(ConfigError, match=f"parameter 'sim_dir': .*{broken}"):
+        ScenarioPlayer(parameter_overrides=[Parameter("sim_dir", value=str(tmp_path)),
+                                            Parameter("link", value=str(tmp_path / "port"))])

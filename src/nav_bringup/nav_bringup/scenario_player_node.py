@@ -67,11 +67,18 @@ class ScenarioPlayer(Node):
         if not (sim_dir / "bp3010.bin").exists() or not (sim_dir / "gnss.csv").exists():
             raise ConfigError(f"parameter 'sim_dir': {sim_dir} has no bp3010.bin and gnss.csv "
                               f"(run `imu-sim simulate --out {sim_dir}` first)")
-        counts = counts_from_source(str(sim_dir / "bp3010.bin"), 0.0, 0)
+        try:  # a damaged simulation folder is the parameter's fault: one line, exit 2
+            counts = counts_from_source(str(sim_dir / "bp3010.bin"), 0.0, 0)
+            self.gnss = recording.read_gnss(sim_dir / "gnss.csv")
+        except ValueError as err:
+            raise ConfigError(f"parameter 'sim_dir': {err}") from None
+        if self.gnss.damage:  # read past it: say what was lost
+            self.get_logger().warning(self.gnss.damage)
+        if len(self.gnss) == 0:
+            self.get_logger().warning(f"{sim_dir / 'gnss.csv'}: no fixes: GPS silent for the whole run")
         if self.p["duration_s"] > 0:
             counts = counts[:int(self.p["duration_s"] * 64)]
         self.duration_s = len(counts) / 64.0
-        self.gnss = recording.read_gnss(sim_dir / "gnss.csv")
         self.clock_pub = self.create_publisher(Clock, "/clock", QoSProfile(depth=10))
         self.gps_pub = self.create_publisher(NavSatFix, "gps/fix", SENSOR_QOS)
         self.truth = self._load_truth(sim_dir, self.p["truth_rate_hz"])
