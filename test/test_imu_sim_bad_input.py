@@ -60,3 +60,56 @@ def test_a_gap_repeat_step_back_or_nan_sample_is_an_input_error_naming_file_and_
                  "--out", str(tmp_path / "out")])
     out = capsys.readouterr().err
     assert code == 2 and "Traceback" not in out and not (tmp_path / "out").exists()
+
+
+# -- a GNSS track (KF-GINS text) for ``gnss_track:`` ----------------------------------------------------------
+
+
+def _track(tmp_path, change=None, n=80):
+    rows = [f"{456250.0 + k:.3f}  {30.4447858 + 1e-6 * k:.10f}  {114.4718661:.10f}  21.095  0.010  0.009  0.019"
+            for k in range(n)]
+    if change == "nan":
+        rows[40] = rows[40].replace("21.095", "nan")
+    elif change == "text":
+        rows[40] = rows[40].replace("21.095", "abc")
+    elif change == "swap":
+        rows[40], rows[41] = rows[41], rows[40]
+    elif change == "gap":
+        del rows[30:50]
+    text = "\n".join(rows) + "\n"
+    if change == "cut":
+        text = text[:len(text) // 2 + 5]
+    path = tmp_path / "GNSS-RTK.txt"
+    path.write_text(text)
+    return path
+
+
+@pytest.mark.parametrize("change, lost, words", [
+    ("cut", None, ["skipped 1 bad row", "line 41"]),  # was: the whole file refused ("number of columns changed")
+    ("text", 1, ["line 41", "column '4'"]),          # was: numpy's "could not convert" without the file
+    ("nan", 1, ["not a finite number", "line 41"]),   # was: scipy's "Array must not contain infs or nans"
+    ("swap", 1, ["stamped at or before an earlier row", "line 42"]),  # was: "x must be increasing if s > 0"
+    ("gap", 0, ["1 gap(s) over 5 s", "line 30 to 31", "21 s"]),
+])
+def test_a_damaged_gnss_track_keeps_every_good_fix_and_names_the_line(tmp_path, caplog, change, lost, words):
+    from imu_sim.trajectory import read_gnss_track
+
+    path = _track(tmp_path, change)
+    t, lat, lon, h, std = read_gnss_track(path)
+    n = 60 if change == "gap" else 80
+    if lost is not None:
+        assert len(t) == n - lost
+    assert np.all(np.diff(t) > 0) and np.all(np.isfinite(h))
+    said = " ".join(r.getMessage() for r in caplog.records)
+    for w in ["GNSS-RTK.txt", *words]:
+        assert w in said, (w, said)
+
+
+def test_a_gnss_track_of_another_format_is_one_error_naming_it(tmp_path):
+    from imu_sim.trajectory import read_gnss_track
+    from nav_core.recording import RecordingError
+
+    path = tmp_path / "track.csv"
+    path.write_text("456250.0,30.44,114.47,21.0\n456251.0,30.44,114.47,21.0\n")
+    with pytest.raises(RecordingError, match="track.csv: expected whitespace-separated columns"):
+        read_gnss_track(path)

@@ -8,8 +8,10 @@ truth CSV, and static multi-position / rate-table sequences.
 """
 from __future__ import annotations
 
+import logging
 import warnings
 from dataclasses import dataclass
+from pathlib import Path
 
 import numpy as np
 from scipy.interpolate import UnivariateSpline, make_interp_spline
@@ -19,6 +21,8 @@ from nav_core.earth import LocalFrame
 from nav_core.frames import euler_from_rotation, rotation_from_euler
 from nav_core.recording import Trajectory
 from nav_core.units import DEG
+
+LOG = logging.getLogger(__name__)
 
 from imu_sim.attitude import PiecewiseAttitude, QuatSplineAttitude, interp_degree
 
@@ -246,13 +250,54 @@ def paper_drive(lat0_deg: float = PAPER_DATUM["latitude_deg"], lon0_deg: float =
 # ----------------------------------------------------------------------------- GNSS track and truth CSV
 
 
+TRACK_GAP_WARN_S = 5.0  # fixes further apart than this: the spline bridges a stretch no fix saw (said)
+
+
 def read_gnss_track(path):
-    """KF-GINS style GNSS text: (t s from first row, lat deg, lon deg, h m, std n/e/d (n, 3) m)."""
-    data = np.loadtxt(path, ndmin=2)
-    if data.shape[1] < 4:
-        raise ValueError(f"{path}: expected columns 'seconds lat_deg lon_deg h_m [std_n std_e std_d]'")
+    """KF-GINS style GNSS text: (t s from first row, lat deg, lon deg, h m, std n/e/d (n, 3) m).
+
+    Read as the project reads whitespace tables (``nav_core.datasets``): a malformed or cut row is skipped and
+    named by its line, more than 1 % of them refuse the file; a row with a NaN/Inf or stamped at or before an
+    earlier one is dropped and named too (the splines need finite, increasing times). Damage and gaps over
+    ``TRACK_GAP_WARN_S`` are logged as warnings naming the file and line.
+    """
+    from nav_core.datasets import _load_text
+    from nav_core.recording import RecordingError
+
+    path = Path(path)
+    if not path.is_file():
+        raise RecordingError(f"{path}: file not found")
+    first = _first_row(path)
+    if len(first) not in (4, 7):
+        raise RecordingError(f"{path}: expected whitespace-separated columns 'seconds lat_deg lon_deg h_m "
+                             f"[std_n std_e std_d]', the first row has {len(first)} field(s)")
+    data, damage, skipped = _load_text(path, len(first))
+    lines = np.setdiff1d(np.arange(1, len(data) + len(skipped) + 1), skipped)[:len(data)]  # no blank lines assumed
+    bad = ~np.all(np.isfinite(data), axis=1)
+    latest = np.maximum.accumulate(np.concatenate(([-np.inf], np.where(bad, -np.inf, data[:, 0])[:-1])))
+    back = ~bad & (data[:, 0] <= latest)
+    notes = [damage] if damage else []
+    for mask, what in ((bad, "not a finite number"), (back, "stamped at or before an earlier row")):
+        if mask.any():
+            notes.append(f"{path}: {int(mask.sum())} row(s) {what} dropped (line {lines[np.argmax(mask)]})")
+    data, lines = data[~(bad | back)], lines[~(bad | back)]
+    if len(data) < 6:
+        raise RecordingError(f"{path}: {len(data)} usable fix(es); a quintic track needs at least 6")
+    gaps = np.flatnonzero(np.diff(data[:, 0]) > TRACK_GAP_WARN_S)
+    if len(gaps):
+        k = gaps[0]
+        notes.append(f"{path}: {len(gaps)} gap(s) over {TRACK_GAP_WARN_S:g} s between fixes, bridged by the spline "
+                     f"(first: line {lines[k]} to {lines[k + 1]}, {data[k + 1, 0] - data[k, 0]:.3g} s)")
+    for note in notes[1 if damage else 0:]:
+        LOG.warning("%s", note)
     std = data[:, 4:7] if data.shape[1] >= 7 else np.full((len(data), 3), 0.02)
     return data[:, 0] - data[0, 0], data[:, 1], data[:, 2], data[:, 3], std
+
+
+def _first_row(path) -> list:
+    """The fields of the first non-empty, non-comment line of a whitespace table ([] for none)."""
+    with open(path, errors="replace") as fh:
+        return next((f for f in (ln.split("#", 1)[0].split() for ln in fh) if f), [])
 
 
 def gnss_track_trajectory(path, duration_s: float | None = None, min_std_m: float = 0.02) -> TruthTrajectory:
