@@ -113,3 +113,50 @@ def test_a_gnss_track_of_another_format_is_one_error_naming_it(tmp_path):
     path.write_text("456250.0,30.44,114.47,21.0\n456251.0,30.44,114.47,21.0\n")
     with pytest.raises(RecordingError, match="track.csv: expected whitespace-separated columns"):
         read_gnss_track(path)
+
+
+# -- a truth CSV for ``trajectory:`` ---------------------------------------------------------------------------
+
+
+def _truth_scenario(tmp_path, change=None):
+    from nav_core.recording import Trajectory, write_trajectory_csv
+
+    n = 400
+    t = np.arange(n) / 20.0
+    lat, lon = np.radians(45.0) + 1e-7 * t, np.full(n, np.radians(7.0))
+    path = write_trajectory_csv(tmp_path / "truth.csv", Trajectory(t, lat, lon, np.full(n, 200.0), np.zeros(n),
+                                                                   np.zeros(n), np.full(n, 1.57)))
+    lines = path.read_text().splitlines()
+    if change == "nan":
+        f = lines[201].split(",")
+        f[6] = "nan"
+        lines[201] = ",".join(f)
+    elif change == "swap":
+        lines[201], lines[202] = lines[202], lines[201]
+    elif change == "repeat":
+        lines.insert(201, lines[201])
+    path.write_text("\n".join(lines) + "\n")
+    (tmp_path / "scenario.yaml").write_text(yaml.safe_dump({"trajectory": "truth.csv", "gps": False}))
+    return tmp_path / "scenario.yaml"
+
+
+@pytest.mark.parametrize("change, words", [
+    ("nan", ["truth.csv: line 202: column 'yaw_deg' is not a finite number"]),  # was: exit 0 or an int16 error
+    ("swap", ["truth.csv: line 203: t = ", "not after line 202"]),               # was: scipy's "x must be increasing"
+])
+def test_a_truth_csv_row_the_splines_cannot_take_is_named_by_line_and_column(tmp_path, capsys, change, words):
+    sc = _truth_scenario(tmp_path, change)
+    assert main(["simulate", "--scenario", str(sc), "--out", str(tmp_path / "out"), "--format", "csv"]) == 2
+    err = capsys.readouterr().err
+    for w in words:
+        assert w in err, (w, err)
+
+
+def test_a_truth_row_written_twice_is_taken_once(tmp_path):
+    from imu_sim.scenario import build_trajectory, load as load_scenario
+
+    clean = build_trajectory(load_scenario(_truth_scenario(tmp_path)))
+    twice = build_trajectory(load_scenario(_truth_scenario(tmp_path, "repeat")))
+    ts = np.linspace(1.0, 18.0, 50)
+    np.testing.assert_allclose(twice.position.enu(ts), clean.position.enu(ts), rtol=0, atol=1e-9)
+    assert (twice.t0, twice.t1) == (clean.t0, clean.t1)

@@ -6,6 +6,7 @@ Paths are relative to the YAML file. See src/imu_sim/README.md for every key.
 """
 from __future__ import annotations
 
+import dataclasses
 import math
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -307,9 +308,37 @@ def _build(sc: Scenario):
         datum = {k: v for k, v in (("lat0_deg", sc.latitude_deg), ("lon0_deg", sc.longitude_deg),
                                    ("h0_m", sc.height_m)) if v is not None}
         return traj_mod.paper_drive(**datum)
-    truth = read_trajectory_csv(sc.spec, strict=True)
+    truth = _check_truth_rows(read_trajectory_csv(sc.spec, strict=True), sc.spec)
     frame = None
     if sc.latitude_deg is not None and sc.longitude_deg is not None:
         from nav_core.earth import LocalFrame
         frame = LocalFrame(sc.latitude_deg, sc.longitude_deg, sc.height_m)
     return traj_mod.truth_csv_trajectory(truth, frame)
+
+
+def _check_truth_rows(truth, path):
+    """The truth without exact repeats of a row; ValueError naming the file, line and column of the first row the
+    splines cannot take: a value that is not a finite number, or a time not after the row before with other
+    values (read strictly: line = row + 2)."""
+    columns = {"t": truth.t, "lat_deg": truth.lat, "lon_deg": truth.lon, "h_m": truth.h, "roll_deg": truth.roll,
+               "pitch_deg": truth.pitch, "yaw_deg": truth.yaw}
+    for name, values in columns.items():
+        bad = np.flatnonzero(~np.isfinite(values))
+        if len(bad):
+            raise ValueError(f"{path}: line {bad[0] + 2}: column {name!r} is not a finite number "
+                             f"({len(bad)} row(s)); the truth needs every value")
+    table = np.column_stack(list(columns.values()))
+    repeat = np.concatenate(([False], np.all(table[1:] == table[:-1], axis=1)))  # a row written twice: harmless
+    back = np.flatnonzero((np.diff(truth.t) <= 0) & ~repeat[1:])
+    if len(back):
+        k = int(back[0])
+        raise ValueError(f"{path}: line {k + 3}: t = {truth.t[k + 1]:.9g} s is not after line {k + 2}'s "
+                         f"{truth.t[k]:.9g} s ({len(back)} such row(s)); the truth must go forward in time")
+    if not repeat.any():
+        return truth
+    keep = ~repeat
+    return dataclasses.replace(
+        truth, t=truth.t[keep], lat=truth.lat[keep], lon=truth.lon[keep], h=truth.h[keep], roll=truth.roll[keep],
+        pitch=truth.pitch[keep], yaw=truth.yaw[keep],
+        velocity_n=None if truth.velocity_n is None else truth.velocity_n[keep],
+        extra={k: v[keep] for k, v in truth.extra.items()})
