@@ -49,3 +49,19 @@ def test_a_clean_recording_plays_and_an_empty_bin_or_a_probability_of_2_is_refus
     with pytest.raises(SystemExit) as exit_:
         bp3010_emulator.main(["--flip-probability", "2"])
     assert exit_.value.code == 2 and "--flip-probability" in capsys.readouterr().err
+
+
+def test_bag_play_refuses_a_topic_the_bag_does_not_have_naming_the_closest(tmp_path, rclpy_context):
+    from rclpy.parameter import Parameter
+
+    from imu_driver.bag_play_node import BagPlayer
+    from nav_core.params import ConfigError
+
+    n = 64
+    bag = recording.write_bag(tmp_path / "bag", ImuRecording(1.7e9 + np.arange(n) / 64, np.zeros((n, 3)),
+                                                             np.tile([0, 0, 9.8], (n, 1))),
+                              recording.GnssRecording(1.7e9 + np.arange(2.0), np.full(2, 0.8), np.full(2, 0.1),
+                                                      np.zeros(2), np.ones((2, 3))), storage="mcap")
+    with pytest.raises(ConfigError, match=r"'topics': \['gps/fx'\] not in bag .*did you mean 'gps/fix'"):
+        BagPlayer(parameter_overrides=[Parameter("bag", value=str(bag)),  # was: played imu/data_raw alone, silently
+                                       Parameter("topics", value=["imu/data_raw", "gps/fx"])])

@@ -19,7 +19,7 @@ from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
 from rosgraph_msgs.msg import Clock
 
 from nav_core import bagio
-from nav_core.params import ConfigError, Param
+from nav_core.params import ConfigError, Param, did_you_mean
 from nav_core.ros_node import SENSOR_QOS, declare_parameters, run_node
 
 SENSOR_TYPES = {"sensor_msgs/msg/Imu", "sensor_msgs/msg/NavSatFix", "sensor_msgs/msg/Temperature"}
@@ -72,7 +72,12 @@ class BagPlayer(Node):
     def _make_publishers(self, wanted) -> dict:
         pubs = {}
         recorded_qos = bagio.offered_qos(self.p["bag"])
-        for topic, msgtype in bagio.topics(self.p["bag"]).items():
+        present = bagio.topics(self.p["bag"])
+        absent = sorted({bagio.norm_topic(t) for t in wanted} - set(present))
+        if absent:  # a misspelt topic would play the rest and leave the graph without it, silently
+            raise ConfigError(f"parameter 'topics': {absent} not in bag {self.p['bag']}"
+                              f"{did_you_mean(absent[0], present)}; it has {sorted(present)}")
+        for topic, msgtype in present.items():
             if wanted and topic not in {bagio.norm_topic(t) for t in wanted}:
                 continue
             cls = message_class(msgtype)
