@@ -88,8 +88,8 @@ def check_recordings(imu, gnss, cfg, imu_topic: str) -> list[str]:
     if gnss is not None and len(gnss):
         t0, t1 = imu.t[0] - cfg.time_jump, imu.t[-1] + cfg.time_jump
         inside = int(np.sum((gnss.t >= t0) & (gnss.t <= t1)))
-        spans = (f"fixes t {np.nanmin(gnss.t):.6g} to {np.nanmax(gnss.t):.6g} s, IMU t {imu.t[0]:.6g} to "
-                 f"{imu.t[-1]:.6g} s")
+        spans = (f"fixes t {np.nanmin(gnss.t):.10g} to {np.nanmax(gnss.t):.10g} s, IMU t {imu.t[0]:.10g} to "
+                 f"{imu.t[-1]:.10g} s")
         if inside < min(2, len(gnss)):
             raise recording.RecordingError(f"{gnss.source}: {inside} of {len(gnss)} fixes fall within the IMU "
                                            f"recording's time ({spans}): not one clock, or not seconds?")
