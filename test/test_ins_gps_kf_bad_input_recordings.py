@@ -159,3 +159,11 @@ def test_the_filter_never_takes_a_specific_force_far_from_g_as_rest_and_says_so(
     assert counts["alignment_not_gravity"] >= 20 and "in g" in counts["last_rejection"]
     filt = InsGpsFilter(config.from_params({"alignment_time_s": 20.0}))
     assert run(filt, imu, gnss) and filt.input_counters["alignment_not_gravity"] == 0
+
+
+def test_a_misspelt_param_override_names_the_parameter_meant(tmp_path, inputs, capsys):
+    paths = [recording.write_imu_csv(tmp_path / "imu.csv", inputs[0]), recording.write_gnss_csv(tmp_path / "g.csv",
+                                                                                                  inputs[1])]
+    assert main(["replay", "--recording", str(paths[0]), "--gnss", str(paths[1]), "--model", "default",
+                 "--out", str(tmp_path / "t.csv"), "--param", "alignment_tme_s=20"]) == 2
+    assert "did you mean 'alignment_time_s'?" in capsys.readouterr().err

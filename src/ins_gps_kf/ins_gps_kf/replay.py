@@ -26,6 +26,7 @@ import numpy as np  # noqa: E402
 from nav_core import recording, units  # noqa: E402
 from nav_core.units import DEG  # noqa: E402
 from nav_core.cli import add_common, run_cli  # noqa: E402
+from nav_core.params import did_you_mean  # noqa: E402
 from nav_core.outputs import check_out_file, staged_file  # noqa: E402
 from ins_gps_kf import config as kfconfig  # noqa: E402
 from ins_gps_kf.filter import ALIGNING, InsGpsFilter  # noqa: E402
@@ -124,7 +125,8 @@ def _parse_overrides(pairs) -> dict:
             raise kfconfig.FilterConfigError(f"--param {pair!r}: expected NAME=VALUE")
         name, value = pair.split("=", 1)
         if name not in kfconfig.SPEC_BY_NAME:
-            raise kfconfig.FilterConfigError(f"--param {name!r}: unknown parameter")
+            raise kfconfig.FilterConfigError(f"--param {name!r}: unknown parameter"
+                                             f"{did_you_mean(name, kfconfig.SPEC_BY_NAME)}")
         value = yaml.safe_load(value)
         default = kfconfig.SPEC_BY_NAME[name].default
         out[name] = float(value) if isinstance(default, float) and isinstance(value, int) else value
