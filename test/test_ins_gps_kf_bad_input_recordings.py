@@ -87,6 +87,7 @@ def test_a_cut_gnss_file_and_a_step_back_in_imu_time_are_said_and_the_run_goes_o
     code, err, written = _replay(tmp_path, _copy(imu, t=t), cut, capsys)
     assert code == 0 and written
     assert "the last fix is" in err and "before the end of the IMU recording" in err
+    assert "gap(s) over" not in err  # a cut file is not a gap
     assert "time going backwards (sample 1001" in err
 
 
@@ -167,3 +168,11 @@ def test_a_misspelt_param_override_names_the_parameter_meant(tmp_path, inputs, c
     assert main(["replay", "--recording", str(paths[0]), "--gnss", str(paths[1]), "--model", "default",
                  "--out", str(tmp_path / "t.csv"), "--param", "alignment_tme_s=20"]) == 2
     assert "did you mean 'alignment_time_s'?" in capsys.readouterr().err
+
+
+def test_an_outage_in_the_fixes_is_said(tmp_path, inputs, capsys):
+    imu, gnss = inputs
+    keep = (gnss.t < 30.0) | (gnss.t > 45.0)
+    holed = recording.GnssRecording(gnss.t[keep], gnss.lat[keep], gnss.lon[keep], gnss.h[keep], gnss.std_enu[keep])
+    code, err, written = _replay(tmp_path, imu, holed, capsys)
+    assert code == 0 and written and "1 gap(s) over 10 s between fixes" in err

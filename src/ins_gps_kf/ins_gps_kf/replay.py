@@ -33,7 +33,7 @@ from ins_gps_kf.filter import ALIGNING, InsGpsFilter  # noqa: E402
 from ins_gps_kf.offline import load_model, plot_north_east, run, to_trajectory  # noqa: E402
 
 
-GNSS_END_WARN_S = 10.0  # IMU beyond the last fix by more than this: said (a cut GNSS file looks like an outage)
+GNSS_END_WARN_S = 10.0  # fixes this far apart, or ending this long before the IMU, are said (a cut file or outage)
 
 
 def replay_files(recording_path, gnss_path, model_path, out_path, params: dict | None = None,
@@ -97,6 +97,12 @@ def check_recordings(imu, gnss, cfg, imu_topic: str) -> list[str]:
         if inside < len(gnss):
             out.append(f"{gnss.source}: {len(gnss) - inside} of {len(gnss)} fixes fall outside the IMU recording's "
                        f"time ({spans}); the filter drops them")
+        t_fix = np.sort(gnss.t[np.isfinite(gnss.t)])
+        gaps = np.flatnonzero(np.diff(t_fix) > GNSS_END_WARN_S)
+        if len(gaps):
+            k = gaps[0]
+            out.append(f"{gnss.source}: {len(gaps)} gap(s) over {GNSS_END_WARN_S:g} s between fixes (first: "
+                       f"{t_fix[k]:.10g} to {t_fix[k + 1]:.10g} s); the INS runs alone there")
         lead = imu.t[-1] - np.nanmax(gnss.t)
         if lead > GNSS_END_WARN_S:
             out.append(f"{gnss.source}: the last fix is {lead:.4g} s before the end of the IMU recording ({spans}); "
