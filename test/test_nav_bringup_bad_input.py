@@ -94,3 +94,15 @@ def test_scenario_player_on_an_empty_file_in_its_sim_dir_is_a_config_error_namin
     with pytest.raises(ConfigError, match=f"parameter 'sim_dir': .*{broken}"):
         ScenarioPlayer(parameter_overrides=[Parameter("sim_dir", value=str(tmp_path)),
                                             Parameter("link", value=str(tmp_path / "port"))])
+
+
+def test_the_report_of_a_run_that_never_aligned_says_the_imu_never_read_1_g(tmp_path):
+    from nav_bringup.report import _no_odometry
+
+    why = "IMU block ending at t=12.000 s reads |specific force| 1.002 m/s^2, not about 9.8: (accelerometer in g?)"
+    diags = {"ins_gps_kf_node: ins_gps_kf": (0, "aligning", {"alignment": "0.0/45 s stationary",
+                                                              "alignment_not_gravity": "12", "last_rejection": why})}
+    text = _no_odometry(tmp_path, diags, {})  # was: "a run must last beyond that" on a 130-s bag in g
+    assert why in text and "12 blocks refused" in text and "must last" not in text
+    diags["ins_gps_kf_node: ins_gps_kf"][2]["alignment_not_gravity"] = "0"
+    assert "must last beyond" in _no_odometry(tmp_path, diags, {})

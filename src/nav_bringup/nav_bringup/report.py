@@ -301,9 +301,13 @@ def _no_odometry(run_dir: Path, diags: dict, codes: dict) -> str:
     """The run ended before the filter navigated (too short to align, or no GPS): say so, with its state."""
     state = next((f"{m} ({v.get('alignment', '')})" for n, (_, m, v) in diags.items() if "ins_gps_kf" in n),
                  "no diagnostics from the filter")
-    text = (f"=== Navigation report: {run_dir}\n    the filter published no odometry: {state}. "
-            "It aligns on the first 45 s at rest and takes its heading from the GPS course once the vehicle "
-            "moves, so a run must last beyond that.")
+    refused = next((v for n, (_, _, v) in diags.items() if "ins_gps_kf" in n
+                    and str(v.get("alignment_not_gravity", "0")) != "0"), None)
+    why = (f"It never found the IMU at rest: {refused.get('last_rejection', '')} "
+           f"({refused['alignment_not_gravity']} blocks refused)." if refused else
+           "It aligns on the first 45 s at rest and takes its heading from the GPS course once the vehicle "
+           "moves, so a run must last beyond that.")
+    text = f"=== Navigation report: {run_dir}\n    the filter published no odometry: {state}. {why}"
     if codes:
         text += "\n    exit codes: " + ", ".join(f"{k} {v}" for k, v in codes.items())
     (run_dir / "report.html").write_text(f"<!doctype html><html><body><pre>{html.escape(text)}</pre></body></html>")
