@@ -65,3 +65,28 @@ def test_bag_play_refuses_a_topic_the_bag_does_not_have_naming_the_closest(tmp_p
     with pytest.raises(ConfigError, match=r"'topics': \['gps/fx'\] not in bag .*did you mean 'gps/fix'"):
         BagPlayer(parameter_overrides=[Parameter("bag", value=str(bag)),  # was: played imu/data_raw alone, silently
                                        Parameter("topics", value=["imu/data_raw", "gps/fx"])])
+
+
+def test_bag_play_of_a_cut_bag_still_brings_the_clock_to_its_last_message(tmp_path, rclpy_context, monkeypatch):
+    from rclpy.parameter import Parameter
+
+    from imu_driver.bag_play_node import BagPlayer
+
+    n = 6400  # two MCAP chunks; cut in the second
+    t = 1.7e9 + np.arange(n) / 64
+    bag = recording.write_bag(tmp_path / "bag", ImuRecording(t, np.zeros((n, 3)), np.tile([0, 0, 9.8], (n, 1))),
+                              storage="mcap")
+    data = next(bag.glob("*.mcap"))
+    data.write_bytes(data.read_bytes()[:data.stat().st_size * 3 // 4])
+    clock = []
+    monkeypatch.setattr(BagPlayer, "_publish_clock", lambda self, ns: clock.append(ns))
+    player = BagPlayer(parameter_overrides=[Parameter("bag", value=str(bag)), Parameter("rate", value=1000.0),
+                                            Parameter("start_delay_s", value=0.0)])
+    try:
+        assert player.done.wait(30.0)
+    finally:
+        player.close()
+        player.destroy_node()
+    assert player.error and "cut short" in player.error
+    last = recording.read_imu(bag).t[-1]
+    assert clock and abs(clock[-1] * 1e-9 - last) < 1e-6  # was: up to one clock step short (10 s here)

@@ -137,11 +137,11 @@ class BagPlayer(Node):
                 self.publishers_by_topic[topic][1].publish(raw)  # the recorded CDR as it is
                 self.played += 1
                 last_ns = log_ns
-            if last_ns is not None:
-                self._publish_clock(last_ns)
-        except bagio.BagDamage as err:
+        except bagio.BagDamage as err:  # raised once every intact message was played
             self.error = str(err)
             self.get_logger().error(f"stopped at damage after {self.played} messages: {err}")
+        if last_ns is not None:  # the clock reaches the last message, damaged bag or not
+            self._publish_clock(last_ns)
 
     def _publish_clock(self, ns: int) -> None:
         if self.p["publish_clock"]:
