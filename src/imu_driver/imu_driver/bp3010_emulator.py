@@ -7,6 +7,7 @@ from pathlib import Path
 
 from imu_driver.emulator import SCENARIOS, Emulator, FaultPlan, PtyPort, SerialPort, counts_from_source
 from nav_core.cli import number
+from nav_core.cli import parse_args as cli_parse_args
 
 
 def parse_args(argv=None):
@@ -30,7 +31,7 @@ def parse_args(argv=None):
     p.add_argument("--disconnect-at", type=float, action="append", default=[],
                    help="unplug at this time (s of stream); repeatable")
     p.add_argument("--disconnect-for", type=number(0.0, None), default=5.0, help="how long each unplug lasts, s")
-    return p.parse_args(argv)
+    return cli_parse_args(p, argv)
 
 
 def main(argv=None) -> int:

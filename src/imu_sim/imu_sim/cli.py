@@ -8,7 +8,7 @@ from pathlib import Path
 
 from tqdm import tqdm
 
-from nav_core.cli import add_common, number, run_cli
+from nav_core.cli import add_common, number, parse_args, run_cli
 from nav_core.outputs import check_out_dir, rebase, staged_dir
 
 from imu_sim.plots import overview_png
@@ -118,7 +118,7 @@ def _simulate(args) -> int:
 
 def main(argv=None) -> int:
     """Entry point of the ``imu-sim`` console script: exit 2 with one line for bad input (``--debug``: traceback)."""
-    args = _parser().parse_args(argv)
+    args = parse_args(_parser(), argv)
     run = {"simulate": _simulate, "diagnose": _diagnose, "prepare-real": _prepare_real}[args.command]
     return run_cli("imu-sim", run, args)
 

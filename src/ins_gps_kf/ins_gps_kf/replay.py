@@ -25,7 +25,7 @@ import numpy as np  # noqa: E402
 
 from nav_core import recording, units  # noqa: E402
 from nav_core.units import DEG  # noqa: E402
-from nav_core.cli import add_common, run_cli  # noqa: E402
+from nav_core.cli import add_common, parse_args, run_cli  # noqa: E402
 from nav_core.params import did_you_mean  # noqa: E402
 from nav_core.outputs import check_out_file, staged_file  # noqa: E402
 from ins_gps_kf import config as kfconfig  # noqa: E402
@@ -172,7 +172,7 @@ def main(argv=None) -> int:
     rp.add_argument("--quiet", action="store_true", help="no progress bar")
     rp.add_argument("--json", action="store_true", help="print the run's counts (events, rejected input) as JSON")
     _plugins(sub)
-    args = parser.parse_args(argv)
+    args = parse_args(parser, argv)
     return run_cli("ins-gps-kf", _replay if args.command == "replay" else args.run, args)
 
 

@@ -21,7 +21,7 @@ import yaml
 
 from nav_eval import datasets as kf_datasets
 from nav_core import datasets, recording, sensor_model
-from nav_core.cli import add_common, run_cli
+from nav_core.cli import add_common, parse_args, run_cli
 from nav_core.outputs import check_out_dir, staged_dir
 from nav_core.recording import ImuRecording
 from nav_bringup.graph import PARAMS_FILE, REPO
@@ -128,7 +128,7 @@ def main(argv=None) -> int:
     p.add_argument("--out", type=Path, required=True)
     p.add_argument("--csv", type=Path, default=None, help="balzer: which car CSV")
     add_common(p, force=True)
-    return run_cli("nav-convert", _run, p.parse_args(argv))
+    return run_cli("nav-convert", _run, parse_args(p, argv))
 
 
 def _run(args) -> int:

@@ -24,6 +24,7 @@ import yaml
 
 from nav_bringup.graph import PARAMS_FILE, REPO, Graph, GraphError, NodeSpec
 from nav_core.cli import USER_ERRORS, add_common, debug_wanted, number, one_line
+from nav_core.cli import parse_args as cli_parse_args
 from nav_core.outputs import check_out_dir
 
 DEFAULT_SCENARIO = REPO / "config" / "scenarios" / "paper_drive.yaml"
@@ -48,7 +49,7 @@ def parse_args(argv=None):
     p.add_argument("--out", type=Path, default=DEFAULT_OUT, help="folder for the simulation, bag, logs, report")
     p.add_argument("--params", type=Path, default=PARAMS_FILE, help="the graph's params file")
     add_common(p)
-    return p.parse_args(argv)
+    return cli_parse_args(p, argv)
 
 
 def simulate_scenario(scenario: Path, model: Path, seed: int, out: Path, duration_s: float | None = None,

@@ -13,6 +13,7 @@ traceback instead. Use::
 from __future__ import annotations
 
 import argparse
+import difflib
 import math
 import os
 import struct
@@ -33,6 +34,25 @@ def add_common(parser: argparse.ArgumentParser, force: bool = False, sub: bool =
     if force:
         parser.add_argument("--force", action="store_true", default=False,
                             help="replace an existing --out (it is only removed once the new one is complete)")
+
+
+def parse_args(parser: argparse.ArgumentParser, argv=None) -> argparse.Namespace:
+    """``parser.parse_args(argv)``, but an unknown option is a usage error (exit 2) of the subcommand given that
+    names the closest known option (``'--no-plt': did you mean '--no-plot'?``)."""
+    args, extra = parser.parse_known_args(argv)
+    if not extra:
+        return args
+    target = parser
+    for action in parser._actions:  # the subcommand's parser knows its options
+        if isinstance(action, argparse._SubParsersAction) and getattr(args, action.dest, None) in action.choices:
+            target = action.choices[getattr(args, action.dest)]
+    known = [o for a in target._actions + parser._actions for o in a.option_strings if o.startswith("--")]
+    hints = []
+    for word in extra:
+        close = difflib.get_close_matches(word.split("=")[0], known, n=1, cutoff=0.6)
+        if word.startswith("-") and close:
+            hints.append(f"{word.split('=')[0]!r}: did you mean {close[0]!r}?")
+    target.error(f"unrecognized arguments: {' '.join(extra)}" + (f" ({'; '.join(hints)})" if hints else ""))
 
 
 def number(low: float | None = None, high: float | None = None, integer: bool = False,

@@ -16,7 +16,7 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 from tqdm import tqdm  # noqa: E402
 
-from nav_core.cli import add_common, number, run_cli  # noqa: E402
+from nav_core.cli import add_common, number, parse_args, run_cli  # noqa: E402
 from nav_core.outputs import check_out_dir, staged_dir  # noqa: E402
 from nav_core.units import rad2deg  # noqa: E402
 from nav_core.datasets import read_balzer_csv  # noqa: E402
@@ -124,7 +124,7 @@ def main(argv=None) -> int:
                         help="RNG seed of the simulated runs (an integer >= 0)")
     parser.add_argument("--balzer", type=Path, default=None,
                         help="balzer82/Kalman car CSV (default: the shared data's, skipped with a note if absent)")
-    return run_cli("wmra-report", _report, parser.parse_args(argv))
+    return run_cli("wmra-report", _report, parse_args(parser, argv))
 
 
 def _report(args) -> int:
