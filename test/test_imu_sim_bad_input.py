@@ -29,6 +29,8 @@ def _files(tmp_path, damage=None):
         t[700], t[701] = t[701], t[700]
     elif damage == "nan":
         gyro[700, 1] = np.nan
+    elif damage == "in_g":
+        accel = accel / 9.80665
     rec = recording.write_imu_csv(tmp_path / "imu.csv", ImuRecording(t, gyro, accel))
     sc = {"latitude_deg": 45.0, "longitude_deg": 7.0, "height_m": 200.0, "rate_hz": RATE, "gps": False,
           "static_segments": [{"t0": 0.0, "t1": N / RATE + 1.0, "roll_deg": 0.0, "pitch_deg": 0.0, "yaw_deg": 0.0}]}
@@ -48,6 +50,7 @@ def test_a_clean_recording_is_paired_sample_by_sample(tmp_path):
     ("repeat", ["duplicate stamps", "sample 700"]),
     ("back", ["time going backwards", "sample 701"]),
     ("nan", ["NaN or infinite", "sample 700", "t = 14.020000 s"]),
+    ("in_g", ["accelerometer columns", "0.102 x", "g?"]),  # was: no finding, the turn-on bias took it
 ])
 def test_a_gap_repeat_step_back_or_nan_sample_is_an_input_error_naming_file_and_sample(tmp_path, capsys, damage,
                                                                                         words):

@@ -116,6 +116,7 @@ def make_case(rec: ImuRecording, sc: Scenario, model: SensorModel, gnss=None, wh
     temp = rec.temp_c if rec.temp_c is not None else temperature_profile(sc, t_abs[:n])
     dth, dv = kinematics.increments(traj, t_abs[:n], 1.0 / rate, kinematics.FULL)
     gyro_true, accel_true = dth * rate, dv * rate
+    _check_accel_unit(rec, accel_true, where)
     masked = _unrecorded_motion(rec, gyro_true, where, sc.where)
     if masked is not None:
         gyro_true[masked], accel_true[masked] = 0.0, 0.0
@@ -139,6 +140,17 @@ def _check_uniform(rec: ImuRecording, where: str) -> None:
         raise DiagnosisInputError(
             f"{check.summary()}: the diagnosis pairs samples with the scenario by index, so everything after it "
             f"would be compared with the wrong time; cut the recording there (or repair it)")
+
+
+def _check_accel_unit(rec: ImuRecording, accel_true, where: str) -> None:
+    """DiagnosisInputError when the recorded specific force is not about the scenario's (median |f| ratio outside
+    [0.5, 2]): another unit (g, mg), which the per-channel turn-on bias would otherwise absorb without a finding."""
+    f_rec = float(np.median(np.linalg.norm(rec.accel, axis=1)))
+    f_true = float(np.median(np.linalg.norm(accel_true, axis=1)))
+    if f_true > 0 and not 0.5 <= f_rec / f_true <= 2.0:
+        raise DiagnosisInputError(f"{where}: accelerometer columns: median |specific force| {f_rec:.4g}, the "
+                                  f"scenario's {f_true:.4g} m/s^2 ({f_rec / f_true:.3g} x): recorded in another unit "
+                                  "(g? mg?)")
 
 
 def _unrecorded_motion(rec, gyro_true, where, sc_where):
