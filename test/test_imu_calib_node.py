@@ -114,5 +114,6 @@ def test_the_fit_runs_in_a_niced_worker_while_the_node_keeps_publishing_diagnost
     assert len(working) >= 5, arrivals[:3]
     # the node answered all along: no silence of more than 10 periods while its worker was busy
     assert np.max(np.diff(working)) < 2.0, np.max(np.diff(working))
-    assert niceness and niceness[0] >= 10, niceness
+    # the kernel caps niceness at 19, so under a niced test run (CI at nice 10) the worker is less than +10 apart
+    assert niceness and niceness[0] >= min(10, 19 - os.getpriority(os.PRIO_PROCESS, 0)), niceness
     assert arrivals[-1][1].startswith("wrote"), arrivals[-1]
