@@ -15,7 +15,6 @@ recordings of ``shared/data``. The calibration subcommands update MODEL.yaml if 
 from __future__ import annotations
 
 import argparse
-import difflib
 import logging
 import sys
 
@@ -23,7 +22,7 @@ import numpy as np
 
 from imu_calib import model_io, multi_position, rate_table, screen, two_position
 from nav_core import sensor_model
-from nav_core.cli import add_common, number, run_cli
+from nav_core.cli import add_common, number, parse_args, run_cli
 from nav_core.outputs import check_out_dir, check_out_file, rebase, staged_dir
 from nav_core.recording import IMU_TOPIC
 from nav_core.units import DEG
@@ -265,18 +264,7 @@ def cmd_multi_position(args) -> int:
 
 def parse(argv=None) -> argparse.Namespace:
     """The arguments; an unknown option is a usage error of its subcommand naming the closest known one."""
-    parser = build_parser()
-    args, extra = parser.parse_known_args(argv)
-    if extra:
-        sub = next(a for a in parser._actions if isinstance(a, argparse._SubParsersAction)).choices[args.command]
-        known = [o for a in sub._actions for o in a.option_strings if o.startswith("--")]
-        hints = []
-        for word in extra:
-            close = difflib.get_close_matches(word.split("=")[0], known, n=1, cutoff=0.6)
-            if word.startswith("-") and close:
-                hints.append(f"{word.split('=')[0]!r}: did you mean {close[0]!r}?")
-        sub.error(f"unrecognized arguments: {' '.join(extra)}" + (f" ({'; '.join(hints)})" if hints else ""))
-    return args
+    return parse_args(build_parser(), argv)
 
 
 def main(argv=None) -> int:
