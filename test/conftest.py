@@ -24,6 +24,16 @@ def shared_data(*parts) -> Path:
     return path
 
 
+def one_error_line(capsys, *words) -> str:
+    """The one stderr line with "error" a CLI printed (no traceback), checked to hold every one of ``words``."""
+    err = capsys.readouterr().err
+    lines = [ln for ln in err.splitlines() if "error" in ln]
+    assert len(lines) == 1 and "Traceback" not in err, err
+    for w in words:
+        assert w in lines[0], (w, lines[0])
+    return lines[0]
+
+
 @pytest.fixture
 def ros_env(monkeypatch):
     """Environment for node processes: a test-private ROS_DOMAIN_ID, localhost-only discovery."""

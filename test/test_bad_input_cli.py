@@ -5,6 +5,7 @@ half-overwritten."""
 import numpy as np  # noqa: E402
 import pytest  # noqa: E402
 
+from conftest import one_error_line  # noqa: E402
 from imu_calib import cli as calib_cli  # noqa: E402
 from imu_sim import cli as sim_cli  # noqa: E402
 from ins_gps_kf import replay as kf_cli  # noqa: E402
@@ -20,15 +21,6 @@ segments:
   - {type: stand, duration_s: 3}
   - {type: accelerate, duration_s: 3, speed_mps: 2}
 """
-
-
-def _one_error_line(capsys, *words):
-    err = capsys.readouterr().err
-    lines = [ln for ln in err.splitlines() if "error" in ln]
-    assert len(lines) == 1 and "Traceback" not in err, err
-    for w in words:
-        assert w in lines[0], (w, lines[0])
-    return lines[0]
 
 
 @pytest.fixture
@@ -52,11 +44,11 @@ def test_a_20_byte_mcap_is_one_line_in_both_clis(tmp_path, capsys):
     tiny = tmp_path / "tiny.mcap"
     tiny.write_bytes(b"\x89MCAP0\r\n" + bytes(12))
     assert calib_cli.main(["allan", str(tiny), "--out", str(tmp_path / "a"), "--no-progress"]) == 2
-    _one_error_line(capsys, "tiny.mcap")
+    one_error_line(capsys, "tiny.mcap")
     model = sensor_model.save(sensor_model.SensorModel(), tmp_path / "m.yaml")
     assert kf_cli.main(["replay", "--recording", str(tiny), "--model", str(model), "--out",
                         str(tmp_path / "t.csv"), "--quiet"]) == 2
-    _one_error_line(capsys, "tiny.mcap")
+    one_error_line(capsys, "tiny.mcap")
 
 
 def test_a_truncated_sqlite_bag_without_the_topic_is_exit_2_naming_topic_and_topics(tmp_path, capsys):
@@ -70,7 +62,7 @@ def test_a_truncated_sqlite_bag_without_the_topic_is_exit_2_naming_topic_and_top
     code = kf_cli.main(["replay", "--recording", str(bag), "--model", str(model), "--out", str(tmp_path / "t.csv"),
                         "--quiet"])
     assert code == 2
-    _one_error_line(capsys, "imu/data_corrected", "imu/data_raw")
+    one_error_line(capsys, "imu/data_corrected", "imu/data_raw")
     assert not (tmp_path / "t.csv").exists()
 
 
@@ -95,7 +87,7 @@ def test_allan_skips_one_bad_row_and_refuses_a_mostly_bad_csv(tmp_path, capsys, 
         lines[k] = "garbage"
     path.write_text("\n".join(lines) + "\n")
     assert calib_cli.main(["allan", str(path), "--out", str(tmp_path / "many"), "--no-progress"]) == 2
-    _one_error_line(capsys, "imu.csv", "101 bad row", "not used")
+    one_error_line(capsys, "imu.csv", "101 bad row", "not used")
     assert seen == [n]  # refused before the fit
     assert not (tmp_path / "many").exists()
 
@@ -111,7 +103,7 @@ def test_simulate_into_an_existing_folder_changes_nothing_and_force_replaces_it_
     before = {p.name: p.read_bytes() for p in out.iterdir()}
     capsys.readouterr()
     assert sim_cli.main(["simulate", "--scenario", str(scenario), "--out", str(out), "--seed", "5"]) == 2
-    _one_error_line(capsys, str(out), "--force")
+    one_error_line(capsys, str(out), "--force")
     assert {p.name: p.read_bytes() for p in out.iterdir()} == before  # nothing overwritten, no bag added
     assert sim_cli.main(["simulate", "--scenario", str(scenario), "--out", str(out), "--seed", "5", "--force"]) == 0
     assert (out / "bag").is_dir() and "seed: 5" in (out / "sim_info.yaml").read_text()
@@ -146,7 +138,7 @@ def test_a_bad_out_fails_before_any_computation_in_every_cli(tmp_path, scenario,
     ]
     for main, argv in calls:
         assert main(argv) == 2, argv
-        _one_error_line(capsys, "error")
+        one_error_line(capsys, "error")
     assert afile.read_text() == "mine\n"
 
 
@@ -155,7 +147,7 @@ def test_replay_refuses_to_overwrite_its_output_unless_forced(tmp_path, capsys):
     out.write_text("precious\n")
     csv = _static_csv(tmp_path / "imu.csv", seconds=5)
     assert kf_cli.main(["replay", "--recording", str(csv), "--model", "default", "--out", str(out)]) == 2
-    _one_error_line(capsys, "traj.csv", "--force")
+    one_error_line(capsys, "traj.csv", "--force")
     assert out.read_text() == "precious\n"
 
 
@@ -165,7 +157,7 @@ def test_allan_refuses_a_non_empty_out_folder(tmp_path, capsys):
     (out / "notes.txt").write_text("mine\n")
     csv = _static_csv(tmp_path / "imu.csv", seconds=5)
     assert calib_cli.main(["allan", str(csv), "--out", str(out), "--no-progress"]) == 2
-    _one_error_line(capsys, "not empty", "--force")
+    one_error_line(capsys, "not empty", "--force")
     assert [p.name for p in out.iterdir()] == ["notes.txt"]
 
 
@@ -185,7 +177,7 @@ def test_a_scenario_typo_is_one_line_naming_file_segment_key_and_suggestion(tmp_
     path = tmp_path / "typo.yaml"
     path.write_text(SCENARIO.replace("speed_mps", "speed"))
     assert sim_cli.main(["simulate", "--scenario", str(path), "--out", str(tmp_path / "o")]) == 2
-    _one_error_line(capsys, "typo.yaml", "segments[1]", "'speed'", "did you mean 'speed_mps'")
+    one_error_line(capsys, "typo.yaml", "segments[1]", "'speed'", "did you mean 'speed_mps'")
     assert not (tmp_path / "o").exists()
 
 

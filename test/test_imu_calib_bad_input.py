@@ -6,6 +6,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
+from conftest import one_error_line
 from imu_calib import characterise as char_mod
 from imu_calib import cli, screen
 from imu_calib.allan import AllanError
@@ -41,15 +42,6 @@ def _allan(path, out, *extra):
     return cli.main(["allan", str(path), "--out", str(out), "--no-progress", *extra])
 
 
-def _one_error_line(capsys, *words):
-    err = capsys.readouterr().err
-    lines = [ln for ln in err.splitlines() if "error" in ln]
-    assert len(lines) == 1 and "Traceback" not in err, err
-    for w in words:
-        assert w in lines[0], (w, lines[0])
-    return lines[0]
-
-
 # -- allan: non-finite samples ----------------------------------------------------------------------------
 
 
@@ -58,7 +50,7 @@ def test_a_non_finite_value_is_one_line_naming_file_column_line_time_and_split_o
                                                                                        value, name):
     path = _edit(_csv(tmp_path, "nan.csv"), 702, column, value)  # line 702 = sample 700, t = 7 s
     assert _allan(path, tmp_path / "o") == 2
-    _one_error_line(capsys, "nan.csv", f"{name} 1", "sample 700", "line 702", "t = 7 s", "--split-at-gaps")
+    one_error_line(capsys, "nan.csv", f"{name} 1", "sample 700", "line 702", "t = 7 s", "--split-at-gaps")
     assert not (tmp_path / "o").exists()
 
 
@@ -82,7 +74,7 @@ def test_a_nan_in_a_bag_is_named_by_its_message_field(tmp_path, capsys):
     rec.gyro[700, 1] = np.nan
     bag = recording.write_bag(tmp_path / "bag", rec, storage="mcap")
     assert _allan(bag, tmp_path / "o") == 2
-    _one_error_line(capsys, "bag", "gy (angular_velocity.y) 1", "sample 700", "t = 1700000007.000 s")
+    one_error_line(capsys, "bag", "gy (angular_velocity.y) 1", "sample 700", "t = 1700000007.000 s")
 
 
 def test_a_live_nan_is_refused_by_the_node_core_without_split_and_breaks_the_record_with_it(tmp_path):
@@ -122,7 +114,7 @@ def test_a_repeated_stamp_with_other_values_is_refused_as_repeated_and_split_wit
     lines.insert(702, ",".join(fields))  # same stamp as sample 700, other values
     path.write_text("\n".join(lines) + "\n")
     assert _allan(path, tmp_path / "o") == 2
-    line = _one_error_line(capsys, "rep.csv", "stamp repeated with different values 1 time", "sample 701",
+    line = one_error_line(capsys, "rep.csv", "stamp repeated with different values 1 time", "sample 701",
                            "line 703", "--split-at-gaps")
     assert "backwards" not in line
     assert _allan(path, tmp_path / "o", "--split-at-gaps") == 0
@@ -189,14 +181,14 @@ def test_rate_table_leaves_a_non_finite_sample_of_its_axis_out_and_says_so(tmp_p
 def test_rate_table_refuses_recordings_that_do_not_show_the_table_rates(tmp_path, capsys):
     up, down = _up_down(tmp_path)  # static: no rate difference, a scale factor of -1 would be written
     assert _rate_table(up, down, tmp_path / "m.yaml") == 2
-    _one_error_line(capsys, "differ by 20 deg/s", "must be > -1")
+    one_error_line(capsys, "differ by 20 deg/s", "must be > -1")
     assert not (tmp_path / "m.yaml").exists()
 
 
 def test_multi_position_refuses_a_non_finite_sample_naming_file_column_and_line(tmp_path, capsys):
     path = _edit(_csv(tmp_path, "mp.csv"), 1002, 4, "nan")
     assert cli.main(["multi-position", str(path), "--gravity", "9.81", "--out", str(tmp_path / "m.yaml")]) == 2
-    _one_error_line(capsys, "mp.csv", "ax 1", "sample 1000", "line 1002", "steps through every sample")
+    one_error_line(capsys, "mp.csv", "ax 1", "sample 1000", "line 1002", "steps through every sample")
     assert not (tmp_path / "m.yaml").exists()
 
 
@@ -235,7 +227,7 @@ def test_an_empty_or_header_only_file_is_one_line_naming_the_file(tmp_path, caps
     path = tmp_path / "bare.csv"
     path.write_text(text)
     assert _allan(path, tmp_path / "o") == 2
-    _one_error_line(capsys, "bare.csv", *words)
+    one_error_line(capsys, "bare.csv", *words)
 
 
 def test_a_non_numeric_cell_is_skipped_and_named_by_line_and_column(tmp_path):
@@ -249,7 +241,7 @@ def test_a_column_name_typo_is_one_line_naming_the_missing_column_and_the_header
     path = _csv(tmp_path, "typo.csv")
     path.write_text(path.read_text().replace("gy", "gyy", 1))
     assert _allan(path, tmp_path / "o") == 2
-    _one_error_line(capsys, "typo.csv", "missing column(s) ['gy']", "'gyy'")
+    one_error_line(capsys, "typo.csv", "missing column(s) ['gy']", "'gyy'")
 
 
 def _ucalgary(path, rec):
@@ -287,7 +279,7 @@ def test_a_damaged_npz_is_one_line_naming_the_file(tmp_path, capsys, content):
         content = path.read_bytes()[:20000]
     path.write_bytes(content)
     assert _allan(path, tmp_path / "o", "--format", "adis") == 2
-    _one_error_line(capsys, "imu1.npz", "not a readable .npz")
+    one_error_line(capsys, "imu1.npz", "not a readable .npz")
 
 
 def test_allan_reads_imutk_with_its_gyro_file_and_gyro_file_is_refused_for_other_formats(tmp_path, capsys):
@@ -299,7 +291,7 @@ def test_allan_reads_imutk_with_its_gyro_file_and_gyro_file_is_refused_for_other
     assert sensor_model.load(tmp_path / "o" / "sensor_model.yaml").provenance["n_samples"] == N
     csv = _csv(tmp_path)
     assert _allan(csv, tmp_path / "p", "--gyro-file", str(tmp_path / "gyro.mat")) == 2
-    _one_error_line(capsys, "--gyro-file", "only --format imutk")
+    one_error_line(capsys, "--gyro-file", "only --format imutk")
 
 
 @pytest.mark.parametrize("argv,hint", [(["--split-at-gapz"], "'--split-at-gaps'"), (["--formt", "adis"], "'--format'"),
@@ -319,7 +311,7 @@ def test_an_existing_model_that_is_not_valid_fails_before_the_calibration(tmp_pa
     out = tmp_path / "m.yaml"
     out.write_text("garbage: [\n")
     assert cli.main(["multi-position", str(_csv(tmp_path)), "--gravity", "9.81", "--out", str(out)]) == 2
-    _one_error_line(capsys, "m.yaml", "YAML")
+    one_error_line(capsys, "m.yaml", "YAML")
     assert out.read_text() == "garbage: [\n"
 
 
@@ -425,7 +417,7 @@ def test_an_unwritable_out_fails_before_any_calibration(tmp_path, capsys, monkey
                            "--axis", "x", "--lat-deg", "45"],
             "multi-position": [str(up), "--gravity", "9.81"]}[command]
     assert cli.main([command, *argv, "--out", out]) == 2
-    _one_error_line(capsys, "/proc/nav_bad_input_test")
+    one_error_line(capsys, "/proc/nav_bad_input_test")
 
 
 def test_a_non_finite_stamp_in_a_text_format_is_a_break_named_by_column_t(tmp_path, capsys):
@@ -434,7 +426,7 @@ def test_a_non_finite_stamp_in_a_text_format_is_a_break_named_by_column_t(tmp_pa
     lines[500] = "nan " + lines[500].split(None, 1)[1]
     path.write_text("\n".join(lines) + "\n")
     assert _allan(path, tmp_path / "o", "--format", "ucalgary") == 2
-    _one_error_line(capsys, "x_up.txt", "by column: t 1", "sample 500 (line 501, t = nan after 4.99 s)")
+    one_error_line(capsys, "x_up.txt", "by column: t 1", "sample 500 (line 501, t = nan after 4.99 s)")
 
 
 @settings(max_examples=60, deadline=None)
