@@ -35,6 +35,9 @@ PARAMS = (
     Param("start_delay_s", 0.5, "wait this long after start so subscribers can connect, s", 0.0, 60.0),
     Param("wait_for_subscribers", 0, "before playing, wait until every topic has this many subscribers", 0, 100),
     Param("wait_timeout_s", 30.0, "give up waiting for subscribers after this long, s", 0.0, 3600.0),
+    # a subscriber this node counts may not count this publisher yet (DDS discovery is matched on each
+    # side apart): what is played before it does is lost to it, never to a recorder that subscribes later
+    Param("settle_s", 0.5, "after the subscribers are counted, wait this long before playing, s", 0.0, 60.0),
     Param("exit_when_done", True, "shut down after the last message"),
 )
 
@@ -92,15 +95,21 @@ class BagPlayer(Node):
         return pubs
 
     def _wait_for_subscribers(self) -> None:
-        want = self.p["wait_for_subscribers"]
-        deadline = time.monotonic() + self.p["wait_timeout_s"]
-        while want and time.monotonic() < deadline and not self._stop.is_set():
-            if all(pub.get_subscription_count() >= want for _, pub in self.publishers_by_topic.values()):
-                time.sleep(0.5)  # the subscriber's side of discovery can lag the publisher's
+        want, start = self.p["wait_for_subscribers"], time.monotonic()
+        if not want:
+            return
+        while not all(pub.get_subscription_count() >= want for _, pub in self.publishers_by_topic.values()):
+            if self._stop.is_set():
                 return
+            if time.monotonic() > start + self.p["wait_timeout_s"]:
+                self.get_logger().warning(f"playing without {want} subscriber(s) on every topic after waiting")
+                break
             time.sleep(0.05)
-        if want:
-            self.get_logger().warning(f"playing without {want} subscriber(s) on every topic after waiting")
+        counted = time.monotonic() - start
+        self._stop.wait(self.p["settle_s"])  # the subscribers' side of discovery lags ours (seen: 2 s)
+        counts = {t: pub.get_subscription_count() for t, (_, pub) in sorted(self.publishers_by_topic.items())}
+        self.get_logger().info(f"playing: subscribers {counts}, counted after {counted:.2f} s, "
+                               f"then {self.p['settle_s']:.1f} s to settle")
 
     def _play(self) -> None:
         if self._stop.wait(self.p["start_delay_s"]):  # Ctrl-C during the delay ends at once

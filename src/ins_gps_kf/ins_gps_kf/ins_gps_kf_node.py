@@ -112,6 +112,10 @@ class InsGpsKfNode(Node):
             self.tf.send_static(static_mounts(cfg.lever_arm_b, self.params["child_frame_id"],
                                               self.params["imu_frame_id"], self.params["gps_frame_id"]))
         self.imu_out = []
+        # the first stamps received: the report replays the run's bag from them (a subscription matched
+        # after playing began misses what the recorder has), s; None until one comes
+        self.first_imu_t: float | None = None
+        self.first_fix_t: float | None = None
         # IMU and fixes are taken together and merged by receive time: the order per-message callbacks
         # would have seen, so a fix is never overtaken by a batch of IMU samples that arrived after it
         qos = QoSProfile(depth=self.params["input_queue_depth"], reliability=ReliabilityPolicy.BEST_EFFORT)
@@ -150,6 +154,8 @@ class InsGpsKfNode(Node):
         arrivals = sorted([(received, IMU, i) for i, (_, received) in enumerate(imu)]
                           + [(received, GPS, i) for i, (_, received) in enumerate(fixes)])
         t_s = batch.t_s.tolist()
+        if self.first_imu_t is None and t_s:
+            self.first_imu_t = t_s[0]
         restarts, steps = self.intake.counters.restarts, self.filter.input.gnss_clock_steps
         for _, kind, i in arrivals:
             if kind == IMU:
@@ -168,6 +174,8 @@ class InsGpsKfNode(Node):
         """Queue one fix (the filter judges NaN, NO_FIX and implausible fixes)."""
         cov = np.asarray(msg.position_covariance, dtype=float).reshape(3, 3)
         std = np.sqrt(np.clip(np.diag(cov), 0.0, None)) if msg.position_covariance_type > 0 else np.zeros(3)
+        if self.first_fix_t is None:
+            self.first_fix_t = stamp_to_s(msg.header.stamp)
         self.intake.add_fix(stamp_to_s(msg.header.stamp), msg.latitude * DEG, msg.longitude * DEG, msg.altitude,
                             std, msg.status.status)
 
@@ -309,6 +317,8 @@ class InsGpsKfNode(Node):
                   "bad_stamps": ic.bad_stamps, "imu_missing": ic.imu_missing, "node_resets": ic.restarts,
                   "fixes_stamped_back": ic.fixes_stamped_back, "fixes_stamped_ahead": ic.fixes_stamped_ahead,
                   "imu_received": ic.imu_samples, "fixes_received": ic.fixes, "queued": self.intake.pending,
+                  "first_imu_stamp_s": "" if self.first_imu_t is None else f"{self.first_imu_t:.6f}",
+                  "first_fix_stamp_s": "" if self.first_fix_t is None else f"{self.first_fix_t:.6f}",
                   "bad_imu_messages": self.imu_intake.bad_messages, "nonfinite_estimates": self.nonfinite_estimates,
                   "processing_errors": self.processing_errors, "last_processing_error": self.last_processing_error}
         values.update(getattr(f, "input_counters", {}))  # the core's rejected and doubtful input, by kind

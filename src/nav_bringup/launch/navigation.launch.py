@@ -45,8 +45,11 @@ def generate_launch_description():
         Node(package="nav_bringup", executable="scenario_player", parameters=[
             params, {"sim_dir": arg("sim_dir"), "rate": arg("rate"), "link": arg("port")}],
             condition=IfCondition(simulated)),
+        # as nav-demo: the topics the graph reads, once the node reading each and the recorder subscribe, then
+        # a settle (a node subscribed before the player counts its publisher up to ~2.5 s after it is counted)
         Node(package="imu_driver", executable="bag_play", parameters=[
-            params, {"bag": arg("recording"), "rate": arg("rate")}], condition=UnlessCondition(live)),
+            params, {"bag": arg("recording"), "rate": arg("rate"), "topics": ["imu/data_raw", "gps/fix"],
+                     "wait_for_subscribers": 2, "settle_s": 3.0}], condition=UnlessCondition(live)),
         Node(package="imu_driver", executable="bp3010_driver", parameters=[params, sim, {"port": arg("port")}],
              condition=IfCondition(live)),
         Node(package="wmra_filter", executable="wmra_node",

@@ -169,7 +169,7 @@ def graph_specs(args, run_dir: Path, sim_dir: Path | None) -> list:
              # subscribed before anything plays (its last subscription: the filter's output)
              NodeSpec("bag_record", dict(sim, output=str(run_dir / "bag")), ready="recording /odometry/filtered")]
     if sim_dir is None:
-        return specs + [NodeSpec("bag_play", {"bag": str(args.recording.resolve()), "rate": args.rate})]
+        return specs + [NodeSpec("bag_play", player_params(args))]
     link = run_dir / "bp3010_port"
     driver = dict(sim, port=str(link), reconnect_period_s=0.2)
     return ([NodeSpec("bp3010_driver", driver)] + specs +
@@ -177,6 +177,25 @@ def graph_specs(args, run_dir: Path, sim_dir: Path | None) -> list:
                                           "duration_s": args.duration,
                                           # imu/data: only the recorder subscribes it
                                           "wait_for_subscribers": ["gps/fix", "imu/data_raw", "imu/data"]})])
+
+
+PLAYER_SETTLE_S = 3.0
+"""bag_play's wait after it counts its subscribers, s: a node that subscribed before the player started
+counts the player's publisher up to ~2 s after the player counts it (DDS discovery, measured), and misses
+what is played before (the recorder, which subscribes once it sees the player, does not)."""
+
+
+def player_params(args) -> dict:
+    """bag_play's overrides: the bag's topics the graph reads, played once the node reading each and the
+    recorder subscribe (two subscribers), and a settle for the subscribers' side of discovery."""
+    from nav_core import bagio
+
+    section = yaml.safe_load(args.params.read_text()).get("ins_gps_kf_node", {}).get("ros__parameters", {})
+    read = {"imu/data_raw", bagio.norm_topic(section.get("gps_topic", "gps/fix"))}
+    played = sorted(read & set(bagio.topics(args.recording)))
+    # a bag of another demo run holds the graph's own outputs too: played, they would meet the live ones
+    return {"bag": str(args.recording.resolve()), "rate": args.rate, "topics": played or [""],
+            "wait_for_subscribers": 2 if played else 1, "settle_s": PLAYER_SETTLE_S}
 
 
 def filter_params(params_file: Path, specs) -> dict:

@@ -6,7 +6,10 @@ of the stationary head (Fig. 3), raw against denoised signals (Figs. 4 and 5),
 and the diagnostics of every node. The live odometry is checked against an offline replay of
 the run's own bag (``imu/data_corrected`` and ``gps/fix`` through the same filter with the
 node's parameters): the largest difference, what either side has alone, and whatever the
-filter node dropped or found missing, so a run that did not give the offline answer says so.
+filter node dropped or found missing, so a run that did not give the offline answer says so. A bag's
+start the filter node missed (its first received stamps, from its diagnostics, come later) is
+counted and the replay starts where the node's input did; input the node had before the bag's
+first message (the recorder subscribed late) is named, since no replay of that bag can match.
 """
 from __future__ import annotations
 
@@ -152,12 +155,17 @@ def plot_raw_vs_denoised(raw, den, path: Path) -> None:
     plt.close(fig)
 
 
-def compare_with_offline(bag: Path, odom, filter_params: dict) -> dict:
+def compare_with_offline(bag: Path, odom, filter_params: dict, filter_diag: dict | None = None) -> dict:
     """The recorded odometry against an offline replay of the bag's ``imu/data_corrected`` and ``gps/fix``.
 
     ``filter_params``: the filter node's parameters (as in the params file, with the run's
-    overrides). Returns epochs on each side, common epochs, the largest position difference
-    there (m) and the stamps going backwards in the live odometry.
+    overrides); ``filter_diag``: its last /diagnostics values. Where the node's first received
+    stamps (``first_imu_stamp_s``, ``first_fix_stamp_s``) come after the bag's, the node missed the
+    bag's start (its subscription matched the player after playing began: the recorder, which
+    subscribes once it sees the player, has it): that is counted, and the replay starts where the
+    node's input did, so the difference is of the same input. Returns epochs on each side, common
+    epochs, the largest position difference there (m), what the node missed at the start and the
+    stamps going backwards in the live odometry.
     """
     from ins_gps_kf import config as kfconfig
     from ins_gps_kf.filter import InsGpsFilter
@@ -166,6 +174,7 @@ def compare_with_offline(bag: Path, odom, filter_params: dict) -> dict:
     p = {k: v for k, v in filter_params.items() if k in kfconfig.SPEC_BY_NAME}
     imu = recording.read_imu(bag, topic=p.get("imu_topic", "imu/data_corrected"))
     gnss = recording.read_gnss(bag, topic=p.get("gps_topic", "gps/fix"))
+    imu, gnss, missed = _from_filter_start(imu, gnss, filter_diag or {})
     filt = InsGpsFilter(kfconfig.from_params(p), load_model(p.get("sensor_model_path") or "default"))
     estimates = run(filt, imu, gnss)
     off_t = np.array([e.t for e in estimates])
@@ -177,7 +186,36 @@ def compare_with_offline(bag: Path, odom, filter_params: dict) -> dict:
             "only live": len(np.setdiff1d(live_ns, off_ns)), "only offline": len(np.setdiff1d(off_ns, live_ns)),
             "largest difference (m)": float(diff.max()) if len(diff) else float("nan"),
             "live stamps going back": int(np.sum(np.diff(odom.t) <= 0)),
-            "imu samples replayed": len(imu)}
+            "imu samples replayed": len(imu), **missed}
+
+
+MISSED_FIXES = "fixes in the bag before the filter's first"
+MISSED_IMU = "IMU samples in the bag before the filter's first"
+BAG_LATE_FIXES = "fixes the filter had before the bag's first (s)"
+BAG_LATE_IMU = "IMU the filter had before the bag's first (s)"
+
+
+def _from_filter_start(imu, gnss, diag: dict):
+    """The bag's IMU and fixes from the filter node's first received stamps on; what was before them (counts),
+    and how long the filter had input before the bag's first (s: the recorder subscribed late)."""
+    def first(key):
+        try:
+            return float(diag.get(key, "nan") or "nan")
+        except ValueError:
+            return float("nan")
+
+    t_imu, t_fix = first("first_imu_stamp_s"), first("first_fix_stamp_s")
+    keep_imu = imu.t >= t_imu - 1e-7 if np.isfinite(t_imu) else np.ones(len(imu), bool)
+    keep_fix = gnss.t >= t_fix - 1e-7 if np.isfinite(t_fix) else np.ones(len(gnss), bool)
+    missed = {MISSED_IMU: int(np.sum(~keep_imu)), MISSED_FIXES: int(np.sum(~keep_fix)),
+              BAG_LATE_IMU: round(max(0.0, imu.t[0] - t_imu), 3) if len(imu) and np.isfinite(t_imu) else 0.0,
+              BAG_LATE_FIXES: round(max(0.0, gnss.t[0] - t_fix), 3) if len(gnss) and np.isfinite(t_fix) else 0.0}
+    if not (missed[MISSED_IMU] or missed[MISSED_FIXES]):
+        return imu, gnss, missed
+    imu = imu.select(keep_imu)
+    gnss = recording.GnssRecording(gnss.t[keep_fix], gnss.lat[keep_fix], gnss.lon[keep_fix], gnss.h[keep_fix],
+                                   gnss.std_enu[keep_fix], gnss.status[keep_fix], gnss.source)
+    return imu, gnss, missed
 
 
 def write_report(run_dir: Path, sim_dir: Path | None = None, truth_csv: Path | None = None,
@@ -197,7 +235,8 @@ def write_report(run_dir: Path, sim_dir: Path | None = None, truth_csv: Path | N
     offline = None
     if filter_params is not None:
         try:
-            offline = compare_with_offline(bag, odom, filter_params)
+            kf = next((v for n, (_, _, v) in diags.items() if n.startswith("ins_gps_kf")), {})
+            offline = compare_with_offline(bag, odom, filter_params, kf)
         except (recording.RecordingError, ValueError) as err:
             offline = {"not compared": str(err)}
     gnss = recording.read_gnss(bag)
@@ -245,6 +284,9 @@ def _stream_checks(raw, den, diags) -> dict:
         if rec is not None and len(rec) > 1:
             steps = np.round(np.diff(rec.t) * rec.rate_hz)
             out[f"{name} samples missing"] = int(np.sum(steps[steps > 1] - 1))
+    if raw is not None and den is not None and len(raw) and len(den):
+        # the denoiser subscribed late (DDS discovery at the player's start) or the recorder lost its start
+        out["imu/data_corrected start - imu/data_raw start (s)"] = round(float(den.t[0] - raw.t[0]), 3)
     kf = next((v for n, (_, _, v) in diags.items() if n.startswith("ins_gps_kf")), {})
     for key, label in (("imu_received", "IMU samples the filter received"),
                        ("late_dropped", "messages the filter dropped"),
@@ -335,12 +377,21 @@ def _summary(run_dir, res, odom, gnss, raw, den, diags, codes) -> str:
     lines += [f"    {k:<32} {v:10.3f}" for k, v in res["rms"].items()]
     lines += [f"    {k:<32} {v:10.3f}" if isinstance(v, float) else f"    {k:<32} {v:10d}"
               for k, v in _counts(odom, gnss, raw, den).items()]
-    lines += [f"    {k:<38} {v:4d}" for k, v in res.get("stream", {}).items()]
+    lines += [f"    {k:<38} {v:4d}" if isinstance(v, int) else f"    {k:<38} {v:7.3f}"
+              for k, v in res.get("stream", {}).items()]
     lines += [f"    {k:<38} {v:7.1f}" for k, v in (res.get("stamps") or {}).items()]
     off = res.get("offline")
     if off and "not compared" in off:
         lines.append(f"    live against offline replay: not compared ({off['not compared']})")
     elif off:
+        if off.get(MISSED_FIXES) or off.get(MISSED_IMU):
+            lines.append(f"    the filter missed the bag's first {off[MISSED_FIXES]} fixes and {off[MISSED_IMU]} IMU "
+                         "samples: its subscriptions matched the player after playing began (DDS discovery); "
+                         "the replay starts where its input did")
+        if off.get(BAG_LATE_FIXES) or off.get(BAG_LATE_IMU):
+            lines.append(f"    the bag lacks the filter's first {off[BAG_LATE_FIXES]:.1f} s of fixes and "
+                         f"{off[BAG_LATE_IMU]:.1f} s of IMU: the recorder subscribed after playing began, so "
+                         "the offline replay of the bag cannot give the live answer")
         lines.append(f"    live against offline replay of the bag: largest difference {off['largest difference (m)']:.3g} m "
                      f"over {off['common epochs']} common epochs (live {off['live epochs']}, offline "
                      f"{off['offline epochs']}; only live {off['only live']}, only offline {off['only offline']})")

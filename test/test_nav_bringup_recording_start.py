@@ -1,0 +1,78 @@
+"""``nav-demo --recording``: the filter gets the bag from its first message, as the recorder does, and the
+report's offline replay starts where the filter's input did.
+
+Before the fix bag_play started playing 0.5 s after it counted one subscriber per topic; a node that had
+subscribed before the player started (wmra_node, ins_gps_kf_node) counted the player's publisher up to
+~2 s later and lost what was played before, while the recorder (subscribing once it sees the player) had
+it all: the live odometry then differed from the offline replay of the run's own bag by up to 20.6 m.
+"""
+import numpy as np
+import pytest
+
+from nav_bringup import demo
+from nav_bringup.graph import Graph
+from nav_bringup.report import (BAG_LATE_FIXES, BAG_LATE_IMU, MISSED_FIXES, MISSED_IMU, _from_filter_start,
+                                 last_diagnostics)
+from nav_core import recording
+
+SIM_S, RATE = 8.0, 2.0
+
+
+def _recordings(t0=1.7e9, seconds=10):
+    t = t0 + np.arange(1, seconds * 64 + 1) / 64.0
+    imu = recording.ImuRecording(t, np.zeros((len(t), 3)), np.tile([0.0, 0.0, 9.8], (len(t), 1)))
+    tf = t0 + np.arange(seconds, dtype=float)
+    gnss = recording.GnssRecording(tf, np.full(seconds, 0.8), np.full(seconds, 0.1), np.zeros(seconds),
+                                   np.ones((seconds, 3)), np.zeros(seconds, int))
+    return imu, gnss
+
+
+def test_the_offline_replay_starts_at_the_filters_first_received_stamps():
+    imu, gnss = _recordings()
+    diag = {"first_imu_stamp_s": f"{imu.t[70]:.6f}", "first_fix_stamp_s": f"{gnss.t[2]:.6f}"}
+    imu2, gnss2, missed = _from_filter_start(imu, gnss, diag)
+    assert missed == {MISSED_IMU: 70, MISSED_FIXES: 2, BAG_LATE_IMU: 0.0, BAG_LATE_FIXES: 0.0}
+    assert imu2.t[0] == imu.t[70] and len(imu2) == len(imu) - 70
+    assert gnss2.t[0] == gnss.t[2] and len(gnss2) == len(gnss) - 2
+
+
+@pytest.mark.parametrize("diag", [{}, {"first_imu_stamp_s": "", "first_fix_stamp_s": ""},
+                                  {"first_imu_stamp_s": "1699999999.0", "first_fix_stamp_s": "1700000000.000000"}])
+def test_a_filter_that_had_the_bags_start_or_no_stamps_replays_the_whole_bag(diag):
+    imu, gnss = _recordings()
+    imu2, gnss2, missed = _from_filter_start(imu, gnss, diag)
+    assert missed[MISSED_IMU] == 0 and missed[MISSED_FIXES] == 0 and len(imu2) == len(imu) and len(gnss2) == len(gnss)
+
+
+def test_input_the_filter_had_before_the_bags_start_is_measured_in_seconds():
+    imu, gnss = _recordings()
+    diag = {"first_imu_stamp_s": f"{imu.t[0] - 0.5:.6f}", "first_fix_stamp_s": f"{gnss.t[0] - 2.0:.6f}"}
+    _, _, missed = _from_filter_start(imu, gnss, diag)
+    assert missed == {MISSED_IMU: 0, MISSED_FIXES: 0, BAG_LATE_IMU: 0.5, BAG_LATE_FIXES: 2.0}
+
+
+@pytest.mark.ros
+@pytest.mark.slow
+def test_the_filter_and_the_denoiser_get_the_replayed_bag_from_its_first_message(tmp_path, ros_env):
+    demo.simulate_scenario(demo.DEFAULT_SCENARIO, demo.DEFAULT_MODEL, 5, tmp_path / "sim", duration_s=SIM_S,
+                           fmt="bag")
+    run_dir = tmp_path / "run"
+    args = demo.parse_args(["--recording", str(tmp_path / "sim" / "bag"), "--rate", str(RATE),
+                            "--out", str(tmp_path)])
+    graph = Graph(demo.graph_specs(args, run_dir, None), ros_env, args.params, log_dir=run_dir / "logs")
+    try:
+        graph.start(timeout_s=60)
+        code = graph.wait_for_exit("bag_play", SIM_S / RATE + demo.PLAYER_SETTLE_S + 30)
+        assert code == 0, graph.procs["bag_play"].output[-2000:]
+    finally:
+        codes = graph.stop()
+    assert all(c == 0 for c in codes.values()), codes
+    bag = run_dir / "bag"
+    played = recording.read_imu(tmp_path / "sim" / "bag", topic="imu/data_raw")
+    raw, den = recording.read_imu(bag, topic="imu/data_raw"), recording.read_imu(bag, topic="imu/data_corrected")
+    fixes = recording.read_gnss(bag)
+    kf = next(v for n, (_, _, v) in last_diagnostics(bag).items() if n.startswith("ins_gps_kf"))
+    assert raw.t[0] == played.t[0], "the recorder missed the start of imu/data_raw"
+    assert den.t[0] == raw.t[0], f"wmra_node missed {den.t[0] - raw.t[0]:.3f} s of imu/data_raw"
+    assert float(kf["first_fix_stamp_s"]) == pytest.approx(fixes.t[0], abs=1e-6), (kf, fixes.t[:3])
+    assert float(kf["first_imu_stamp_s"]) == pytest.approx(den.t[0], abs=1e-6), (kf, den.t[:3])
