@@ -6,6 +6,8 @@ or the ones named in ``topics``. Each topic is offered with the QoS recorded in 
 every recorded publisher was, so ``/tf_static`` stays latched); a bag without them plays sensor
 topics with the sensor-data QoS and the rest reliable. A damaged bag plays every intact message
 (MCAP is read past the damage, a cut sqlite file up to it) and the error names the file and position.
+With ``wait_for_subscribers`` it plays once every topic has that many subscribers, then ``settle_s``
+later: a subscriber this node counts may not count this publisher yet, and would lose the start.
 """
 from __future__ import annotations
 
