@@ -43,7 +43,7 @@ def generate_launch_description():
         DeclareLaunchArgument("sensor_model", default_value=model),
         DeclareLaunchArgument("bag_out", default_value="navigation_bag"),
         Node(package="nav_bringup", executable="scenario_player", parameters=[
-            params, {"sim_dir": arg("sim_dir"), "rate": arg("rate"), "link": arg("port"), "settle_s": 3.0}],
+            params, {"sim_dir": arg("sim_dir"), "rate": arg("rate"), "link": arg("port")}],
             condition=IfCondition(simulated)),
         # as nav-demo: the topics the graph reads, once the node reading each and the recorder subscribe, then
         # a settle (a node subscribed before the player counts its publisher up to ~2.5 s after it is counted)

@@ -174,16 +174,15 @@ def graph_specs(args, run_dir: Path, sim_dir: Path | None) -> list:
     driver = dict(sim, port=str(link), reconnect_period_s=0.2)
     return ([NodeSpec("bp3010_driver", driver)] + specs +
             [NodeSpec("scenario_player", {"sim_dir": str(sim_dir), "link": str(link), "rate": args.rate,
-                                          "duration_s": args.duration, "settle_s": PLAYER_SETTLE_S,
+                                          "duration_s": args.duration,
                                           # imu/data: only the recorder subscribes it
                                           "wait_for_subscribers": ["gps/fix", "imu/data_raw", "imu/data"]})])
 
 
 PLAYER_SETTLE_S = 3.0
-"""bag_play's and scenario_player's wait after they count their subscribers, s: a node that subscribed before
-the player started counts the player's publisher up to ~2 s after the player counts it (DDS discovery,
-measured with bag_play), and misses what is played before (the recorder, which subscribes once it sees the
-player, does not)."""
+"""bag_play's wait after it counts its subscribers, s: a node that subscribed before the player started
+counts the player's publisher up to ~2 s after the player counts it (DDS discovery, measured), and misses
+what is played before (the recorder, which subscribes once it sees the player, does not)."""
 
 
 def player_params(args) -> dict:

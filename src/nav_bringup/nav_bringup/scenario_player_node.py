@@ -42,9 +42,6 @@ PARAMS = (
     Param("wait_for_topics", ["imu/data_raw"], "topics that must have a publisher before playing"),
     Param("wait_for_subscribers", ["gps/fix"], "topics that must have a subscriber before playing"),
     Param("wait_timeout_s", 60.0, "give up waiting for the graph after this long, s", 0.0, 3600.0),
-    # a subscriber counted here may not count this node's publishers yet (DDS matches each side apart; bag_play
-    # measured up to ~2.5 s): what is published before it does is lost to it
-    Param("settle_s", 1.0, "after the graph is counted ready, wait this long before playing, s", 0.0, 60.0),
     Param("gps_outage_start_s", -1.0, "start of a GPS outage (no fixes), simulated s; < 0 = none", -1.0, 1e7),
     Param("gps_outage_duration_s", 0.0, "length of the GPS outage, s", 0.0, 1e7),
     Param("gps_offset_at_s", -1.0, "publish one fix displaced north at this simulated s; < 0 = none", -1.0, 1e7),
@@ -123,7 +120,7 @@ class ScenarioPlayer(Node):
             while not self._graph_ready() and time.monotonic() < deadline and not self._stop.is_set():
                 self._publish_clock(0.0)
                 time.sleep(0.05)
-            if self._stop.wait(self.p["settle_s"]):  # let the subscribers' side of discovery finish
+            if self._stop.wait(1.0):  # let the subscribers' side of discovery finish
                 return
             self.get_logger().info("playing")
             self.start_wall = time.monotonic()
