@@ -54,6 +54,16 @@ def test_one_bad_field_drops_that_row_names_line_and_column_and_no_nan_reaches_t
     np.testing.assert_array_equal(imu.gyro[far], clean[0].gyro[far])
 
 
+def test_a_bad_row_after_blank_lines_is_named_by_its_own_line(tmp_path):
+    lines = _lines()
+    fields = lines[201].split(",")
+    fields[HEADER.split(",").index("ax")] = "nan"
+    lines[201] = ",".join(fields)
+    lines[100:100] = ["", ""]  # blank lines are no rows, but they are lines of the file: the bad row is now line 204
+    imu = datasets.read_balzer_csv(_write(tmp_path, lines))
+    assert "line 204: column 'ax'" in imu.damage, imu.damage
+
+
 def test_a_file_cut_mid_line_keeps_every_whole_row(tmp_path, clean):
     text = "\n".join(_lines()) + "\n"
     path = tmp_path / "cut.csv"

@@ -119,9 +119,8 @@ def _read_balzer_table(path, need, finite):
     path = Path(path)
     if not path.is_file():
         raise RecordingError(f"{path}: file not found")
-    cols, damage, skipped = _read_csv_table(path, need, strict=False)
+    cols, damage, skipped, lines = _read_csv_table(path, need, strict=False)
     n = len(cols["millis"])
-    lines = _row_lines(n, skipped)
     values = np.column_stack([cols[c] for c in finite])
     bad = ~np.all(np.isfinite(values), axis=1)
     millis = np.where(bad, -np.inf, cols["millis"])
@@ -151,18 +150,6 @@ def _read_balzer_table(path, need, finite):
     out = {c: v[keep] for c, v in cols.items()}
     out["t"] = (out["millis"] - cols["millis"][np.isfinite(cols["millis"])][0]) / 1e3  # one base for IMU and GNSS
     return out, damage
-
-
-def _row_lines(n: int, skipped) -> np.ndarray:
-    """File line numbers of the ``n`` rows a CSV read kept, given the skipped ones (header = line 1; blank lines
-    are assumed absent)."""
-    lines, skip, line = np.empty(n, dtype=int), set(skipped), 2
-    for i in range(n):
-        while line in skip:
-            line += 1
-        lines[i] = line
-        line += 1
-    return lines
 
 
 def read_balzer_csv(path, sample_rate_hz: float = 50.0) -> ImuRecording:

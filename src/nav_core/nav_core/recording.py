@@ -163,7 +163,8 @@ MAX_BAD_ROW_FRACTION = 0.01
 
 
 def _read_csv_table(path: Path, required, strict: bool, max_bad_fraction: float = MAX_BAD_ROW_FRACTION):
-    """Columns by header name as float arrays, the damage text and the skipped line numbers.
+    """Columns by header name as float arrays, the damage text, the skipped line numbers and the line number
+    of each kept row (blank lines are neither).
 
     A malformed row (wrong field count, a field that is not a number, a non-finite time)
     is skipped and counted; ``strict`` raises at the first, and more than
@@ -182,7 +183,7 @@ def _read_csv_table(path: Path, required, strict: bool, max_bad_fraction: float 
         if missing:
             raise RecordingError(f"{path}: missing column(s) {missing}{table_rows.missing_hint(missing, header)}; "
                                  f"header is {header}")
-        rows = []
+        rows, lines = [], []
         line_no = 1
         while True:
             try:
@@ -205,13 +206,14 @@ def _read_csv_table(path: Path, required, strict: bool, max_bad_fraction: float 
                 if not math.isfinite(values[header.index("t")] if "t" in header else 0.0):
                     raise ValueError("time t is not finite")
                 rows.append(values)
+                lines.append(line_no)
             except ValueError as err:
                 if strict:
                     raise RecordingError(f"{path}: line {line_no}: {err}") from err
                 bad.append((line_no, str(err)))
     damage = _csv_damage(path, bad, len(rows), max_bad_fraction)
     data = np.array(rows, dtype=float).reshape(-1, len(header))
-    return {name: data[:, i] for i, name in enumerate(header)}, damage, tuple(n for n, _ in bad)
+    return {name: data[:, i] for i, name in enumerate(header)}, damage, tuple(n for n, _ in bad), np.array(lines)
 
 
 def _csv_damage(path: Path, bad: list, good: int, max_bad_fraction: float):
@@ -249,7 +251,7 @@ def _write_csv(path: Path, columns: dict) -> Path:
 def read_imu_csv(path, strict: bool = False) -> ImuRecording:
     """Read the recording CSV (``t, gx, gy, gz, ax, ay, az[, temp_c]``, SI units)."""
     path = Path(path)
-    cols, damage, skipped = _read_csv_table(path, IMU_CSV_COLUMNS, strict)
+    cols, damage, skipped, _ = _read_csv_table(path, IMU_CSV_COLUMNS, strict)
     return ImuRecording(cols["t"], np.column_stack([cols["gx"], cols["gy"], cols["gz"]]),
                         np.column_stack([cols["ax"], cols["ay"], cols["az"]]), cols.get("temp_c"),
                         source=str(path), damage=damage, skipped_rows=skipped)
@@ -268,7 +270,7 @@ def write_imu_csv(path, rec: ImuRecording) -> Path:
 def read_gnss_csv(path, strict: bool = False) -> GnssRecording:
     """Read the GNSS CSV (``t, lat_deg, lon_deg, h_m, std_e, std_n, std_u[, status]``)."""
     path = Path(path)
-    cols, damage, skipped = _read_csv_table(path, GNSS_CSV_COLUMNS, strict)
+    cols, damage, skipped, _ = _read_csv_table(path, GNSS_CSV_COLUMNS, strict)
     status, bad_status = table_rows.status_column(cols.get("status"), cols["t"], str(path))
     return GnssRecording(cols["t"], cols["lat_deg"] * DEG, cols["lon_deg"] * DEG, cols["h_m"],
                          np.column_stack([cols["std_e"], cols["std_n"], cols["std_u"]]), status, source=str(path),
@@ -285,7 +287,7 @@ def write_gnss_csv(path, gnss: GnssRecording) -> Path:
 def read_trajectory_csv(path, strict: bool = False) -> Trajectory:
     """Read the truth trajectory CSV (degrees in the file, rad in the result)."""
     path = Path(path)
-    cols, damage, _ = _read_csv_table(path, TRUTH_CSV_COLUMNS, strict)
+    cols, damage, _, _ = _read_csv_table(path, TRUTH_CSV_COLUMNS, strict)
     vel = None
     if all(c in cols for c in VELOCITY_COLUMNS):
         vel = np.column_stack([cols[c] for c in VELOCITY_COLUMNS])
