@@ -111,15 +111,11 @@ class Scanner:
         if pos + 9 > end or self.buf[pos] != OP_CHUNK:
             return None
         (length,) = struct.unpack_from("<Q", self.buf, pos + 1)
-        try:
-            start_ns, end_ns, _, _ = _CHUNK.unpack_from(self.buf, pos + 9)
-            comp, p = _str(self.buf, pos + 9 + _CHUNK.size)
-            (rec_len,) = struct.unpack_from("<Q", self.buf, p)
-        except (struct.error, UnicodeDecodeError):
+        fields = self._chunk_fields(pos, length)
+        if fields is None or fields[3] != "" or fields[4] > end:
             return None
-        if comp != "" or start_ns > end_ns or p + 8 + rec_len != pos + 9 + length or p + 8 > end:
-            return None
-        return (start_ns, end_ns), p + 8 + rec_len, p + 8
+        start_ns, end_ns, _, _, records_start, body_end = fields
+        return (start_ns, end_ns), body_end, records_start
 
     def _valid_at(self, pos, end, span) -> bool:
         """Whether an intact record starts at ``pos`` (used to resynchronise after damage)."""
