@@ -216,10 +216,7 @@ def _from_filter_start(imu, gnss, diag: dict):
               BAG_LATE_FIXES: round(max(0.0, gnss.t[0] - t_fix), 3) if len(gnss) and np.isfinite(t_fix) else 0.0}
     if not (missed[MISSED_IMU] or missed[MISSED_FIXES]):
         return imu, gnss, missed
-    imu = imu.select(keep_imu)
-    gnss = recording.GnssRecording(gnss.t[keep_fix], gnss.lat[keep_fix], gnss.lon[keep_fix], gnss.h[keep_fix],
-                                   gnss.std_enu[keep_fix], gnss.status[keep_fix], gnss.source)
-    return imu, gnss, missed
+    return imu.select(keep_imu), gnss.select(keep_fix), missed
 
 
 def write_report(run_dir: Path, sim_dir: Path | None = None, truth_csv: Path | None = None,
@@ -361,9 +358,7 @@ def _no_odometry(run_dir: Path, diags: dict, codes: dict) -> str:
 
 
 def _finite(gnss):
-    ok = np.isfinite(gnss.lat) & np.isfinite(gnss.lon) & (gnss.status >= 0)
-    return recording.GnssRecording(gnss.t[ok], gnss.lat[ok], gnss.lon[ok], gnss.h[ok], gnss.std_enu[ok],
-                                   gnss.status[ok], gnss.source)
+    return gnss.select(np.isfinite(gnss.lat) & np.isfinite(gnss.lon) & (gnss.status >= 0))
 
 
 def _counts(odom, gnss, raw, den) -> dict:

@@ -1,5 +1,7 @@
 """Recording IO: rosbag2 bags (sqlite3, MCAP) and the project's CSV files to NumPy and back.
 
+Longer than 500 lines because it is the one home of the recording types and of every reader and writer of them.
+
 The one reader and writer every tool uses. Arrays are SI: time in s, angular
 rate in rad/s, specific force in m/s^2, latitude/longitude in rad inside (the
 CSV files and ``NavSatFix`` carry degrees; conversion happens here).
@@ -131,6 +133,12 @@ class GnssRecording:
 
     def __len__(self):
         return len(self.t)
+
+    def select(self, mask_or_slice) -> GnssRecording:
+        """A new recording with the fixes picked by a boolean mask, index array or slice."""
+        m = mask_or_slice
+        return GnssRecording(self.t[m], self.lat[m], self.lon[m], self.h[m], self.std_enu[m], self.status[m],
+                             self.source, self.damage, self.skipped_rows)
 
 
 @dataclass

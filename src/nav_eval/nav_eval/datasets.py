@@ -138,9 +138,7 @@ def balzer_model(gyro_white_dps=0.3, accel_white=0.02, accel_bi_mg=5.0):
 def split_fixes(gnss: GnssRecording, every: int = 2):
     """(used, held out): every ``every``-th fix (from the first) goes to the filter, the others are held out."""
     k = np.arange(len(gnss)) % every == 0
-    pick = [GnssRecording(gnss.t[m], gnss.lat[m], gnss.lon[m], gnss.h[m], gnss.std_enu[m], gnss.status[m],
-                          gnss.source) for m in (k, ~k)]
-    return pick[0], pick[1]
+    return gnss.select(k), gnss.select(~k)
 
 
 def fixes_as_reference(gnss: GnssRecording) -> Trajectory:

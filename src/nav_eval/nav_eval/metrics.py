@@ -106,8 +106,7 @@ def drop_fixes(gnss: GnssRecording, windows) -> GnssRecording:
     keep = np.ones(len(gnss), bool)
     for t0, t1 in windows:
         keep &= ~((gnss.t >= t0) & (gnss.t < t1))
-    return GnssRecording(gnss.t[keep], gnss.lat[keep], gnss.lon[keep], gnss.h[keep], gnss.std_enu[keep],
-                         gnss.status[keep], gnss.source, gnss.damage)
+    return gnss.select(keep)
 
 
 def outage_drift(est: list[Estimate], truth: Trajectory, frame, windows) -> dict:
