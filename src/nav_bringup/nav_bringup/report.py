@@ -197,6 +197,11 @@ BAG_LATE_FIXES = "fixes the filter had before the bag's first (s)"
 BAG_LATE_IMU = "IMU the filter had before the bag's first (s)"
 
 
+def _filter_values(diags: dict) -> dict:
+    """The filter node's last /diagnostics values ({} when it published none)."""
+    return next((v for n, (_, _, v) in diags.items() if n.startswith("ins_gps_kf")), {})
+
+
 def _from_filter_start(imu, gnss, diag: dict):
     """The bag's IMU and fixes from the filter node's first received stamps on; what was before them (counts),
     and how long the filter had input before the bag's first (s: the recorder subscribed late)."""
@@ -236,7 +241,7 @@ def write_report(run_dir: Path, sim_dir: Path | None = None, truth_csv: Path | N
     offline = None
     if filter_params is not None:
         try:
-            kf = next((v for n, (_, _, v) in diags.items() if n.startswith("ins_gps_kf")), {})
+            kf = _filter_values(diags)
             offline = compare_with_offline(bag, odom, filter_params, kf)
         except (recording.RecordingError, ValueError) as err:
             offline = {"not compared": str(err)}
@@ -288,7 +293,7 @@ def _stream_checks(raw, den, diags) -> dict:
     if raw is not None and den is not None and len(raw) and len(den):
         # the denoiser subscribed late (DDS discovery at the player's start) or the recorder lost its start
         out["imu/data_corrected start - imu/data_raw start (s)"] = round(float(den.t[0] - raw.t[0]), 3)
-    kf = next((v for n, (_, _, v) in diags.items() if n.startswith("ins_gps_kf")), {})
+    kf = _filter_values(diags)
     for key, label in (("imu_received", "IMU samples the filter received"),
                        ("late_dropped", "messages the filter dropped"),
                        ("imu_missing", "IMU samples missing in the filter's input")):
