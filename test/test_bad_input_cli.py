@@ -66,6 +66,20 @@ def test_a_truncated_sqlite_bag_without_the_topic_is_exit_2_naming_topic_and_top
     assert not (tmp_path / "t.csv").exists()
 
 
+@pytest.mark.parametrize("cli, option", [("replay", "--imu-topic"), ("replay", "--gps-topic"), ("allan", "--topic")])
+def test_a_topic_given_with_a_csv_is_exit_2_naming_file_and_option_not_silently_ignored(tmp_path, capsys, cli, option):
+    csv = _static_csv(tmp_path / "imu.csv", seconds=5)
+    if cli == "replay":
+        argv = ["replay", "--recording", str(csv), "--model", "default", "--out", str(tmp_path / "t.csv"), "--quiet",
+                option, "imu/other"]
+        code = kf_cli.main(argv)
+    else:
+        code = calib_cli.main(["allan", str(csv), "--out", str(tmp_path / "a"), "--no-progress", option, "imu/other"])
+    assert code == 2  # was: the topic silently ignored and the CSV read
+    one_error_line(capsys, "imu.csv", f"{option} imu/other", "not a rosbag2 bag")
+    assert not (tmp_path / "t.csv").exists() and not (tmp_path / "a").exists()
+
+
 def test_allan_skips_one_bad_row_and_refuses_a_mostly_bad_csv(tmp_path, capsys, monkeypatch):
     import imu_calib.characterise
     seen = []

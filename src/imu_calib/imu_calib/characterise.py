@@ -182,7 +182,10 @@ def characterise_to_dir(source, out_dir, topic: str = "imu/data_raw", per_decade
     if isinstance(source, ImuRecording):
         rec = source
     else:
-        rec, read_notes = screen.read(source, topic=topic)
+        from nav_core.bagio import is_bag
+
+        # the node's topic parameter is also its live topic: with a CSV it is simply not used
+        rec, read_notes = screen.read(source, topic=topic if is_bag(source) else None)
     result = characterise(rec, per_decade=per_decade, split=split)
     paths = write_outputs(result, out_dir, rostopic="/" + topic.lstrip("/"))
     prov = result.model.provenance

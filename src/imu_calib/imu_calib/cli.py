@@ -28,7 +28,7 @@ from nav_core.recording import IMU_TOPIC
 from nav_core.units import DEG
 
 
-def load_recording(path, topic: str = IMU_TOPIC, fmt: str = "auto", gyro_file=None):
+def load_recording(path, topic: str | None = None, fmt: str = "auto", gyro_file=None):
     """A recording from a bag/CSV (auto) or one of the real formats (ucalgary, imutk, adis); what was lost
     reading it is said on stderr (:func:`imu_calib.screen.read`)."""
     rec, notes = screen.read(path, topic, fmt, gyro_file)
@@ -58,7 +58,7 @@ def load_screened(path, topic: str, fmt: str, columns=None, gyro_file=None):
 
 
 def _add_format(p, imutk: bool = True) -> None:
-    p.add_argument("--topic", default=IMU_TOPIC, help="IMU topic in a bag (default %(default)s)")
+    p.add_argument("--topic", help=f"IMU topic in a bag (default {IMU_TOPIC}; an error with a CSV or text file)")
     if not imutk:  # imutk needs a second (gyro) file per recording: only where one REC is read
         p.add_argument("--format", default="auto", choices=("auto", "ucalgary", "adis"),
                        help="recording format: auto (bag or CSV), ucalgary text, adis .npz")
@@ -163,7 +163,7 @@ def cmd_allan(args) -> int:
     prov = result.model.provenance
     print(f"analysed {prov['n_samples']} samples, {prov['duration_s']:.1f} s", flush=True)
     with staged_dir(args.out, args.force, inputs) as tmp:  # the three files appear together, or none
-        paths = rebase(write_outputs(result, tmp, rostopic="/" + args.topic.lstrip("/")), tmp, args.out)
+        paths = rebase(write_outputs(result, tmp, rostopic="/" + (args.topic or IMU_TOPIC).lstrip("/")), tmp, args.out)
     _print_noise(result)
     for line in warnings_of(result):
         print(f"imu-calib allan: warning: {line}", file=sys.stderr)

@@ -18,7 +18,7 @@ from pathlib import Path
 import numpy as np
 
 from nav_core import datasets
-from nav_core.recording import IMU_TOPIC, ImuRecording, RecordingError, read_imu
+from nav_core.recording import IMU_TOPIC, ImuRecording, RecordingError, read_imu, refuse_topic_without_bag
 
 COLUMNS = ("gx", "gy", "gz", "ax", "ay", "az")
 """Value columns of the recording CSV (rad/s, m/s^2)."""
@@ -29,12 +29,13 @@ TEXT_SUFFIXES = (".txt", ".mat", ".dat")
 """Whitespace tables read by ``nav_core.datasets`` (no header row)."""
 
 
-def read(path, topic: str = IMU_TOPIC, fmt: str = "auto", gyro_file=None) -> tuple:
+def read(path, topic: str | None = None, fmt: str = "auto", gyro_file=None) -> tuple:
     """(recording, warning lines) from a bag/CSV (``auto``) or a real text format (ucalgary, imutk, adis).
 
     The reader's damage (rows skipped) is a warning; so is a last line without a line end (that row is
     dropped: :func:`cut_last_line`). Fewer than 2 samples left is a RecordingError naming the file.
     """
+    refuse_topic_without_bag(path, "--topic", topic)
     if gyro_file is not None and fmt != "imutk":
         raise RecordingError(f"--gyro-file {gyro_file}: only --format imutk reads a separate gyro file "
                              f"(format here: {fmt})")
@@ -47,7 +48,7 @@ def read(path, topic: str = IMU_TOPIC, fmt: str = "auto", gyro_file=None) -> tup
             raise RecordingError("--format imutk needs --gyro-file (REC is the accelerometer file)")
         rec = datasets.load_imutk(path, gyro_file)
     else:
-        rec = read_imu(path, topic=topic)
+        rec = read_imu(path, topic=topic or IMU_TOPIC)
     notes = [rec.damage] if rec.damage else []  # read on past the damage: say what was lost
     cut = cut_last_line(rec)
     if cut is not None:

@@ -41,6 +41,8 @@ def replay_files(recording_path, gnss_path, model_path, out_path, params: dict |
     """Read, run, write: the ``replay`` subcommand as a function; returns (Trajectory, filter)."""
     p = kfconfig.defaults()
     p.update(params or {})
+    recording.refuse_topic_without_bag(recording_path, "--imu-topic", imu_topic)
+    recording.refuse_topic_without_bag(gnss_path or recording_path, "--gps-topic", gps_topic)
     imu = recording.read_imu(recording_path, topic=imu_topic or p["imu_topic"])
     gnss_src = gnss_path or recording_path
     gnss = recording.read_gnss(gnss_src, topic=gps_topic or p["gps_topic"])

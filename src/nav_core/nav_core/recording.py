@@ -498,6 +498,16 @@ def _read_any(path, what: str, bag_reader, csv_reader, **kwargs):
     raise RecordingError(f"{path}: not a rosbag2 bag (folder with metadata.yaml, .db3, .mcap) or a .csv")
 
 
+def refuse_topic_without_bag(path, option: str, topic) -> None:
+    """RecordingError when ``option`` (a topic given on the command line, None if not given) names a topic for a
+    ``path`` that is not a rosbag2 bag: a CSV or text file has no topics, so the option would be silently ignored."""
+    from nav_core import bagio
+
+    if topic is not None and Path(path).exists() and not bagio.is_bag(path):
+        raise RecordingError(f"{path}: {option} {topic}: not a rosbag2 bag, so it has no topics (the option selects "
+                             "a topic in a bag); drop the option, or give the bag")
+
+
 def read_imu(path, topic: str = IMU_TOPIC, strict: bool = False) -> ImuRecording:
     """Read IMU samples from a rosbag2 bag (folder, .db3, .mcap) or the recording CSV."""
     return _read_any(path, "recording", read_imu_bag, read_imu_csv, topic=topic, strict=strict)
