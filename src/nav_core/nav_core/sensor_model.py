@@ -34,6 +34,7 @@ from __future__ import annotations
 
 import copy
 import datetime as _dt
+import os
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -342,8 +343,15 @@ def save_kalibr(model: SensorModel, path, rostopic: str = "/imu/data_raw") -> Pa
     return atomic_write_text(path, yaml.safe_dump(model.to_kalibr(rostopic), sort_keys=False))
 
 
+def _created_utc() -> str:
+    """Now (or ``SOURCE_DATE_EPOCH``, seconds since 1970) in UTC, ISO 8601 to the second."""
+    epoch = os.environ.get("SOURCE_DATE_EPOCH", "").strip()
+    when = _dt.datetime.fromtimestamp(int(epoch), _dt.timezone.utc) if epoch.isdigit() else None
+    return (when or _dt.datetime.now(_dt.timezone.utc)).isoformat(timespec="seconds")
+
+
 def stamp_provenance(model: SensorModel, tool: str, source: str, **extra) -> None:
-    """Record which tool made ``model`` from which source, and when (UTC)."""
-    model.provenance.update({"tool": tool, "source": str(source),
-                             "created_utc": _dt.datetime.now(_dt.timezone.utc).isoformat(timespec="seconds"),
+    """Record which tool made ``model`` from which source, and when (UTC; ``SOURCE_DATE_EPOCH`` when set, as
+    reproducible builds do, so that two runs on the same input write the same bytes)."""
+    model.provenance.update({"tool": tool, "source": str(source), "created_utc": _created_utc(),
                              **_to_builtin(extra)})
