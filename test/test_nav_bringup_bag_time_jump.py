@@ -5,6 +5,7 @@ import pytest
 from nav_msgs.msg import Odometry
 
 from nav_bringup.demo import simulate_scenario
+from nav_bringup.description import scenario_datum
 from nav_bringup.graph import PARAMS_FILE, REPO, Graph, NodeSpec
 from nav_bringup.live_status_ros import diag_values, graph_probe
 from nav_bringup.truth import TruthTrack
@@ -23,8 +24,7 @@ def test_a_bag_looping_back_in_time_is_reported_and_the_filter_navigates_again(t
                              fmt="bag")
     s, model = {"use_sim_time": True}, {"sensor_model_path": str(MODEL)}
     specs = [NodeSpec("wmra_node", dict(s, **model)),
-             NodeSpec("ins_gps_kf_node", dict(s, **model, datum_lat_deg=scen["latitude_deg"],
-                                              datum_lon_deg=scen["longitude_deg"], datum_h_m=scen["height_m"])),
+             NodeSpec("ins_gps_kf_node", dict(s, **model, **scenario_datum(sim))),
              NodeSpec("bag_play", {"bag": str(sim / "bag"), "rate": RATE, "loop": True, "wait_for_subscribers": 1,
                                    "topics": ["imu/data_raw", "gps/fix"]})]
     graph = Graph(specs, ros_env, PARAMS_FILE, log_dir=tmp_path / "logs")

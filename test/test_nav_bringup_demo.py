@@ -9,7 +9,7 @@ from nav_bringup import demo
 @pytest.fixture
 def inputs(tmp_path, monkeypatch):
     scenario, model = tmp_path / "scenario.yaml", tmp_path / "model.yaml"
-    scenario.write_text("duration_s: 1\n")
+    scenario.write_text("trajectory: paper_drive\nduration_s: 1\n")
     model.write_text("{}\n")
     runs = []
 

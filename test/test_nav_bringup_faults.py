@@ -9,6 +9,7 @@ import pytest
 from nav_msgs.msg import Odometry
 
 from nav_bringup.demo import simulate_scenario
+from nav_bringup.description import scenario_datum
 from nav_bringup.graph import PARAMS_FILE, REPO, Graph, NodeSpec
 from nav_bringup.live_status_ros import diag_values, graph_probe
 from nav_bringup.truth import TruthTrack
@@ -35,8 +36,7 @@ def test_faults_are_reported_no_node_exits_and_the_filter_recovers(sim_dir, tmp_
     model = {"sensor_model_path": str(MODEL)}
     specs = [NodeSpec("bp3010_driver", dict(s, port=str(link), reconnect_period_s=0.2)),
              NodeSpec("wmra_node", dict(s, **model)),
-             NodeSpec("ins_gps_kf_node", dict(s, **model, datum_lat_deg=scen["latitude_deg"],
-                                              datum_lon_deg=scen["longitude_deg"], datum_h_m=scen["height_m"])),
+             NodeSpec("ins_gps_kf_node", dict(s, **model, **scenario_datum(sim))),
              NodeSpec("scenario_player", {"sim_dir": str(sim), "link": str(link), "rate": RATE, "duration_s": SIM_S,
                                           "garbage_every_s": 20.0, "disconnect_at_s": [UNPLUG_AT],
                                           "disconnect_for_s": 5.0, "gps_outage_start_s": OUTAGE[0],

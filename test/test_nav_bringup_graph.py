@@ -7,11 +7,10 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-import yaml
 from nav_msgs.msg import Odometry
 
-from nav_bringup.demo import simulate_scenario
-from nav_bringup.graph import PARAMS_FILE, REPO, Graph, NodeSpec
+from nav_bringup import demo
+from nav_bringup.graph import PARAMS_FILE, REPO, Graph
 from nav_bringup.live_status_ros import diag_values, graph_probe
 from nav_bringup.truth import TruthTrack
 from nav_core import recording
@@ -26,28 +25,19 @@ RATE = 2.0
 @pytest.fixture(scope="module")
 def sim_dir(tmp_path_factory):
     out = tmp_path_factory.mktemp("sim") / "run"
-    simulate_scenario(REPO / "config" / "scenarios" / "paper_drive.yaml", MODEL, 7, out,
+    demo.simulate_scenario(REPO / "config" / "scenarios" / "paper_drive.yaml", MODEL, 7, out,
                              duration_s=SIM_SECONDS + 2, fmt="csv")
     return out
 
 
-def _specs(sim_dir: Path, run: Path, scen: dict) -> list:
-    sim = {"use_sim_time": True}
-    link = run / "port"
-    model = {"sensor_model_path": str(MODEL)}
-    return [NodeSpec("bp3010_driver", dict(sim, port=str(link), reconnect_period_s=0.2)),
-            NodeSpec("wmra_node", dict(sim, **model)),
-            NodeSpec("ins_gps_kf_node", dict(sim, **model, datum_lat_deg=scen["latitude_deg"],
-                                             datum_lon_deg=scen["longitude_deg"], datum_h_m=scen["height_m"])),
-            NodeSpec("allan_node", dict(sim, out_dir=str(run / "allan")), ready="collecting"),
-            NodeSpec("bag_record", dict(sim, output=str(run / "bag"))),
-            NodeSpec("scenario_player", {"sim_dir": str(sim_dir), "link": str(link), "rate": RATE,
-                                         "duration_s": SIM_SECONDS})]
+def _specs(sim_dir: Path, run: Path) -> list:
+    """nav-demo's graph for this simulation: the one description users start (launch file and nav-demo)."""
+    args = demo.parse_args(["--rate", str(RATE), "--duration", str(SIM_SECONDS), "--model", str(MODEL)])
+    return demo.graph_specs(args, run, sim_dir)
 
 
 def test_graph_runs_the_paper_drive_and_every_node_exits_cleanly(sim_dir, tmp_path, ros_env):
-    scen = yaml.safe_load((REPO / "config" / "scenarios" / "paper_drive.yaml").read_text())
-    graph = Graph(_specs(sim_dir, tmp_path, scen), ros_env, PARAMS_FILE, log_dir=tmp_path / "logs")
+    graph = Graph(_specs(sim_dir, tmp_path), ros_env, PARAMS_FILE, log_dir=tmp_path / "logs")
     try:
         with graph_probe({"odometry/filtered": Odometry}) as probe:
             graph.start(timeout_s=60)  # every node said it is ready

@@ -208,25 +208,60 @@ def from_params(params: dict) -> FilterConfig:
         imu_max_accel=float(p["imu_max_accel_mps2"]))
 
 
-def load_params_yaml(path) -> dict:
-    """``ins_gps_kf_node: ros__parameters:`` of a ROS 2 params file as name -> value (validated names)."""
+WILDCARD_SECTIONS = ("**", "*")
+"""Section names (after stripping '/') that apply to every node, as rcl reads a params file."""
+
+
+def read_params_file(path) -> dict:
+    """A ROS 2 params file as a mapping; FilterConfigError naming the file when it is missing or not a mapping."""
     path = Path(path)
     try:
         data = yaml.safe_load(path.read_text()) or {}
     except FileNotFoundError:
         raise FilterConfigError(f"{path}: params file not found") from None
+    except IsADirectoryError:
+        raise FilterConfigError(f"{path}: is a folder, expected a params file") from None
     except (yaml.YAMLError, UnicodeDecodeError) as err:
         raise FilterConfigError(f"{path}: not valid YAML: {' '.join(str(err).split())}") from None
     if not isinstance(data, dict):
         raise FilterConfigError(f"{path}: expected a mapping with '{NODE_NAME}: ros__parameters:'")
-    section = (data.get(NODE_NAME) or data.get("/**") or {}).get("ros__parameters")
-    if not isinstance(section, dict):
+    return data
+
+
+def node_section(data: dict, where, node: str = NODE_NAME) -> tuple[dict, set] | None:
+    """The filter node's ``ros__parameters`` in a params-file mapping as rcl applies them: the wildcard sections
+    (``/**``, ``/*``) first, then the node's own (``ins_gps_kf_node`` or ``/ins_gps_kf_node``), which wins.
+
+    Returns (name -> value, names only a wildcard section gives), or None when no section applies; the one
+    rule for the node, ``ins-gps-kf replay --params`` and nav-demo's report.
+    """
+    values, own = {}, set()
+    for key in sorted(data, key=lambda k: str(k).strip("/") not in WILDCARD_SECTIONS):  # wildcards first
+        name = str(key).strip("/")
+        if name not in WILDCARD_SECTIONS + (node,):
+            continue
+        section = (data[key] or {}).get("ros__parameters") if isinstance(data[key], dict) else None
+        if not isinstance(section, dict):
+            raise FilterConfigError(f"{where}: expected '{key}: ros__parameters:' mapping")
+        values.update(section)
+        if name == node:
+            own |= set(section)
+    return (values, set(values) - own) if values or own else None
+
+
+def load_params_yaml(path) -> dict:
+    """The filter's parameters of a ROS 2 params file (:func:`node_section`) as name -> value, validated: a name
+    under the node's own section must be a parameter; one only a wildcard section gives is shared, and skipped."""
+    path = Path(path)
+    found = node_section(read_params_file(path), path)
+    if found is None:
         raise FilterConfigError(f"{path}: expected '{NODE_NAME}: ros__parameters:' mapping")
-    unknown = set(section) - set(SPEC_BY_NAME) - NODE_ONLY
+    section, shared = found
+    unknown = set(section) - set(SPEC_BY_NAME) - NODE_ONLY - shared
     if unknown:
         raise FilterConfigError(unknown_keys_error(f"{path}: {NODE_NAME}.ros__parameters", unknown,
                                                    set(SPEC_BY_NAME) | NODE_ONLY))
-    section = {k: v for k, v in section.items() if k not in NODE_ONLY}
+    section = {k: v for k, v in section.items() if k in SPEC_BY_NAME}
     out = {k: (float(v) if isinstance(SPEC_BY_NAME[k].default, float) and isinstance(v, int)
                and not isinstance(v, bool) else v) for k, v in section.items()}
     for name, value in out.items():  # each value judged at load, the error naming the file

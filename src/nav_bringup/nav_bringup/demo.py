@@ -20,9 +20,8 @@ import tempfile
 import time
 from pathlib import Path
 
-import yaml
-
-from nav_bringup.graph import PARAMS_FILE, REPO, Graph, GraphError, NodeSpec
+from nav_bringup.description import PLAYER_SETTLE_S, GraphInputs, navigation_graph, played_topics  # noqa: F401
+from nav_bringup.graph import PARAMS_FILE, REPO, Graph, GraphError
 from nav_core.cli import USER_ERRORS, add_common, debug_wanted, number, one_line
 from nav_core.cli import parse_args as cli_parse_args
 from nav_core.outputs import check_out_dir
@@ -54,16 +53,16 @@ def parse_args(argv=None):
 
 def simulate_scenario(scenario: Path, model: Path, seed: int, out: Path, duration_s: float | None = None,
                       fmt: str = "all") -> dict:
-    """Simulate ``scenario`` (its first ``duration_s`` when given) with ``model`` into ``out``; the scenario dict."""
+    """Simulate ``scenario`` (its first ``duration_s`` when given) with ``model`` into ``out``; the scenario
+    (:class:`imu_sim.scenario.Scenario`, read by :func:`imu_sim.scenario.load` as every entry point reads it)."""
+    from imu_sim import scenario as scenario_mod
     from imu_sim.simulate import simulate, write_outputs
     from nav_core import sensor_model
 
-    scen = yaml.safe_load(Path(scenario).read_text())
+    scen = scenario_mod.load(scenario)
     if duration_s is not None:
-        scen["duration_s"] = duration_s
-        scenario = Path(out).parent / f"{Path(out).name}_scenario.yaml"
-        scenario.write_text(yaml.safe_dump(scen))
-    write_outputs(simulate(scenario, model=sensor_model.load(model), seed=seed), out, fmt=fmt)
+        scen.duration_s = float(duration_s)
+    write_outputs(simulate(scen, model=sensor_model.load(model), seed=seed), out, fmt=fmt)
     return scen
 
 
@@ -132,21 +131,19 @@ def _use_converted_folder(args) -> None:
 def check_inputs(args) -> None:
     """The files the graph will read, checked before anything starts (a user error, exit 2, naming the file):
     the params file (the filter's section validated as ``ins-gps-kf replay`` does), the sensor model, the
-    recording and the truth. Each node checks its own parameters again when it starts."""
-    from ins_gps_kf.config import load_params_yaml
+    scenario, the recording and the truth. Each node checks its own parameters again when it starts."""
+    from imu_sim import scenario
+    from ins_gps_kf import config as kfconfig
     from nav_core import bagio, recording, sensor_model
 
     if not args.params.is_file():
         raise DemoError(f"{args.params}: params file not found (--params)")
-    try:
-        data = yaml.safe_load(args.params.read_text())
-    except (yaml.YAMLError, UnicodeDecodeError) as err:
-        raise DemoError(f"{args.params}: not valid YAML: {' '.join(str(err).split())}") from None
-    if not isinstance(data, dict):
-        raise DemoError(f"{args.params}: expected a mapping of node names to 'ros__parameters:' (--params)")
-    if "ins_gps_kf_node" in data:
-        load_params_yaml(args.params)
+    data = kfconfig.read_params_file(args.params)
+    if kfconfig.node_section(data, args.params) is not None:
+        kfconfig.load_params_yaml(args.params)
     sensor_model.load(args.model)
+    if args.recording is None:
+        scenario.load(args.scenario)
     if args.recording is not None and not bagio.is_bag(args.recording):
         raise DemoError(f"{args.recording}: --recording is not a rosbag2 bag (folder with metadata.yaml, .db3, "
                         ".mcap) or a nav-convert folder" + ("" if args.recording.exists() else ": not found"))
@@ -154,55 +151,36 @@ def check_inputs(args) -> None:
         recording.read_trajectory_csv(args.truth)
 
 
+def graph_inputs(args, run_dir: Path, sim_dir: Path | None) -> GraphInputs:
+    """This run's inputs to the one graph description (:func:`nav_bringup.description.navigation_graph`)."""
+    common = dict(sensor_model=str(args.model.resolve()), rate=args.rate, bag_out=str(run_dir / "bag"),
+                  allan_dir=str(run_dir / "allan"))
+    if sim_dir is None:
+        gps_topic = filter_section(args.params).get("gps_topic", "gps/fix")
+        return GraphInputs("recording", recording=str(args.recording.resolve()),
+                           played_topics=played_topics(args.recording, gps_topic), **common)
+    return GraphInputs("simulation", sim_dir=str(sim_dir), port=str(run_dir / "bp3010_port"),
+                       duration_s=args.duration, reconnect_period_s=0.2, **common)
+
+
 def graph_specs(args, run_dir: Path, sim_dir: Path | None) -> list:
     """The nodes of this run, in start order (the player last: it waits for the graph)."""
-    sim = {"use_sim_time": True}
-    model = {"sensor_model_path": str(args.model.resolve())}
-    kf = dict(sim, **model)
-    if sim_dir is not None:
-        scen = yaml.safe_load(args.scenario.read_text())
-        kf.update(datum_lat_deg=float(scen["latitude_deg"]), datum_lon_deg=float(scen["longitude_deg"]),
-                  datum_h_m=float(scen["height_m"]))
-    specs = [NodeSpec("wmra_node", dict(sim, **model)), NodeSpec("ins_gps_kf_node", kf),
-             NodeSpec("allan_node", dict(sim, out_dir=str(run_dir / "allan")), ready="collecting"),
-             # the report replays the bag: it must hold all the filter received, so the recorder must be
-             # subscribed before anything plays (its last subscription: the filter's output)
-             NodeSpec("bag_record", dict(sim, output=str(run_dir / "bag")), ready="recording /odometry/filtered")]
-    if sim_dir is None:
-        return specs + [NodeSpec("bag_play", player_params(args))]
-    link = run_dir / "bp3010_port"
-    driver = dict(sim, port=str(link), reconnect_period_s=0.2)
-    return ([NodeSpec("bp3010_driver", driver)] + specs +
-            [NodeSpec("scenario_player", {"sim_dir": str(sim_dir), "link": str(link), "rate": args.rate,
-                                          "duration_s": args.duration,
-                                          # imu/data: only the recorder subscribes it
-                                          "wait_for_subscribers": ["gps/fix", "imu/data_raw", "imu/data"]})])
+    return navigation_graph(graph_inputs(args, run_dir, sim_dir))
 
 
-PLAYER_SETTLE_S = 3.0
-"""bag_play's wait after it counts its subscribers, s: a node that subscribed before the player started
-counts the player's publisher up to ~2 s after the player counts it (DDS discovery, measured), and misses
-what is played before (the recorder, which subscribes once it sees the player, does not)."""
+def filter_section(params_file: Path) -> dict:
+    """The filter node's parameters in the params file, by the one section rule
+    (:func:`ins_gps_kf.config.node_section`: ``/**`` then ``ins_gps_kf_node``)."""
+    from ins_gps_kf import config as kfconfig
 
-
-def player_params(args) -> dict:
-    """bag_play's overrides: the bag's topics the graph reads, played once the node reading each and the
-    recorder subscribe (two subscribers), and a settle for the subscribers' side of discovery."""
-    from nav_core import bagio
-
-    section = yaml.safe_load(args.params.read_text()).get("ins_gps_kf_node", {}).get("ros__parameters", {})
-    read = {"imu/data_raw", bagio.norm_topic(section.get("gps_topic", "gps/fix"))}
-    played = sorted(read & set(bagio.topics(args.recording)))
-    # a bag of another demo run holds the graph's own outputs too: played, they would meet the live ones
-    return {"bag": str(args.recording.resolve()), "rate": args.rate, "topics": played or [""],
-            "wait_for_subscribers": 2 if played else 1, "settle_s": PLAYER_SETTLE_S}
+    found = kfconfig.node_section(kfconfig.read_params_file(params_file), params_file)
+    return found[0] if found else {}
 
 
 def filter_params(params_file: Path, specs) -> dict:
     """The filter node's parameters in this run: the params file's section with the run's overrides."""
-    section = yaml.safe_load(Path(params_file).read_text()).get("ins_gps_kf_node", {}).get("ros__parameters", {})
     overrides = next((s.overrides for s in specs if s.executable == "ins_gps_kf_node"), {})
-    return {k: v for k, v in {**section, **overrides}.items() if k != "use_sim_time"}
+    return {k: v for k, v in {**filter_section(params_file), **overrides}.items() if k != "use_sim_time"}
 
 
 def main(argv=None) -> int:

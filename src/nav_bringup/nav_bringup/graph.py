@@ -7,23 +7,13 @@ params file (``config/navigation.yaml``) plus per-run overrides, exactly as
 from __future__ import annotations
 
 import time
-from dataclasses import dataclass, field
 from pathlib import Path
 
+from nav_bringup.description import NodeSpec  # noqa: F401  (re-exported: the runner starts these)
 from nav_core.processes import NodeProcess
 
 REPO = Path(__file__).resolve().parents[3]
 PARAMS_FILE = REPO / "config" / "navigation.yaml"
-
-
-@dataclass
-class NodeSpec:
-    """One node of the graph: executable, parameter overrides, and the log line that says it is ready."""
-
-    executable: str
-    overrides: dict = field(default_factory=dict)
-    ready: str = "ready"
-    args: tuple = ()
 
 
 class GraphError(RuntimeError):
@@ -47,7 +37,9 @@ class Graph:
     def start(self, timeout_s: float = 60.0) -> None:
         """Start every node in order and wait for each to say it is ready."""
         for spec in self.specs:
-            proc = NodeProcess(spec.executable, spec.args, env=self.env, params_file=self.params_file,
+            remaps = [a for src, dst in spec.remaps for a in ("-r", f"{src}:={dst}")]
+            args = (*spec.args, "--ros-args", *remaps, "--") if remaps else spec.args
+            proc = NodeProcess(spec.executable, args, env=self.env, params_file=self.params_file,
                                ros_args=spec.overrides)
             self.procs[spec.executable] = proc
             if not proc.wait_for_line(spec.ready, timeout_s):

@@ -35,10 +35,7 @@ class TruthTrack:
     def from_sim_dir(cls, sim_dir: Path) -> TruthTrack:
         """The truth of an ``imu-sim simulate`` run, in the ENU frame at its scenario datum."""
         info = yaml.safe_load((Path(sim_dir) / "sim_info.yaml").read_text())
-        scen = yaml.safe_load(Path(info["scenario"]).read_text())
-        frame = LocalFrame(float(scen.get("latitude_deg")), float(scen.get("longitude_deg")),
-                           float(scen.get("height_m")))
-        return cls.from_csv(Path(sim_dir) / "truth.csv", frame, float(info.get("bag_epoch_s", 0.0)))
+        return cls.from_csv(Path(sim_dir) / "truth.csv", sim_frame(sim_dir), float(info.get("bag_epoch_s", 0.0)))
 
     def at(self, t_s) -> np.ndarray:
         """ENU positions (n, 3) at stamps ``t_s``."""
@@ -47,3 +44,12 @@ class TruthTrack:
     def horizontal_error(self, t_s: float, enu: np.ndarray) -> float:
         """Horizontal distance (m) of ``enu`` from the truth at ``t_s``."""
         return float(np.hypot(*(enu[:2] - self.at(np.array([t_s]))[0, :2])))
+
+
+def sim_frame(sim_dir) -> LocalFrame:
+    """The local frame of an ``imu-sim simulate`` run: its scenario's truth datum, read through
+    :func:`imu_sim.scenario.load` (a datum the scenario leaves out, ``height_m`` say, is the simulator's default)."""
+    from imu_sim import scenario
+
+    info = yaml.safe_load((Path(sim_dir) / "sim_info.yaml").read_text())
+    return scenario.build_trajectory(scenario.load(info["scenario"])).frame
