@@ -118,6 +118,32 @@ def test_a_std_that_is_zero_negative_or_nan_means_unknown_and_navigation_does_no
     assert len(nav) > 0.8 * len(est)  # the course is taken over a longer baseline with 10-m fixes
     t, err, _ = _errors(filt, est)
     assert err[t > 60].max() < 6.0  # real noise 1 m: the 10-m default is only cautious
+    assert "estimated from the innovations" in filt.input_counters["unknown_fix_std"]
+
+
+def test_a_std_of_zero_on_every_fix_navigates_near_the_run_with_the_real_std_not_7_times_worse():
+    imu, gnss = _inputs()  # fixes with 1 m (horizontal) noise
+    clean_filt, clean = _run(imu, gnss)
+    t0, err0, _ = _errors(clean_filt, clean)
+    gnss.std_enu[:] = 0.0  # a converter writing 0 for "unknown"
+    filt, est = _run(imu, gnss)
+    t, err, _ = _errors(filt, est)
+    rms, rms0 = (float(np.sqrt(np.mean(e[tt > 60] ** 2))) for e, tt in ((err, t), (err0, t0)))
+    assert rms < 1.5 * rms0, (rms, rms0)  # was: 10 m assumed, several times the clean error
+    std_h = filt.unknown_fix_std.std_enu[0]
+    assert 0.6 < std_h < 1.6, std_h  # the truth is 1 m
+    assert f"{std_h:.3g} m horizontal" in filt.input_counters["unknown_fix_std"]
+
+
+def test_replay_of_fixes_with_std_0_warns_with_the_estimated_std(tmp_path, capsys):
+    imu, gnss = _inputs(syn.circle(still_s=25.0, accel_s=5.0, straight_s=10.0, turn_s=40.0))
+    gnss.std_enu[:] = 0.0
+    paths = [recording.write_imu_csv(tmp_path / "imu.csv", imu), recording.write_gnss_csv(tmp_path / "g.csv", gnss)]
+    assert main(["replay", "--recording", str(paths[0]), "--gnss", str(paths[1]), "--model", "default", "--quiet",
+                 "--no-plot", "--param", "alignment_time_s=20.0", "--out", str(tmp_path / "a.csv")]) == 0
+    err = capsys.readouterr().err
+    line = next(ln for ln in err.splitlines() if "carry no std" in ln)
+    assert f"{len(gnss)} fixes" in line and "estimated from the innovations" in line and "gps_std_m" in line
 
 
 def test_a_configured_gps_std_replaces_an_unknown_one_without_counting():
@@ -240,8 +266,8 @@ def test_input_counters_are_plain_ints_under_documented_keys():
     assert set(counts) == set(input_checks.InputCounters().as_dict())
     for key in counts:
         assert key in input_checks.__doc__
-        assert isinstance(counts[key], str if key == "last_rejection" else int)
-    assert all(v == 0 for k, v in counts.items() if k != "last_rejection")
+        assert isinstance(counts[key], str if key in ("last_rejection", "unknown_fix_std") else int)
+    assert all(v == 0 for v in counts.values() if isinstance(v, int)) and counts["unknown_fix_std"] == ""
 
 
 # ---------------------------------------------------------------------------------------------- fuzz

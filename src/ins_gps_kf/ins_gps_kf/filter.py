@@ -48,6 +48,7 @@ class InsGpsFilter:
         self.counters = Counters()
         self.input = input_checks.InputCounters()
         self.gnss_clock = input_checks.GnssClock(cfg.max_rejected_fixes, cfg.time_jump, self.input)
+        self.unknown_fix_std = input_checks.UnknownFixStd(measurements.UNKNOWN_FIX_STD_M, cfg.min_gps_std, self.input)
         self.last_fix_t = -math.inf
         self.last_nis = math.nan
         self._start_over()
@@ -123,6 +124,7 @@ class InsGpsFilter:
         known = not input_checks.std_unknown(std_enu)
         if not known and not (cfg.gps_std > 0 and cfg.gps_std_up > 0):
             self.input.fixes_std_unknown += 1
+            std_enu = self.unknown_fix_std.current()  # from the innovations of such fixes (10 m at first)
         cov = measurements.fix_covariance(std_enu, cfg.gps_std, cfg.gps_std_up, cfg.min_gps_std)
         self.pending_fix = Fix(float(t), self.frame.to_enu(lat_rad / DEG, lon_rad / DEG, h_m), cov,
                                known or cfg.gps_std > 0)
@@ -394,7 +396,10 @@ class InsGpsFilter:
             return True, math.nan
         z = measurements.gps_position(self.nav[strapdown.P], self.nav[strapdown.V], self.mat_nb(),
                                       self.lever_arm_b, fix.enu, fix.cov, t_e - fix.t, self.n_states)
+        cov_prior = self.cov
         corr = self._apply(z)
+        if not (reused or fix.std_known) and self.status == NAVIGATING:  # a pending heading swamps the noise
+            self.unknown_fix_std.observe(corr.innovation, z[1], cov_prior)
         if not reused:
             self.prev_fix = fix
             self.counters.fixes_rejected += not corr.accepted

@@ -13,8 +13,10 @@ in ``/diagnostics``, the replay in its summary. Every rejected input is counted 
   as late); a step back beyond ``time_jump_s`` is a restart, which resets the filter;
 * ``fixes_invalid`` - NO_FIX status or a NaN/Inf stamp, latitude, longitude or height; dropped;
 * ``fixes_out_of_range`` - latitude outside [-90, 90] deg or longitude outside [-180, 180] deg; dropped;
-* ``fixes_std_unknown`` - a std <= 0 or not finite: taken as unknown (the configured ``gps_std_m``,
-  else 10 m); the fix is used;
+* ``fixes_std_unknown`` - a std <= 0 or not finite (a receiver or converter writing 0 for "unknown",
+  NavSatFix COVARIANCE_TYPE_UNKNOWN): taken as unknown; the fix is used with the configured ``gps_std_m``,
+  else with the std estimated from those fixes' innovations (:class:`UnknownFixStd`; 10 m until 10 have
+  come); ``unknown_fix_std`` says the std in use (a text, like ``last_rejection``);
 * ``fixes_duplicate`` - the same stamp and position as the fix before; dropped;
 * ``fixes_conflicting`` - the same stamp as the fix before, another position: neither is used
   (the pending one is withdrawn when it was not fused yet);
@@ -66,6 +68,7 @@ class InputCounters:
     state_resets: int = 0
     alignment_not_gravity: int = 0
     last_rejection: str = ""
+    unknown_fix_std: str = ""
 
     def as_dict(self) -> dict:
         """Name -> count, and ``last_rejection``: what the node's diagnostics and the replay's JSON show."""
@@ -79,8 +82,8 @@ class InputCounters:
         return count
 
     def total(self) -> int:
-        """Number of counted events (all keys but ``last_rejection``)."""
-        return sum(v for k, v in asdict(self).items() if k != "last_rejection")
+        """Number of counted events (the int keys: not ``last_rejection`` nor ``unknown_fix_std``)."""
+        return sum(v for v in asdict(self).values() if isinstance(v, int))
 
 
 def screen_imu(t, gyro, accel, t_prev, max_gyro, max_accel, counters: InputCounters,
@@ -168,6 +171,71 @@ def std_unknown(std_enu) -> bool:
     """Whether a fix's std (m, ENU) says nothing: a component <= 0 or not finite."""
     std = np.asarray(std_enu, dtype=float)
     return not (std.min() > 0.0 and std.max() < math.inf)  # NaN fails both
+
+
+class UnknownFixStd:
+    """The std (m, ENU) of fixes that carry none, estimated from their GPS innovations (covariance matching).
+
+    An innovation ``nu = H x - z`` has the variance ``H P H' + R`` per axis. Over the last ``window``
+    such fixes, ``R`` (horizontal: east and north pooled; vertical) is the value that makes the median
+    of ``nu^2 / (H P H' + R)`` the median of a chi-square with one degree of freedom (0.4549): a median,
+    so a glitch or a jump does not inflate it. Innovations whose predicted part ``H P H'`` exceeds the
+    ``R`` in use say little about ``R`` (the filter's own uncertainty swamps it) and are left out. The
+    std starts at ``start_m`` and falls by at most ``MAX_FALL`` per fix, so a filter not yet settled is
+    not handed fixes it would then reject. ``counters.unknown_fix_std`` says which std is in use.
+    """
+
+    CHI2_1_MEDIAN = 0.4549364  # median of nu^2 / var for a Gaussian nu
+    MAX_FALL = 0.7  # the std in use shrinks by at most this factor per fix
+
+    def __init__(self, start_m: float, floor_m: float, counters: InputCounters, window: int = 60,
+                 min_fixes: int = 10):
+        self.start_m, self.floor_m, self.counters = float(start_m), max(float(floor_m), 1e-3), counters
+        self.window, self.min_fixes = int(window), int(min_fixes)
+        self.nu2 = np.empty((0, 3))  # squared innovations, m^2
+        self.hph = np.empty((0, 3))  # the filter's predicted part of their variance, m^2
+        self.std_enu = np.array([self.start_m] * 3)
+        self.n_seen = 0
+
+    def current(self) -> np.ndarray:
+        """The std (3,) m, ENU, to give a fix without one now."""
+        if not self.counters.unknown_fix_std:
+            self.counters.unknown_fix_std = (f"{self.start_m:g} m (the default) until the innovations of "
+                                             f"{self.min_fixes} fixes without a std give an estimate")
+        return self.std_enu
+
+    def observe(self, innovation, h, cov_prior) -> None:
+        """One fix of unknown std went through the gate: its innovation (3,) m, Jacobian (3, n), prior P (n, n)."""
+        nu = np.asarray(innovation, dtype=float)[:3]
+        hph = np.einsum("ij,jk,ik->i", h[:3], cov_prior, h[:3])
+        if not (np.all(np.isfinite(nu)) and np.all(np.isfinite(hph))):
+            return
+        self.n_seen += 1
+        self.nu2 = np.vstack([self.nu2, nu**2])[-self.window:]
+        self.hph = np.vstack([self.hph, hph])[-self.window:]
+        std_h = self._matched(self.nu2[:, :2].ravel(), self.hph[:, :2].ravel(), self.std_enu[0])
+        std_u = self._matched(self.nu2[:, 2], self.hph[:, 2], self.std_enu[2])
+        if std_h is None and std_u is None:
+            return
+        self.std_enu = np.array([std_h or self.std_enu[0], std_h or self.std_enu[1], std_u or self.std_enu[2]])
+        self.counters.unknown_fix_std = (f"{self.std_enu[0]:.3g} m horizontal, {self.std_enu[2]:.3g} m vertical, "
+                                         f"estimated from the innovations of {self.n_seen} fixes without a std "
+                                         "(set gps_std_m / gps_std_up_m if the receiver's is known)")
+
+    def _matched(self, nu2, hph, std_now):
+        """The std (m) whose variance matches the innovations' median (see the class doc); None if too few."""
+        use = hph <= std_now**2
+        if np.sum(use) < self.min_fixes:
+            return None
+        nu2, hph = nu2[use], hph[use]
+        lo, hi = math.log(self.floor_m**2), math.log(max(4.0 * float(np.max(nu2)), self.floor_m**2))
+        for _ in range(40):  # bisection on log R: the median ratio falls as R grows
+            mid = 0.5 * (lo + hi)
+            if np.median(nu2 / (hph + math.exp(mid))) > self.CHI2_1_MEDIAN:
+                lo = mid
+            else:
+                hi = mid
+        return max(math.exp(0.5 * hi), self.MAX_FALL * std_now)
 
 
 def _h_std(fix) -> float:

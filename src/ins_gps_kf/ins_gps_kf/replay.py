@@ -190,12 +190,15 @@ def _replay(args) -> int:
     if args.json:
         print(json.dumps(_summary(filt), indent=1))
         return 0
-    c, bad = filt.counters, {k: v for k, v in filt.input_counters.items() if v and k != "last_rejection"}
+    c, bad = filt.counters, {k: v for k, v in filt.input_counters.items() if v and isinstance(v, int)}
     print(f"wrote {args.out}: {len(traj)} epochs; fixes {c.fixes} (rejected {c.fixes_rejected}, invalid "
           f"{c.fixes_invalid}), zupts {c.zupts}, resets {c.resets}, gps resets {c.gps_resets}; input flagged: "
           + (", ".join(f"{k} {v}" for k, v in bad.items()) or "none"))
     if bad:
         print(f"ins-gps-kf: warning: {filt.input.last_rejection} (last of {filt.input.total()})", file=sys.stderr)
+    if filt.input.fixes_std_unknown:
+        print(f"ins-gps-kf: warning: {filt.input.fixes_std_unknown} fixes carry no std (0, negative or not finite: "
+              f"unknown); their std: {filt.input.unknown_fix_std}", file=sys.stderr)
     return 0
 
 
