@@ -61,7 +61,7 @@ def replay_files(recording_path, gnss_path, model_path, out_path, params: dict |
     recording.write_trajectory_csv(out_path, traj)
     if plot and len(traj):
         with staged_file(Path(out_path).with_suffix(".png"), force=True) as tmp:  # checked by the caller
-            plot_north_east(tmp, traj, gnss, filt.frame)
+            plot_north_east(tmp, traj, gnss, filt.frame, title=f"ins_gps_kf: {Path(out_path).stem}")
     return traj, filt
 
 
