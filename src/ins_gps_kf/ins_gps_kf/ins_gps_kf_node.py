@@ -53,6 +53,7 @@ from ins_gps_kf import error_model as em  # noqa: E402
 from ins_gps_kf import strapdown  # noqa: E402
 from ins_gps_kf.filter import ALIGNING, NAVIGATING, Estimate, InsGpsFilter  # noqa: E402
 from ins_gps_kf.intake import StampOrderIntake, warm_up  # noqa: E402
+from ins_gps_kf.odometry import epoch_span, odometry  # noqa: E402
 from ins_gps_kf.offline import load_model  # noqa: E402
 
 GPS, IMU = 0, 1  # arrival-merge order of a fix and an IMU message received at the same instant
@@ -242,34 +243,24 @@ class InsGpsKfNode(Node):
                           orientation_xyzw=quat, orientation_cov=quat_cov)
 
     def publish_odometry(self, est: Estimate):
-        """Pose (ENU, map) and twist (body) with covariances from the filter's P."""
+        """Pose (ENU, map) and twist (body) with covariances: :func:`ins_gps_kf.odometry.odometry`, converted."""
         self.last_estimate = est
         if self.closing:
             return
+        f = self.filter
+        odom = odometry(est, f.noise, epoch_span(est.t, self._last_epoch_t, f.cfg.filter_rate_hz, f.cfg.imu_rate_hz))
+        self._last_epoch_t = est.t
         msg = Odometry()
-        msg.header.stamp = stamp_from_s(est.t)
+        msg.header.stamp = stamp_from_s(odom.t)
         msg.header.frame_id = self.params["frame_id"]
         msg.child_frame_id = self.params["child_frame_id"]
-        p = msg.pose.pose
-        p.position.x, p.position.y, p.position.z = (float(v) for v in est.position_n)
-        p.orientation.x, p.orientation.y, p.orientation.z, p.orientation.w = (float(v) for v in est.quat_xyzw)
-        idx = np.r_[0:3, 6:9]
-        msg.pose.covariance = est.cov[np.ix_(idx, idx)].flatten().tolist()
-        mat_bn = self.filter.mat_nb().T
-        v_b = mat_bn @ est.velocity_n
-        msg.twist.twist.linear.x, msg.twist.twist.linear.y, msg.twist.twist.linear.z = (float(v) for v in v_b)
-        twist_cov = np.zeros((6, 6))
-        twist_cov[:3, :3] = mat_bn @ est.cov[em.DV, em.DV] @ mat_bn.T
-        # the epoch's mean bias-corrected rate: white noise averaged over the epoch (one sample's worth when the
-        # epoch's span is unknown, after alignment or a reset) plus the bias uncertainty
-        f = self.filter
-        w_b = est.angular_rate_b if est.angular_rate_b is not None else np.zeros(3)
-        msg.twist.twist.angular.x, msg.twist.twist.angular.y, msg.twist.twist.angular.z = (float(v) for v in w_b)
-        span_s = est.t - self._last_epoch_t if 0.0 < est.t - self._last_epoch_t <= 1.5 / f.cfg.filter_rate_hz \
-            else 1.0 / f.cfg.imu_rate_hz
-        self._last_epoch_t = est.t
-        twist_cov[3:, 3:] = np.diag(f.noise.gyro_white ** 2 / span_s) + est.cov[em.BG, em.BG]
-        msg.twist.covariance = twist_cov.flatten().tolist()
+        p, tw = msg.pose.pose, msg.twist.twist
+        p.position.x, p.position.y, p.position.z = (float(v) for v in odom.position_n)
+        p.orientation.x, p.orientation.y, p.orientation.z, p.orientation.w = (float(v) for v in odom.quat_xyzw)
+        tw.linear.x, tw.linear.y, tw.linear.z = (float(v) for v in odom.velocity_b)
+        tw.angular.x, tw.angular.y, tw.angular.z = (float(v) for v in odom.angular_rate_b)
+        msg.pose.covariance = odom.pose_cov.flatten().tolist()
+        msg.twist.covariance = odom.twist_cov.flatten().tolist()
         self.odom_pub.publish(msg)
         self.publish_tf(est)
 
