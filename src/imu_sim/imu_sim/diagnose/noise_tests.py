@@ -19,8 +19,8 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 
 import numpy as np
-from scipy import optimize
 
+from nav_core.noise_stats import block_means, fit_line_frequency, line_lr, vibration_scan  # noqa: F401 (API)
 from nav_core.sensor_model import SensorModel
 
 from imu_sim.diagnose import local_level
@@ -51,55 +51,6 @@ def _mean_sin(t, dt, f, phase=0.0):
 def _mean_cos(t, dt, f, phase=0.0):
     w = 2 * np.pi * f
     return (np.sin(w * t + phase) - np.sin(w * (t - dt) + phase)) / (w * dt)
-
-
-def vibration_scan(wh, resid_f: np.ndarray, f_min_hz: float, exclude=None):
-    """Largest whitened periodogram ordinate: (lr, channel, bin frequency Hz, number of bins searched).
-
-    ``exclude``: mask of bins not searched (e.g. harmonics of the trajectory)."""
-    freqs = np.fft.rfftfreq(wh.n, wh.dt)
-    sel = (freqs >= f_min_hz) & (freqs < 0.5 / wh.dt)
-    if exclude is not None:
-        sel &= ~exclude
-    power = np.abs(resid_f.T) ** 2 * wh.weights / (wh.n * wh.scale2[:, None])
-    power[:, ~sel] = 0.0
-    ch, k = np.unravel_index(np.argmax(power), power.shape)
-    return float(power[ch, k]), int(ch), float(freqs[k]), int(sel.sum()) * 6
-
-
-def line_lr(wh, x: np.ndarray, f_hz: float, k: int) -> float:
-    """Joint whitened periodogram of the columns x (n, 6) at f_hz (off the bins too): the likelihood ratio of a line
-    with its own amplitude and phase per channel (chi-square 2 per channel under the null); weights of bin k."""
-    e = np.exp(-2j * np.pi * f_hz * wh.dt * np.arange(wh.n))
-    return float(np.sum(np.abs(e @ x) ** 2 * wh.weights[:, k] / (wh.n * wh.scale2)))
-
-
-def fit_line_frequency(wh, resid: np.ndarray, f0: float, z: float = 1.959964, grid: int = 20):
-    """Maximum-likelihood frequency (Hz) of one line common to all channels near bin f0, and its 95 %
-    profile-likelihood interval: (f, lo, hi).
-
-    The interval is where the joint likelihood ratio stays within z^2 (chi-square 1) of its top, searched within
-    one bin either side (a line too weak to lose z^2 within a bin gets that bin's edges). Its half-width is z times
-    the Cramer-Rao sd(f) = sqrt(6) / (pi T sqrt(n sum_c A_c^2 / sigma_c^2)), T = n dt s, from the sampled amplitudes
-    A_c (interval means: the line's amplitude times sinc(f dt)) over the noise sigma_c per sample at f (whitened).
-    """
-    x = resid - resid.mean(axis=0)
-    df = 1.0 / (wh.n * wh.dt)
-    k = int(round(f0 / df))
-    f_grid = f0 + np.linspace(-1.0, 1.0, 2 * grid + 1) * df
-    lr_grid = [line_lr(wh, x, f, k) for f in f_grid]
-    i = int(np.argmax(lr_grid))
-    res = optimize.minimize_scalar(lambda f: -line_lr(wh, x, f, k), bounds=(f_grid[max(i - 1, 0)],
-                                   f_grid[min(i + 1, len(f_grid) - 1)]), method="bounded",
-                                   options={"xatol": df * 1e-6})
-    f_hat, top = (float(res.x), -float(res.fun)) if -res.fun >= lr_grid[i] else (float(f_grid[i]), lr_grid[i])
-
-    def drop(f):
-        return top - line_lr(wh, x, f, k) - z * z
-    ends = []
-    for edge in (f_hat - df, f_hat + df):
-        ends.append(float(optimize.brentq(drop, f_hat, edge, xtol=df * 1e-6)) if drop(edge) > 0 else edge)
-    return f_hat, min(ends), max(ends)
 
 
 def vibration_fit(wh, resid: np.ndarray, t_abs: np.ndarray, freq: float, ch_peak: int, gls_fn):
@@ -160,12 +111,6 @@ def print_step(x: np.ndarray, digits: int) -> float:
     """Largest step of a decimal print lattice of ``digits`` significant digits over the values x."""
     top = float(np.max(np.abs(x)))
     return 10.0 ** (np.floor(np.log10(top)) - digits + 1) if top > 0 else 0.0
-
-
-def block_means(x: np.ndarray, m: int) -> np.ndarray:
-    """Means of consecutive blocks of m rows (the tail that does not fill a block is dropped)."""
-    nb = len(x) // m
-    return x[:nb * m].reshape(nb, m, *x.shape[1:]).mean(axis=1)
 
 
 def detrended(xb: np.ndarray) -> np.ndarray:

@@ -13,72 +13,28 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from nav_core import noise_stats
 from nav_core.sensor_model import SensorModel
 
 from imu_sim.diagnose.case import effective_model
 
-LN2 = np.log(2.0)
 SE_MAX = 1.0
 """A scale factor, misalignment, g-sensitivity or physical scale whose standard error exceeds this is not
 identifiable by the run (its natural scale is 1; callers pass it as ``se_max``)."""
 
 
 def noise_psd(model: SensorModel, freqs: np.ndarray, dt: float) -> np.ndarray:
-    """Two-sided PSD (unit^2/Hz) of the model's noise per channel at ``freqs`` Hz, shape (6, nf)."""
-    mdl = effective_model(model)
-    f = np.maximum(np.abs(freqs), freqs[1] if len(freqs) > 1 else 1.0)
-    out = []
-    for name in ("gyro", "accel"):
-        tri = mdl.triad(name)
-        for i in range(3):
-            s = np.full_like(f, tri.white_noise[i] ** 2)
-            b, tc = tri.bias_instability[i], tri.bias_correlation_time[i]
-            if b > 0 and tc > 0:
-                s = s + 2 * b**2 * tc / (1 + (2 * np.pi * f * tc) ** 2)
-            elif b > 0:
-                s = s + b**2 / (2 * np.pi * f)
-            s = s + tri.rate_random_walk[i] ** 2 / (2 * np.pi * f) ** 2
-            out.append(s if np.any(s > 0) else np.ones_like(f))
-    return np.array(out)
+    """Two-sided PSD (unit^2/Hz) of the model's noise (physics overrides applied) per channel, shape (6, nf)."""
+    return noise_stats.noise_psd(effective_model(model), freqs)
 
 
-@dataclass
-class Whitener:
-    """Per-channel DFT weights (1/S, DC dropped, interior bins counted twice) and noise scales."""
-
-    n: int
-    dt: float
-    weights: np.ndarray
-    """(6, nf) = multiplicity / S(f), 0 at DC."""
-    scale2: np.ndarray
-    """(6,) variance multiplier of the model PSD estimated from the residual."""
+class Whitener(noise_stats.Whitener):
+    """:class:`nav_core.noise_stats.Whitener` of the model the simulator uses (physics overrides applied)."""
 
     @classmethod
     def from_model(cls, model: SensorModel, resid: np.ndarray, dt: float) -> Whitener:
         """Weights from ``model``'s PSD; scales from the median whitened periodogram of ``resid`` (n, 6)."""
-        n = len(resid)
-        freqs = np.fft.rfftfreq(n, dt)
-        mult = np.full(len(freqs), 2.0)
-        mult[0] = 0.0
-        if n % 2 == 0:
-            mult[-1] = 1.0
-        psd = noise_psd(model, freqs, dt)
-        w = mult / (psd / psd.max(axis=1, keepdims=True))
-        spec = np.fft.rfft(resid, axis=0).T
-        u = (np.abs(spec) ** 2 * w / mult.clip(min=1))[:, 1:] / n
-        scale2 = np.median(u, axis=1) / LN2
-        return cls(n, dt, w, np.maximum(scale2, 1e-300))
-
-    def spectrum(self, x: np.ndarray) -> np.ndarray:
-        """rfft along time of x (n,) or (n, k)."""
-        return np.fft.rfft(x, axis=0)
-
-    def gram(self, ch: int, xf: np.ndarray, yf: np.ndarray) -> np.ndarray:
-        """Whitened inner products Re(X^H W Y) / (n s^2) for channel ch; xf (nf, k), yf (nf,) or (nf, m)."""
-        w = self.weights[ch] / (self.n * self.scale2[ch])
-        if yf.ndim == 1:
-            return np.real(np.conj(xf).T @ (w * yf))
-        return np.real(np.conj(xf).T @ (w[:, None] * yf))
+        return super().from_model(effective_model(model), resid, dt)
 
 
 @dataclass
