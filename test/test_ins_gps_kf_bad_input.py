@@ -315,3 +315,35 @@ def test_random_damage_to_the_input_never_raises_and_never_makes_the_state_non_f
     assert _finite(est)
     if filt.nav is not None:
         assert np.all(np.isfinite(filt.nav)) and np.all(np.isfinite(filt.cov))
+
+
+# ---------------------------------------------------------------------------------------------- wrong coordinates
+
+
+def _replay_gnss(tmp_path, imu, gnss, capsys):
+    paths = [recording.write_imu_csv(tmp_path / "imu.csv", imu), recording.write_gnss_csv(tmp_path / "g.csv", gnss)]
+    out = tmp_path / "traj.csv"
+    code = main(["replay", "--recording", str(paths[0]), "--gnss", str(paths[1]), "--model", "default", "--quiet",
+                 "--no-plot", "--param", "alignment_time_s=20.0", "--out", str(out)])
+    return code, capsys.readouterr().err, out.exists()
+
+
+@pytest.mark.parametrize("case", ["clean", "radians", "persistently_rejected"])
+def test_fixes_in_radians_or_persistently_rejected_are_a_named_error_not_exit_0(tmp_path, capsys, case):
+    imu, gnss = _inputs()
+    if case == "radians":  # radian numbers in the lat_deg/lon_deg columns (was: exit 0, thousands of km off)
+        gnss.lat, gnss.lon = gnss.lat * DEG, gnss.lon * DEG
+    if case == "persistently_rejected":  # fixes scattered by 5 m that claim 5 cm: ~80 % rejected, exit 0 before
+        gnss = syn.gnss(CIRCLE, RATE, 5.0, np.random.default_rng(1))
+        gnss.std_enu[:] = 0.05
+    code, err, written = _replay_gnss(tmp_path, imu, gnss, capsys)
+    if case == "clean":
+        assert code == 0 and written and "error" not in err
+        return
+    assert code == 2 and not written, err
+    line = one_line = next(ln for ln in err.splitlines() if "error" in ln)
+    assert "g.csv" in line and "radians" in line and "swapped" in line, one_line
+    if case == "radians":
+        assert "velocity changes are 0.0" in line and "1/57.3" in line
+    else:
+        assert "rejected 1" in line and "of 171 fixes" in line and "std far below" in line
