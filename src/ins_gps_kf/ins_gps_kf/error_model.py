@@ -30,6 +30,13 @@ STATES = ["dpe", "dpn", "dpu", "dve", "dvn", "dvu", "phie", "phin", "phiu",
 N_STATES = len(STATES)
 SG, SA = slice(15, 18), slice(18, 21)
 N_STATES_SF = 21  # with gyro and accel scale-factor errors
+YAW = slice(PHI.stop - 1, PHI.stop)  # the heading error: the up component of PHI
+"""Named blocks of the error state: every module outside this one indexes states only through these."""
+
+
+def index(*blocks: slice) -> np.ndarray:
+    """Integer state indices of the named ``blocks`` (slices above), in the order given."""
+    return np.concatenate([np.arange(b.start, b.stop) for b in blocks])
 N_NOISES = 12  # gyro white, accel white, gyro bias driving, accel bias driving
 
 

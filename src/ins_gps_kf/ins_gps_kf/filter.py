@@ -183,7 +183,7 @@ class InsGpsFilter:
         self.cov[DP, DP] += np.eye(3) * (0.5 * self.cfg.bridge_accel_std * gap**2) ** 2
         # A road vehicle turns about the vertical; its roll and pitch stay within a few degrees, so only the
         # heading uncertainty grows with the turn rate (tilt growth would let GPS updates bend the tilt).
-        self.cov[PHI.stop - 1, PHI.stop - 1] += (self.cfg.bridge_rate_std * gap) ** 2
+        self.cov[em.YAW, em.YAW] += (self.cfg.bridge_rate_std * gap) ** 2
         if n < 1:
             return []
         ts = t_from + np.arange(1, n + 1) / self.cfg.imu_rate_hz
@@ -420,7 +420,7 @@ class InsGpsFilter:
         if corr.accepted:
             dx = corr.dx.copy()
             if self.status == HEADING_PENDING:
-                dx[em.PHI.start + 2] = 0.0  # yaw is unknown yet: do not let a linear update steer it
+                dx[em.YAW] = 0.0  # yaw is unknown yet: do not let a linear update steer it
             self._feed_back(dx)
         return corr
 
@@ -451,7 +451,7 @@ class InsGpsFilter:
         self.nav[strapdown.P] = fix.enu - self.mat_nb() @ self.lever_arm_b
         self.nav[strapdown.V] = 0.0
         speed_var = max(float(np.sum(np.diag(self.cov[em.DV, em.DV]))), 1.0)
-        self._reset_block(np.r_[0:6, 8], np.concatenate([np.diag(fix.cov), np.full(3, speed_var),
+        self._reset_block(em.index(em.DP, em.DV, em.YAW), np.concatenate([np.diag(fix.cov), np.full(3, speed_var),
                                                          [self.cfg.heading_std**2]]))
         self.status = HEADING_PENDING
         self.heading_history = [(fix, float(frames.euler_from_quat_xyzw(self.nav[strapdown.Q])[2]))]
@@ -498,7 +498,7 @@ class InsGpsFilter:
         self.nav[strapdown.P] += vel * (t_e - fix.t)
         # the chord speed is a mean over the baseline: while accelerating it lags by up to half the change
         vel_var = np.diag(fix.cov) * 2.0 + (0.2 * speed) ** 2 + 0.1**2
-        self._reset_block(np.r_[0:6, 8], np.concatenate([np.diag(fix.cov), vel_var,
+        self._reset_block(em.index(em.DP, em.DV, em.YAW), np.concatenate([np.diag(fix.cov), vel_var,
                                                          [self.cfg.heading_std**2 + course_std**2]]))
         self.heading_history = []
         self.status = NAVIGATING

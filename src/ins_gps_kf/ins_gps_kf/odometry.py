@@ -38,11 +38,11 @@ def epoch_span(t: float, prev_t: float, filter_rate_hz: float, imu_rate_hz: floa
 
 def odometry(est: Estimate, noise: em.NoiseModel, span_s: float) -> Odometry:
     """The odometry of ``est``; ``noise`` the filter's process noise, ``span_s`` the epoch's span (s)."""
-    pose_idx = np.r_[np.arange(em.N_STATES)[em.DP], np.arange(em.N_STATES)[em.PHI]]
+    pose_idx = em.index(em.DP, em.PHI)
     mat_bn = Rotation.from_quat(est.quat_xyzw).as_matrix().T
     # body velocity error C_bn (dv - [v x] phi) (C_est = (I - [phi x]) C_true): the attitude error turns the
     # velocity too, so at speed the heading uncertainty dominates the lateral twist covariance
-    vel_idx = np.r_[np.arange(em.N_STATES)[em.DV], np.arange(em.N_STATES)[em.PHI]]
+    vel_idx = em.index(em.DV, em.PHI)
     jac = mat_bn @ np.hstack([np.eye(3), -skew(est.velocity_n)])
     twist_cov = np.zeros((6, 6))
     twist_cov[:3, :3] = jac @ est.cov[np.ix_(vel_idx, vel_idx)] @ jac.T
