@@ -1,0 +1,305 @@
+"""The health monitor: raw IMU samples in, named events out. Streaming and deterministic: the CLI pushes a whole
+recording at once, the node pushes what each intake brings, and both get the same events at the same stamps.
+
+Sample-level checks (:mod:`sensor_health.sample_checks`) run on every sample. Window statistics
+(:mod:`sensor_health.window_stats`) run on consecutive windows of ``window_s`` s (counted in samples) and feed:
+
+* a CUSUM per channel on the standardised log noise level (``white_noise_increase``);
+* a chi-square gate per channel on the largest whitened line (``vibration``);
+* a two-sided CUSUM per channel on the window mean minus a slow baseline (``bias_shift``, gx gy az).
+
+Thresholds come from :func:`sensor_health.thresholds.monte_carlo`. A channel touched by a deterministic fault
+in a window is left out of the statistics of that window (its CUSUMs restart).
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from nav_core import noise_stats
+from nav_core.sensor_model import SensorModel
+from nav_core.units import deg2rad, g2mps2
+from sensor_health import thresholds as thr
+from sensor_health.events import CHANNELS, Event
+from sensor_health.sample_checks import SampleChecks
+from sensor_health.window_stats import WindowGrid, detrend, window_stats
+
+Z95 = 1.959964
+
+
+@dataclass
+class HealthConfig:
+    """Monitor settings (SI units)."""
+
+    window_s: float = 1.0
+    f_min_hz: float = 2.0
+    """Lines are searched from here to Nyquist (the vehicle's motion lives below)."""
+    false_alarms_per_10h: float = 0.3
+    """Budget of statistical false events on the model's own noise, all detectors and channels together."""
+    baseline_s: float = 120.0
+    """Time constant of the bias baseline, s."""
+    gyro_range_rad_s: float = float(deg2rad(300.0))
+    accel_range_m_s2: float = float(g2mps2(10.0))
+    gap_factor: float = 1.5
+    rate_tolerance: float = 0.1
+    clear_s: float = 10.0
+    """An effect on a channel is reported again only after this long without it."""
+    history_s: float = 120.0
+    mc_windows: int = 8000
+    seed: int = 0
+
+
+@dataclass
+class Trace:
+    """Per-window statistics for the plot (lists of (6,) arrays)."""
+
+    t: list = field(default_factory=list)
+    level: list = field(default_factory=list)
+    line: list = field(default_factory=list)
+    noise_cusum: list = field(default_factory=list)
+    bias_cusum: list = field(default_factory=list)
+
+
+class HealthMonitor:
+    """Streaming monitor of one IMU: :meth:`push` samples, get :class:`Event` s."""
+
+    def __init__(self, model: SensorModel, config: HealthConfig | None = None, sample_rate_hz: float = 0.0,
+                 keep_trace: bool = True):
+        self.config = cfg = config or HealthConfig()
+        self.model = model
+        fs = sample_rate_hz or model.sample_rate_hz
+        self.dt = 1.0 / fs
+        n = max(16, int(round(cfg.window_s * fs)))
+        self.grid = WindowGrid.for_model(model, n, self.dt, cfg.f_min_hz)
+        self.thr = thr.monte_carlo(model, self.grid, n * self.dt, cfg.false_alarms_per_10h, cfg.baseline_s,
+                                   cfg.mc_windows, cfg.seed)
+        ranges = np.r_[[cfg.gyro_range_rad_s] * 3, [cfg.accel_range_m_s2] * 3]
+        self.samples = SampleChecks(self.dt, ranges, self.thr.stuck_run, cfg.gap_factor, cfg.rate_tolerance,
+                                    cfg.clear_s)
+        self.trace = Trace() if keep_trace else None
+        self._pending_t, self._pending_x, self._pending_f = np.zeros(0), np.zeros((0, 6)), np.zeros((0, 6), bool)
+        self._hist_t, self._hist_x = np.zeros(0), np.zeros((0, 6))
+        self.noise_s = np.zeros(6)
+        self.noise_start = np.full(6, np.nan)
+        self.noise_active = np.zeros(6, bool)
+        self.noise_quiet = np.zeros(6, int)
+        self.line_last = np.full(6, -np.inf)
+        self.bias_base = None
+        self.bias_warm = []
+        self.bias_pos, self.bias_neg = np.zeros(6), np.zeros(6)
+        self.bias_start = np.full((2, 6), np.nan)
+        self.checked_s = [None, None]
+        self.windows = 0
+        self.active = {}
+        """(effect, channel) -> latest event, for the diagnostics."""
+
+    # ------------------------------------------------------------------ input
+
+    def push(self, t, gyro, accel) -> list:
+        """Samples t (m,) s, gyro (m, 3) rad/s, accel (m, 3) m/s^2 -> events detected among them, in time order."""
+        t = np.asarray(t, float).reshape(-1)
+        if len(t) == 0:
+            return []
+        x = np.hstack([np.asarray(gyro, float).reshape(-1, 3), np.asarray(accel, float).reshape(-1, 3)])
+        if self.checked_s[0] is None:
+            self.checked_s[0] = float(t[0])
+        self.checked_s[1] = float(t[-1])
+        events, flags = self.samples.push(t, x)
+        self._remember(t, x)
+        self._pending_t = np.concatenate([self._pending_t, t])
+        self._pending_x = np.vstack([self._pending_x, x])
+        self._pending_f = np.vstack([self._pending_f, flags])
+        n = self.grid.n
+        nw = len(self._pending_t) // n
+        if nw:
+            events += self._windows(self._pending_t[:nw * n].reshape(nw, n), self._pending_x[:nw * n].reshape(nw, n, 6),
+                                    self._pending_f[:nw * n].reshape(nw, n, 6).any(axis=1))
+            self._pending_t, self._pending_x = self._pending_t[nw * n:], self._pending_x[nw * n:]
+            self._pending_f = self._pending_f[nw * n:]
+        events.sort(key=lambda e: e.t_s)
+        for e in events:
+            for ch in e.channels:
+                self.active[(e.effect, ch)] = e
+        return events
+
+    def _remember(self, t, x):
+        keep = self.config.history_s
+        self._hist_t = np.concatenate([self._hist_t, t])
+        self._hist_x = np.vstack([self._hist_x, x])
+        cut = np.searchsorted(self._hist_t, self._hist_t[-1] - keep)
+        if cut > 4 * len(t):  # trim in steps, not every push
+            self._hist_t, self._hist_x = self._hist_t[cut:], self._hist_x[cut:]
+
+    # ------------------------------------------------------------------ windows
+
+    def _windows(self, tw, xw, faulty) -> list:
+        ws = window_stats(self.grid, xw)
+        use = ws.finite & ~faulty
+        th = self.thr
+        y = (np.log(ws.level) - th.noise_mu) / th.noise_sd
+        events = []
+        for w in range(len(tw)):
+            self.windows += 1
+            t0, t1 = float(tw[w, 0]), float(tw[w, -1])
+            events += self._noise(w, t0, t1, y[w], ws, use[w])
+            events += self._line(w, t1, ws, use[w], xw[w])
+            events += self._bias(w, t0, t1, ws, use[w])
+            if self.trace is not None:
+                self.trace.t.append(t1)
+                self.trace.level.append(ws.level[w].copy())
+                self.trace.line.append(ws.line[w].copy())
+                self.trace.noise_cusum.append(self.noise_s.copy())
+                self.trace.bias_cusum.append(np.maximum(self.bias_pos, self.bias_neg))
+        return events
+
+    def _noise(self, w, t0, t1, y, ws, use) -> list:
+        th = self.thr
+        s = np.where(use, np.maximum(0.0, self.noise_s + y - th.noise_k), 0.0)
+        self.noise_start = np.where((self.noise_s == 0) & (s > 0), t0, self.noise_start)
+        self.noise_s = s
+        self.noise_quiet = np.where(s == 0, self.noise_quiet + 1, 0)
+        clear = self.noise_active & (self.noise_quiet * th.window_s >= self.config.clear_s)
+        self.noise_active &= ~clear
+        fired = np.flatnonzero((s > th.noise_h) & ~self.noise_active)
+        if len(fired) == 0:
+            return []
+        self.noise_active[fired] = True
+        onsets = [self._variance_onset(c, self.noise_start[c], t1) for c in fired]
+        onset = float(np.median(onsets))
+        factor, lo, hi = self._noise_factor(fired, onset, t1)
+        names = [CHANNELS[c] for c in fired]
+        msg = ", ".join(f"{n} x{f:.3g}" for n, f in zip(names, factor))
+        return [Event(t1, onset, "white_noise_increase", names, "WARN", factor.tolist(),
+                      np.column_stack([lo, hi]).tolist(), f"noise sd up: {msg} of the model's",
+                      {"cusum": s[fired].tolist(), "threshold": th.noise_h})]
+
+    def _noise_factor(self, chans, onset, t1):
+        """sd factor over the model (high-passed: first differences) since ``onset`` with a 95 % interval."""
+        sel = (self._hist_t >= onset) & (self._hist_t <= t1)
+        d = np.diff(self._hist_x[sel][:, chans], axis=0)
+        var0 = 2 * self.thr.sample_sigma[chans] ** 2
+        k = max(len(d), 2)
+        ratio = np.mean(d**2, axis=0) / var0 if len(d) else np.full(len(chans), np.nan)
+        # first differences of white noise are MA(1): 2/3 of the samples' worth of chi-square dof
+        half = Z95 * np.sqrt(2.0 / (k * 2 / 3))
+        return np.sqrt(ratio), np.sqrt(ratio * np.exp(-half)), np.sqrt(ratio * np.exp(half))
+
+    def _variance_onset(self, c, start, t1) -> float:
+        """Change point of the variance of first differences in [start - window, t1] (maximum likelihood)."""
+        lo = (start if np.isfinite(start) else t1) - 2 * self.thr.window_s
+        sel = (self._hist_t >= lo) & (self._hist_t <= t1)
+        d2 = np.diff(self._hist_x[sel, c]) ** 2
+        ts = self._hist_t[sel][1:]
+        if len(d2) < 8:
+            return float(lo)
+        cs = np.cumsum(d2)
+        k = np.arange(2, len(d2) - 1)
+        v1 = cs[k - 1] / k
+        v2 = (cs[-1] - cs[k - 1]) / (len(d2) - k)
+        nll = k * np.log(np.maximum(v1, 1e-300)) + (len(d2) - k) * np.log(np.maximum(v2, 1e-300))
+        return float(ts[k[np.argmin(nll)]])
+
+    def _line(self, w, t1, ws, use, xwin) -> list:
+        th = self.thr
+        hit = use & (ws.line[w] > th.line_h)
+        fired = np.flatnonzero(hit & (t1 - self.line_last > self.config.clear_s))
+        self.line_last = np.where(hit, t1, self.line_last)
+        if len(fired) == 0:
+            return []
+        wh = noise_stats.Whitener(self.grid.n, self.dt, self.grid.weights, ws.level[w])
+        resid = detrend(np.where(np.isfinite(xwin), xwin, 0.0))
+        c0 = fired[np.argmax(ws.line[w, fired])]
+        f0 = float(self.grid.freqs[ws.line_bin[w, c0]])
+        f_hat, f_lo, f_hi = noise_stats.fit_line_frequency(wh, resid * np.isin(np.arange(6), fired), f0)
+        amp, sd = self._line_amplitude(resid[:, fired], f_hat, ws.level[w, fired], fired)
+        names = [CHANNELS[c] for c in fired]
+        estimate = {"frequency_hz": f_hat, "amplitude": dict(zip(names, amp.tolist()))}
+        interval = {"frequency_hz": [f_lo, f_hi],
+                    "amplitude": {n: [float(a - Z95 * s), float(a + Z95 * s)] for n, a, s in zip(names, amp, sd)}}
+        msg = ", ".join(f"{n} {a:.3g}" for n, a in zip(names, amp))
+        return [Event(t1, float(t1 - th.window_s), "vibration", names, "WARN", estimate, interval,
+                      f"line at {f_hat:.3g} Hz, amplitude {msg}",
+                      {"chi2": ws.line[w, fired].tolist(), "threshold": th.line_h})]
+
+    def _line_amplitude(self, x, f_hz, level, chans):
+        """Amplitude (k,) of a line at f_hz in x (n, k), corrected for interval means (sinc), and its sd."""
+        n = len(x)
+        e = np.exp(-2j * np.pi * f_hz * self.dt * np.arange(n))
+        sinc = np.sinc(f_hz * self.dt)
+        amp = 2 * np.abs(e @ x) / n / sinc
+        sd = self.thr.sample_sigma[chans] * np.sqrt(level) * np.sqrt(2.0 / n) / sinc
+        return amp, sd
+
+    def _bias(self, w, t0, t1, ws, use) -> list:
+        th = self.thr
+        chans = np.zeros(6, bool)
+        chans[list(thr.BIAS_CHANNELS)] = True
+        mean = ws.mean[w]
+        if self.bias_base is None:
+            if use[list(thr.BIAS_CHANNELS)].all():
+                self.bias_warm.append(mean)
+            warm = max(2, int(round(10.0 / th.window_s)))
+            if len(self.bias_warm) >= warm:
+                self.bias_base = np.mean(self.bias_warm, axis=0)
+            return []
+        on = chans & use
+        z = np.where(on, (mean - self.bias_base) / (th.bias_sd * np.sqrt(np.maximum(ws.level[w], 1.0))), 0.0)
+        pos = np.where(on, np.maximum(0.0, self.bias_pos + z - th.bias_k), 0.0)
+        neg = np.where(on, np.maximum(0.0, self.bias_neg - z - th.bias_k), 0.0)
+        self.bias_start[0] = np.where((self.bias_pos == 0) & (pos > 0), t0, self.bias_start[0])
+        self.bias_start[1] = np.where((self.bias_neg == 0) & (neg > 0), t0, self.bias_start[1])
+        self.bias_pos, self.bias_neg = pos, neg
+        alpha = th.window_s / th.bias_tau_s
+        self.bias_base = np.where(on, self.bias_base + alpha * (mean - self.bias_base), self.bias_base)
+        fired = np.flatnonzero(np.maximum(pos, neg) > th.bias_h)
+        events = []
+        for c in fired:
+            start = self.bias_start[0 if pos[c] > neg[c] else 1, c]
+            onset, step, sd = self._mean_onset(c, start, t1, ws.level[w, c])
+            events.append(Event(t1, onset, "bias_shift", [CHANNELS[c]], "WARN", step,
+                                [step - Z95 * sd, step + Z95 * sd],
+                                f"{CHANNELS[c]} mean stepped by {step:.3g} ({abs(step) / sd:.1f} sd)",
+                                {"cusum": float(max(pos[c], neg[c])), "threshold": th.bias_h}))
+            # the new mean is the baseline from here on: one event per step
+            after = (self._hist_t >= onset) & (self._hist_t <= t1)
+            self.bias_base[c] = float(np.mean(self._hist_x[after, c]))
+            self.bias_pos[c] = self.bias_neg[c] = 0.0
+        return events
+
+    def _mean_onset(self, c, start, t1, level):
+        """Change point of the mean of channel c in [start - 10 s, t1]: (onset s, step, sd of the step).
+
+        The CUSUM's last zero can fall after the onset (noise pulled it back once), hence the 10 s before."""
+        lo = (start if np.isfinite(start) else t1) - max(10.0, 2 * self.thr.window_s)
+        sel = (self._hist_t >= lo) & (self._hist_t <= t1)
+        x, ts = self._hist_x[sel, c], self._hist_t[sel]
+        sigma = self.thr.sample_sigma[c] * np.sqrt(max(level, 1.0))
+        if len(x) < 8:
+            return float(lo), float("nan"), float("nan")
+        cs = np.cumsum(x - x.mean())
+        k = np.arange(2, len(x) - 1)
+        score = cs[k - 1] ** 2 / (k * (len(x) - k))
+        j = int(k[np.argmax(score)])
+        step = float(x[j:].mean() - x[:j].mean())
+        return float(ts[j]), step, float(sigma * np.sqrt(1 / j + 1 / (len(x) - j)))
+
+    # ------------------------------------------------------------------ status
+
+    def channel_status(self, now_s: float) -> dict:
+        """Channel -> (level, latest event or None): an event older than clear_s without a repeat is history."""
+        out = {}
+        for c in CHANNELS:
+            evs = [e for (eff, ch), e in self.active.items() if ch == c]
+            latest = max(evs, key=lambda e: e.t_s) if evs else None
+            live = latest is not None and (self._still_active(latest, c) or now_s - latest.t_s <= self.config.clear_s)
+            out[c] = (latest.level if live else "OK", latest)
+        return out
+
+    def _still_active(self, e: Event, ch: str) -> bool:
+        c = CHANNELS.index(ch)
+        if e.effect == "white_noise_increase":
+            return bool(self.noise_active[c])
+        if e.effect == "stuck_output":
+            return bool(self.samples.run[c] >= self.thr.stuck_run[c])
+        return False

@@ -1,0 +1,41 @@
+"""The sensor model's own noise, simulated for the Monte Carlo thresholds (white, quantization, Gauss-Markov or
+flicker bias instability, rate random walk). Not a simulator of motion: the health monitor must stay silent on
+exactly this, so its thresholds are set on it."""
+from __future__ import annotations
+
+import numpy as np
+from scipy import signal
+
+from nav_core.sensor_model import SensorModel
+
+FLICKER_TAUS_S = (3.0, 30.0, 300.0)
+"""Flicker (1/f) bias instability is approximated by equal Gauss-Markov terms at these correlation times."""
+
+
+def _gauss_markov(rng, n: int, dt: float, sigma: float, tau_s: float) -> np.ndarray:
+    """Stationary first-order Gauss-Markov series (n,), sd sigma, correlation time tau_s."""
+    phi = np.exp(-dt / tau_s)
+    e = rng.normal(0.0, sigma * np.sqrt(1 - phi**2), n)
+    e[0] = rng.normal(0.0, sigma)
+    return signal.lfilter([1.0], [1.0, -phi], e)
+
+
+def model_noise(model: SensorModel, n: int, dt: float, rng: np.random.Generator) -> np.ndarray:
+    """n samples (n, 6) of the model's noise at interval dt s (rad/s, m/s^2), zero turn-on bias."""
+    out = np.zeros((n, 6))
+    for c in range(6):
+        tri, i = model.triad(("gyro", "accel")[c // 3]), c % 3
+        x = rng.normal(0.0, tri.white_noise[i] / np.sqrt(dt), n)
+        q = tri.quantization[i]
+        if q > 0:  # counted increments with the remainder carried (Allan Q^2 = var of the remainder)
+            e = rng.uniform(-0.5, 0.5, n + 1) * q * np.sqrt(12.0)
+            x += np.diff(e) / dt
+        b, tc = tri.bias_instability[i], tri.bias_correlation_time[i]
+        if b > 0:
+            taus = (tc,) if tc > 0 else FLICKER_TAUS_S
+            for tau in taus:
+                x += _gauss_markov(rng, n, dt, b / np.sqrt(len(taus)), tau)
+        if tri.rate_random_walk[i] > 0:
+            x += np.cumsum(rng.normal(0.0, tri.rate_random_walk[i] * np.sqrt(dt), n))
+        out[:, c] = x
+    return out

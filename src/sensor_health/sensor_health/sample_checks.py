@@ -1,0 +1,159 @@
+"""Checks of single samples and their stamps, exact by construction: non-finite values, the range, exact
+repeats (stuck output), gaps and a changed sample interval. Streaming: the state carries across pushes, so
+any split of the same samples into pushes gives the same events."""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from sensor_health.events import CHANNELS, Event
+
+RATE_CONFIRM = 8
+"""Consecutive intervals at one new value that make a sample-rate change (fewer, followed by the old one:
+dropouts)."""
+
+
+def _names(chs) -> list:
+    return [CHANNELS[c] for c in chs]
+
+
+@dataclass
+class Episodes:
+    """Per channel the time of the last flagged sample: a flagged sample after ``clear_s`` of none opens a new
+    episode (one event each)."""
+
+    clear_s: float
+    last: np.ndarray = field(default_factory=lambda: np.full(6, -np.inf))
+
+    def starts(self, t: np.ndarray, flags: np.ndarray):
+        """(sample index, channel) of each new episode among flags (m, 6), in time order; updates the state."""
+        out = []
+        for c in range(6):
+            idx = np.flatnonzero(flags[:, c])
+            if len(idx) == 0:
+                continue
+            prev = np.concatenate([[self.last[c]], t[idx[:-1]]])
+            out += [(int(i), c) for i in idx[t[idx] - prev > self.clear_s]]
+            self.last[c] = t[idx[-1]]
+        return sorted(out)
+
+
+class SampleChecks:
+    """Sample-level detectors; :meth:`push` returns events and per-sample fault flags (m, 6)."""
+
+    def __init__(self, dt_s: float, ranges: np.ndarray, stuck_run: np.ndarray, gap_factor: float,
+                 rate_tolerance: float, clear_s: float):
+        self.dt_s, self.ranges, self.stuck_run = dt_s, np.asarray(ranges, float), np.asarray(stuck_run, int)
+        self.gap_factor, self.rate_tolerance, self.clear_s = gap_factor, rate_tolerance, clear_s
+        self.nonfinite = Episodes(clear_s)
+        self.saturated = Episodes(clear_s)
+        self.last_t = None
+        self.last_x = np.full(6, np.nan)
+        self.run = np.zeros(6, int)
+        self.run_start_t = np.full(6, np.nan)
+        self.pending = None
+        self.last_dropout_t = -np.inf
+        self.dropouts = 0
+
+    def push(self, t: np.ndarray, x: np.ndarray):
+        """Events among samples t (m,) s, x (m, 6) and the flags of samples a deterministic fault touches."""
+        events = self._timing(t)
+        finite = np.isfinite(x)
+        sat = finite & (np.abs(np.where(finite, x, 0.0)) >= 0.999 * self.ranges) & (self.ranges > 0)
+        for i, c in self.nonfinite.starts(t, ~finite):
+            events.append(Event(float(t[i]), float(t[i]), "non_finite", [CHANNELS[c]], "ERROR",
+                                int((~finite[i:, c]).sum()), None, f"{CHANNELS[c]}: {x[i, c]} sample",
+                                {"samples": int((~finite[i:, c]).sum())}))
+        for i, c in self.saturated.starts(t, sat):
+            events.append(Event(float(t[i]), float(t[i]), "saturation", [CHANNELS[c]], "ERROR", float(x[i, c]),
+                                [float(x[i, c]), float(x[i, c])],
+                                f"{CHANNELS[c]} at its range {self.ranges[c]:.6g} (|{x[i, c]:.6g}|)",
+                                {"range": float(self.ranges[c])}))
+        stuck_events, stuck = self._stuck(t, x)
+        events += stuck_events
+        flags = ~finite | sat | stuck
+        return sorted(events, key=lambda e: e.t_s), flags
+
+    def _stuck(self, t, x):
+        """Exact repeats: a run reaching ``stuck_run`` samples is one event; flags mark its samples."""
+        m = len(t)
+        events, flags = [], np.zeros((m, 6), bool)
+        idx = np.arange(m)
+        for c in range(6):
+            v = np.concatenate([[self.last_x[c]], x[:, c]])
+            eq = v[1:] == v[:-1]
+            last_break = np.maximum.accumulate(np.where(~eq, idx, -1))
+            run = np.where(last_break >= 0, idx - last_break + 1, self.run[c] + idx + 1)
+            flags[:, c] = run >= self.stuck_run[c]
+            for i in np.flatnonzero(run == self.stuck_run[c]):
+                start = i - self.stuck_run[c] + 1
+                onset = float(t[start]) if start >= 0 else float(self.run_start_t[c])
+                events.append(Event(float(t[i]), onset, "stuck_output", [CHANNELS[c]], "ERROR", float(x[i, c]),
+                                    [float(x[i, c]), float(x[i, c])],
+                                    f"{CHANNELS[c]} repeats {x[i, c]:.9g} for {self.stuck_run[c]} samples",
+                                    {"run_samples": int(self.stuck_run[c])}))
+            if m:
+                if last_break[-1] >= 0:
+                    self.run_start_t[c] = t[last_break[-1]]
+                self.run[c] = run[-1]
+                self.last_x[c] = x[-1, c]
+        return events, flags
+
+    def _timing(self, t):
+        """Gaps (dropout) and a changed interval (sample_rate_change), confirmed over RATE_CONFIRM intervals."""
+        if len(t) == 0:
+            return []
+        prev = np.concatenate([[t[0] if self.last_t is None else self.last_t], t[:-1]])
+        dts = t - prev
+        self.last_t = float(t[-1])
+        odd = np.flatnonzero(np.abs(dts / self.dt_s - 1) > self.rate_tolerance)
+        if self.pending is None and len(odd) == 0:
+            return []
+        events = []
+        # only odd intervals and the one after each can open or resolve a pending interval
+        look = np.union1d(odd, odd + 1)
+        look = look[look < len(t)]
+        if self.pending is not None:
+            look = np.union1d([0], look)
+        for i in look:
+            dt = dts[i]
+            is_odd = abs(dt / self.dt_s - 1) > self.rate_tolerance and dt > 0
+            if self.pending is None:
+                if is_odd:
+                    self.pending = {"t": float(t[i]), "onset": float(prev[i] + self.dt_s), "dt": float(dt), "run": 1}
+                continue
+            same = is_odd and abs(dt / self.pending["dt"] - 1) <= self.rate_tolerance
+            if same:
+                self.pending["run"] += 1
+                if self.pending["run"] >= RATE_CONFIRM:
+                    events.append(self._rate_event(float(t[i]), float(dt)))
+            else:
+                events += self._resolve_gap(float(t[i]))
+                if is_odd:
+                    self.pending = {"t": float(t[i]), "onset": float(prev[i] + self.dt_s), "dt": float(dt), "run": 1}
+        return events
+
+    def _rate_event(self, t_s, dt):
+        old = self.dt_s
+        onset = self.pending["onset"]
+        self.dt_s, self.pending = dt, None
+        return Event(t_s, onset, "sample_rate_change", list(CHANNELS), "WARN", 1.0 / dt,
+                     [1.0 / (dt * (1 + self.rate_tolerance)), 1.0 / (dt * (1 - self.rate_tolerance))],
+                     f"sample interval {dt * 1e3:.4g} ms (was {old * 1e3:.4g} ms)", {"confirm": RATE_CONFIRM})
+
+    def _resolve_gap(self, t_s):
+        """A pending odd interval followed by a normal one: a dropout if it was a gap (jitter is dropped)."""
+        p, self.pending = self.pending, None
+        if p["dt"] <= self.gap_factor * self.dt_s:
+            return []
+        self.dropouts += 1
+        if t_s - self.last_dropout_t <= self.clear_s:
+            self.last_dropout_t = t_s
+            return []
+        self.last_dropout_t = t_s
+        missing = p["dt"] / self.dt_s - 1
+        return [Event(t_s, p["onset"], "dropout", list(CHANNELS), "WARN", p["dt"] - self.dt_s,
+                      [p["dt"] - self.dt_s, p["dt"] - self.dt_s],
+                      f"{missing:.3g} sample intervals missing before t = {p['t']:.6f} s",
+                      {"gap_s": p["dt"], "gap_factor": self.gap_factor})]

@@ -1,0 +1,168 @@
+"""Detector thresholds from Monte Carlo on the sensor model's own noise, for a stated false-alarm rate.
+
+The model's noise (:mod:`sensor_health.noise_sim`) is cut into windows and run through the same window
+statistics and the same CUSUM recursions as the monitor. Per detector and channel the false-alarm budget is
+``false_alarms_per_10h / (number of monitored detector-channels)``:
+
+* CUSUM detectors (noise level, bias): run lengths are *measured* on the simulated series at a grid of low
+  thresholds (restart after each alarm), log(mean run length) is fitted linear in h (the CUSUM's run length
+  grows exponentially with its threshold) and solved for the budget's run length;
+* the line gate (one window, chi-square(2) max over the searched bins): an exponential tail fitted to the
+  upper 2 % of the simulated maxima, solved for the budget's per-window probability.
+* the stuck-output run length is exact: the probability that quantized noise repeats a value.
+"""
+from __future__ import annotations
+
+from dataclasses import asdict, dataclass
+
+import numpy as np
+from scipy import stats
+
+from nav_core.sensor_model import SensorModel
+from sensor_health import noise_sim
+from sensor_health.window_stats import WindowGrid, sample_sigma, window_stats
+
+SECONDS_PER_10H = 36000.0
+NOISE_DESIGN_RATIO = 2.0
+"""The noise CUSUM is tuned (drift k) to a variance rise by this factor."""
+BIAS_DESIGN_STEP = 10.0
+"""The bias CUSUM is tuned to a step of this many times the model's bias sd (its drift k is half that step in sd
+of a window mean, kept within BIAS_K_RANGE: a larger k also ignores the slow specific-force changes of driving,
+such as the Eotvos effect on az)."""
+BIAS_K_RANGE = (0.5, 1.5)
+FAST_BASELINE_S = 5.0
+"""Baseline time constant, s, of a channel whose design step is large (k at its cap): such a step shows within a
+window or two, and a short baseline follows the slow specific-force changes of driving (Eotvos: 2 Omega v_E
+cos(lat), some mm/s^2 with a period of a lap)."""
+
+
+def baseline_times(bias_k: np.ndarray, baseline_s: float) -> np.ndarray:
+    """Per-channel baseline time constant, s: FAST_BASELINE_S where k is at its cap, else ``baseline_s``."""
+    return np.where(bias_k >= BIAS_K_RANGE[1], FAST_BASELINE_S, baseline_s)
+BIAS_CHANNELS = (0, 1, 5)
+"""gx, gy, az: on a land vehicle their means stay near constant (roll and pitch rates average out, az near g);
+gz, ax, ay carry the vehicle's turns and accelerations, so a bias step there is not seen in the raw signal."""
+
+
+@dataclass
+class Thresholds:
+    """Everything the monitor needs from the Monte Carlo; SI units, windows of ``window_s`` s."""
+
+    window_s: float
+    noise_mu: np.ndarray
+    """(6,) median of log(level) under the model."""
+    noise_sd: np.ndarray
+    """(6,) robust sd of log(level)."""
+    noise_k: float
+    noise_h: float
+    bias_sd: np.ndarray
+    """(6,) sd of (window mean - baseline) under the model; scaled by sqrt(max(1, level)) in use."""
+    bias_k: np.ndarray
+    """(6,) drift per channel, sd."""
+    bias_h: np.ndarray
+    """(6,) threshold per channel (inf where not monitored)."""
+    bias_tau_s: np.ndarray
+    """(6,) time constant of the slow baseline the window means are compared with, s."""
+    line_h: float
+    """chi-square(2) gate of the line statistic."""
+    stuck_run: np.ndarray
+    """(6,) samples repeating one value that make a stuck output."""
+    sample_sigma: np.ndarray
+    """(6,) per-sample sd of the model's white and quantization noise."""
+    budget_per_10h: float
+    mc_windows: int
+
+    def to_dict(self) -> dict:
+        """Plain types (health.json ``thresholds``)."""
+        return {k: (v.tolist() if isinstance(v, np.ndarray) else v) for k, v in asdict(self).items()}
+
+
+def cusum_alarms(y: np.ndarray, k: float, hs: np.ndarray) -> np.ndarray:
+    """Alarms of the one-sided CUSUM max(0, S + y - k) > h, restarted at 0 after each, for each h of ``hs``:
+    y (nw, c) -> counts (len(hs),) summed over the columns."""
+    s = np.zeros((len(hs), y.shape[1]))
+    count = np.zeros(len(hs))
+    for row in y:
+        s = np.maximum(0.0, s + row - k)
+        hit = s > hs[:, None]
+        count += hit.sum(axis=1)
+        s[hit] = 0.0
+    return count
+
+
+def cusum_threshold(y: np.ndarray, k: float, target_windows: float) -> float:
+    """h whose mean run length on y (nw, c) extrapolates to ``target_windows`` (log-linear in h)."""
+    hs = np.linspace(0.25, 8.0, 32)
+    counts = cusum_alarms(y, k, hs)
+    arl = y.size / np.maximum(counts, 1)
+    ok = counts >= 30
+    if ok.sum() < 3:
+        raise ValueError("Monte Carlo too short to measure the CUSUM run lengths; raise mc_windows")
+    slope, icpt = np.polyfit(hs[ok], np.log(arl[ok]), 1)
+    return float((np.log(target_windows) - icpt) / slope)
+
+
+def baseline_deviation(means: np.ndarray, alpha: float, warmup: int) -> np.ndarray:
+    """(window mean - exponential baseline before it), (nw, c); the baseline starts as the mean of the first
+    ``warmup`` windows and follows with weight ``alpha`` per window. Rows before ``warmup`` are 0."""
+    out = np.zeros_like(means)
+    base = means[:warmup].mean(axis=0)
+    for i in range(warmup, len(means)):
+        out[i] = means[i] - base
+        base = base + alpha * (means[i] - base)
+    return out
+
+
+def exp_tail_threshold(x: np.ndarray, p: float, top: float = 0.02) -> float:
+    """x's quantile 1 - p from an exponential tail fitted to its upper ``top`` fraction."""
+    u = np.quantile(x, 1 - top)
+    excess = x[x > u] - u
+    return float(u + excess.mean() * np.log(top / p))
+
+
+def stuck_run_length(model: SensorModel, dt: float, budget_per_channel: float, max_run: int) -> np.ndarray:
+    """Samples of one repeated value (6,) that quantized model noise reaches less than ``budget_per_channel``
+    times per 10 h: P(repeat) = P(|difference| < lsb / 2) for a per-sample lattice step lsb."""
+    q = np.concatenate([model.gyro.quantization, model.accel.quantization])
+    step = q * np.sqrt(12.0) / dt
+    sd_diff = np.sqrt(2.0) * sample_sigma(model, dt)
+    p = np.where(step > 0, 2 * stats.norm.cdf(0.5 * step / np.maximum(sd_diff, 1e-300)) - 1, 0.0)
+    n_samples = SECONDS_PER_10H / dt
+    with np.errstate(divide="ignore"):
+        runs = 1 + np.ceil(np.log(budget_per_channel / n_samples) / np.log(np.clip(p, 1e-300, 0.999)))
+    return np.clip(runs, 3, max_run).astype(int)
+
+
+def monte_carlo(model: SensorModel, grid: WindowGrid, window_s: float, budget_per_10h: float,
+                baseline_s: float, mc_windows: int = 20000, seed: int = 0) -> Thresholds:
+    """Thresholds for ``model`` from ``mc_windows`` simulated windows (seeded: the same model gives the same
+    thresholds in the CLI and the node)."""
+    rng = np.random.default_rng(seed)
+    x = noise_sim.model_noise(model, mc_windows * grid.n, grid.dt, rng).reshape(mc_windows, grid.n, 6)
+    ws = window_stats(grid, x)
+    n_tests = 6 + 6 + len(BIAS_CHANNELS)
+    per_test = budget_per_10h / n_tests
+    target = SECONDS_PER_10H / window_s / per_test
+    log_level = np.log(ws.level)
+    mu = np.median(log_level, axis=0)
+    sd = stats.iqr(log_level, axis=0) / 1.349
+    noise_k = 0.5 * np.log(NOISE_DESIGN_RATIO) / float(np.median(sd))
+    noise_h = cusum_threshold((log_level - mu) / sd, noise_k, target)
+    warmup = max(2, int(round(10.0 / window_s)))
+    b = np.concatenate([model.gyro.bias_instability, model.accel.bias_instability])
+    white_sd = np.std(ws.mean[1:] - ws.mean[:-1], axis=0) / np.sqrt(2)
+    bias_k = np.clip(0.5 * BIAS_DESIGN_STEP * b / white_sd, *BIAS_K_RANGE)
+    # az carries the vertical specific force of driving (Eotvos, road grade changes): always the large k and the
+    # short baseline, which follow it; a smaller accelerometer step than 3 sd per window is not claimed
+    bias_k[3:] = BIAS_K_RANGE[1]
+    tau = baseline_times(bias_k, baseline_s)
+    dev = baseline_deviation(ws.mean, window_s / tau, warmup)[warmup:]
+    bias_sd = stats.iqr(dev, axis=0) / 1.349
+    z = dev / (bias_sd * np.sqrt(np.maximum(ws.level[warmup:], 1.0)))
+    bias_h = np.full(6, np.inf)
+    for c in BIAS_CHANNELS:
+        bias_h[c] = cusum_threshold(np.column_stack([z[:, c], -z[:, c]]), bias_k[c], target / 2)
+    line_h = exp_tail_threshold(ws.line.ravel(), per_test * window_s / SECONDS_PER_10H)
+    stuck = stuck_run_length(model, grid.dt, per_test, max_run=max(3, grid.n))
+    return Thresholds(window_s, mu, sd, noise_k, noise_h, bias_sd, bias_k, bias_h, tau, line_h, stuck,
+                      sample_sigma(model, grid.dt), budget_per_10h, mc_windows)

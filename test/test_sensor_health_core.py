@@ -1,0 +1,122 @@
+"""sensor_health's core on the model's own noise and on injected faults: names, channels, onsets, no ROS."""
+import json
+
+import numpy as np
+import pytest
+
+from nav_core.sensor_model import SensorModel, TriadModel
+from sensor_health import noise_sim
+from sensor_health.cli import main
+from sensor_health.events import Event
+from sensor_health.monitor import HealthConfig, HealthMonitor
+from nav_core.recording import ImuRecording, write_imu_csv
+
+RATE = 64.0
+
+
+def _model():
+    tri = dict(white_noise=np.full(3, 1.5e-3), bias_instability=np.full(3, 2e-4),
+               bias_correlation_time=np.full(3, 200.0), quantization=np.full(3, 7e-7))
+    acc = dict(white_noise=np.full(3, 2e-3), bias_instability=np.full(3, 2e-3),
+               bias_correlation_time=np.full(3, 200.0), quantization=np.full(3, 1.4e-5))
+    return SensorModel(TriadModel(**tri), TriadModel(**acc), RATE)
+
+
+
+
+def _drive(seed, duration_s=200.0):
+    """Model noise on a slow turning motion plus gravity on az."""
+    rng = np.random.default_rng(seed)
+    n = int(duration_s * RATE)
+    t = np.arange(n) / RATE
+    x = noise_sim.model_noise(_model(), n, 1 / RATE, rng)
+    x[:, 2] += 0.2 * np.sin(2 * np.pi * t / 60)
+    x[:, 3] += 0.5 * np.sin(2 * np.pi * t / 45)
+    x[:, 5] += 9.81
+    return t, x
+
+
+def _run(x, t, chunk=None):
+    mon = HealthMonitor(_model(), HealthConfig(mc_windows=4000))
+    if chunk is None:
+        return mon.push(t, x[:, :3], x[:, 3:])
+    out = []
+    for a in range(0, len(t), chunk):
+        out += mon.push(t[a:a + chunk], x[a:a + chunk, :3], x[a:a + chunk, 3:])
+    return out
+
+
+def test_a_healthy_run_gives_no_event():
+    t, x = _drive(1, 300.0)
+    assert _run(x, t) == []
+
+
+@pytest.mark.parametrize("effect,channel", [("stuck_output", 0), ("non_finite", 4), ("white_noise_increase", 1),
+                                            ("vibration", 3), ("bias_shift", 5), ("saturation", 2)])
+def test_each_fault_is_named_first_on_its_channel_near_its_onset(effect, channel):
+    t, x = _drive(2)
+    rng = np.random.default_rng(3)
+    after = t >= 120.0
+    sd = 1.5e-3 * 8 if channel < 3 else 2e-3 * 8
+    if effect == "stuck_output":
+        x[after, channel] = x[after][0, channel]
+    elif effect == "non_finite":
+        x[np.argmax(after), channel] = np.nan
+    elif effect == "white_noise_increase":
+        x[after, channel] += rng.normal(0, np.sqrt(8) * sd, after.sum())
+    elif effect == "vibration":
+        x[after, channel] += 3 * sd * np.sin(2 * np.pi * 11.3 * t[after])
+    elif effect == "bias_shift":
+        x[after, channel] += 0.02
+    elif effect == "saturation":
+        x[after, channel] = np.clip(x[after, channel], -np.radians(300), np.radians(300))
+        x[np.argmax(after) + 5, channel] = np.radians(300)
+    events = _run(x, t)
+    assert events, "no event"
+    first = events[0]
+    assert first.effect == effect and first.channels == [("gx", "gy", "gz", "ax", "ay", "az")[channel]]
+    assert 0 <= first.t_s - 120.0 <= 30.0
+    assert abs(first.onset_s - 120.0) <= 2.0
+    if effect == "vibration":
+        assert abs(first.estimate["frequency_hz"] - 11.3) < 0.2
+
+
+def test_a_dropout_and_a_rate_change_are_told_apart():
+    t, x = _drive(4, 60.0)
+    gap = np.ones(len(t), bool)
+    gap[2000:2003] = False
+    ev = _run(x[gap], t[gap])
+    assert [e.effect for e in ev] == ["dropout"] and abs(ev[0].estimate - 3 / RATE) < 1e-9
+    half = (np.arange(len(t)) < 2000) | (np.arange(len(t)) % 2 == 0)
+    ev = _run(x[half], t[half])
+    assert ev[0].effect == "sample_rate_change" and abs(ev[0].estimate - RATE / 2) < 1e-6
+
+
+def test_the_events_do_not_depend_on_how_the_samples_are_split():
+    t, x = _drive(5)
+    x[t >= 100, 1] += np.random.default_rng(0).normal(0, 0.03, (t >= 100).sum())
+    x[(t >= 150) & (t < 160), 0] = 0.5
+    whole = [e.to_dict() for e in _run(x, t)]
+    pieces = [e.to_dict() for e in _run(x, t, chunk=37)]
+    assert whole and whole == pieces
+
+
+def test_an_event_round_trips_and_refuses_an_unknown_effect():
+    e = Event(1.0, 0.5, "vibration", ["gx"], "WARN", {"frequency_hz": 3.0}, None, "m")
+    assert Event.from_dict(json.loads(e.to_json())) == e
+    with pytest.raises(ValueError, match="unknown effect"):
+        Event(1.0, 0.5, "wobble", ["gx"], "WARN", 0, None, "m")
+
+
+def test_the_cli_writes_health_json_and_a_plot(tmp_path):
+    from nav_core import sensor_model
+    t, x = _drive(6, 120.0)
+    x[t >= 60, 2] = x[t >= 60][0, 2]
+    write_imu_csv(tmp_path / "imu.csv", ImuRecording(t, x[:, :3], x[:, 3:]))
+    sensor_model.save(_model(), tmp_path / "model.yaml")
+    assert main(["--recording", str(tmp_path / "imu.csv"), "--model", str(tmp_path / "model.yaml"),
+                 "--out", str(tmp_path / "out"), "--no-progress"]) == 0
+    doc = json.loads((tmp_path / "out" / "health.json").read_text())
+    assert doc["events"][0]["effect"] == "stuck_output" and doc["events"][0]["channels"] == ["gz"]
+    assert doc["checked_s"] == [pytest.approx(t[0]), pytest.approx(t[-1], abs=1e-6)]
+    assert (tmp_path / "out" / "health.png").stat().st_size > 10000
