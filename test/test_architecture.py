@@ -9,7 +9,7 @@ from scipy.sparse.csgraph import connected_components
 
 SRC = Path(__file__).resolve().parents[1] / "src"
 RUNTIME = ("nav_core", "imu_driver", "imu_calib", "wmra_filter", "ins_gps_kf")
-TOOLS = ("imu_sim", "nav_bringup", "nav_eval")
+TOOLS = ("imu_sim", "nav_bringup", "nav_eval", "nav_batch")
 MAX_LINES = 500
 
 
