@@ -92,3 +92,10 @@ def correct(cov, z, h, r, probability):
         return cov, Correction(None, nis, gate, len(z), z)
     dx, cov_new = kf_update(np.zeros(len(cov)), cov, z, r, h)
     return 0.5 * (cov_new + cov_new.T), Correction(dx, nis, gate, len(z), z)
+
+
+def reset_block(cov, idx, variances) -> None:
+    """Replace, in place, the covariance of states ``idx`` by ``variances``, cutting their correlations."""
+    cov[idx, :] = 0.0
+    cov[:, idx] = 0.0
+    cov[idx, idx] = variances

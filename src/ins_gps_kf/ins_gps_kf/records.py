@@ -5,6 +5,10 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+WAITING, ALIGNING, HEADING_PENDING, NAVIGATING = "waiting_for_fix", "aligning", "heading_pending", "navigating"
+"""The filter's states: no datum yet, aligning, navigating with the heading still to come from the course, navigating."""
+STATUS_CODES = {WAITING: 0, ALIGNING: 1, HEADING_PENDING: 2, NAVIGATING: 3}
+
 
 @dataclass
 class Fix:
