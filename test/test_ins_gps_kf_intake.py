@@ -325,6 +325,29 @@ def test_the_intake_gives_the_offline_replay_numbers_however_the_input_is_batche
         assert (c.fixes_stamped_back, c.fixes_stamped_ahead, counts["fixes_out_of_order"]) == (0, 0, 0)
 
 
+def test_an_imu_clock_stepping_back_less_than_time_jump_is_restamped_in_the_intake_as_in_the_replay():
+    imu, gnss = _drive()
+    stepped = imu.t.copy()
+    stepped[imu.t >= 35.0] -= 0.98  # the IMU clock steps back 0.98 s (time_jump_s 1 s): no restart
+    results = []
+    for t in (imu.t, stepped):
+        live = []
+        intake = StampOrderIntake(_filter(), 0.1, 1.0, RATE, on_run=lambda est, *_: live.extend(est))
+        for k in np.argsort(np.concatenate([gnss.t, imu.t]), kind="stable"):  # arrival order: as recorded
+            if k < len(gnss):
+                intake.add_fix(gnss.t[k], gnss.lat[k], gnss.lon[k], gnss.h[k], gnss.std_enu[k], gnss.status[k])
+            else:
+                intake.add_imu(t[k - len(gnss)], imu.gyro[k - len(gnss)], imu.accel[k - len(gnss)])
+            intake.release()
+        intake.flush()
+        results.append((intake, {e.t: e.position_n for e in live}))
+    (_, clean), (intake, live) = results
+    assert intake.filter.input_counters["imu_clock_steps"] == 1 and intake.counters.restarts == 0
+    assert intake.counters.late_imu <= 2  # the samples that showed the step; was: 0.98 s of samples, then late stamps
+    err = [np.linalg.norm(live[t] - clean[t]) for t in clean if t in live and t > 36.0]
+    assert len(err) > 0.9 * sum(t > 36.0 for t in clean) and max(err) < 1.0
+
+
 def test_warm_up_runs_the_filter_through_alignment_heading_and_gps_updates():
     from ins_gps_kf.filter import NAVIGATING
     from ins_gps_kf.intake import warm_up

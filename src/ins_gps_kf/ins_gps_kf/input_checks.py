@@ -26,6 +26,10 @@ in ``/diagnostics``, the replay in its summary. Every rejected input is counted 
   fixes in a row arrived more than ``time_jump_s`` behind the IMU time by the same amount (a GNSS
   clock stepped back; those fixes are dropped as out of order), so the later ones are re-stamped by
   it; or the stamps fit the IMU clock again and the offset goes back to zero;
+* ``imu_clock_steps`` - the IMU clock stepped back by less than ``time_jump_s``: ``IMU_STEP_CONFIRM``
+  samples in a row came stamped back from the latest at the IMU's rate (not a swapped pair, not a
+  jitter), so the last of them and the later ones are re-stamped to go on from it (:class:`ImuClock`;
+  the ones before are dropped as ``imu_out_of_order``); a step back beyond ``time_jump_s`` is a restart;
 * ``gps_jumps`` - a fix whose track from the fix before needs a speed beyond ``max_speed_mps`` or an
   acceleration beyond ``max_accel_mps2`` (beyond the fixes' noise); the innovation gate decides
   whether it is used;
@@ -63,6 +67,7 @@ class InputCounters:
     fixes_conflicting: int = 0
     fixes_out_of_order: int = 0
     gnss_clock_steps: int = 0
+    imu_clock_steps: int = 0
     gps_jumps: int = 0
     gps_resets_refused: int = 0
     state_resets: int = 0
@@ -350,6 +355,68 @@ class GnssClock:
         self.counters.last_rejection = (f"fix stamps from t={t:.3f} s moved by {offset - self.offset:+.3f} s "
                                         f"onto the IMU clock (GNSS clock step)")
         self.offset = offset
+
+
+IMU_STEP_CONFIRM = 3  # samples in a row, stamped back at the IMU's rate, that show the IMU clock stepped back
+
+
+class ImuClock:
+    """The offset (s) put on the IMU stamps after the IMU clock stepped back by less than ``time_jump`` s.
+
+    Fed the stamps in the order they come (one or many at a time: the same result), it returns
+    them re-stamped. ``IMU_STEP_CONFIRM`` samples in a row stamped before the latest, each one
+    period (the last forward step, within a factor of 1.5) after the one before, are a clock step:
+    the offset moves so that the first of them would have come one period after the latest, and
+    the last of them and every later stamp get it (the ones before are returned as they came: the filter
+    drops them as out of order). A stamp back by more than ``time_jump`` is a restart: the offset goes to zero.
+    A swapped pair, a reversed block or a jittered stamp never makes such a run.
+    """
+
+    def __init__(self, time_jump: float, counters: InputCounters):
+        self.time_jump, self.counters = float(time_jump), counters
+        self.offset = 0.0
+        self.latest = -math.inf  # latest stamp returned in order, s (re-stamped)
+        self.period = math.nan  # last forward step of the stamps, s
+        self.pending: list[float] = []  # raw stamps of the samples stamped back in a row
+
+    def restamp(self, t) -> np.ndarray:
+        """The stamps (n,) s re-stamped (non-finite ones pass as they are, for the filter to drop)."""
+        t = np.asarray(t, dtype=float)
+        out = t + self.offset
+        if not self.pending and len(t) and out[0] > self.latest and np.all(np.diff(out) > 0):  # the common case
+            if len(t) > 1:
+                self.period = float(out[-1] - out[-2])
+            elif math.isfinite(self.latest):
+                self.period = float(out[0] - self.latest)
+            self.latest = float(out[-1])
+            return out
+        return np.array([self.one(float(ti)) for ti in t])
+
+    def one(self, t: float) -> float:
+        """One stamp (s) re-stamped."""
+        if not math.isfinite(t):
+            return t
+        out = t + self.offset
+        if out > self.latest:
+            self.period = out - self.latest if math.isfinite(self.latest) else self.period
+            self.latest, self.pending = out, []
+            return out
+        if self.latest - out > self.time_jump:  # a restart: the stamps start again from here
+            self.offset, self.latest, self.pending = 0.0, t, []
+            return t
+        if out == self.latest:  # a repeated stamp: the filter drops it
+            return out
+        regular = bool(self.pending) and self.period / 1.5 <= t - self.pending[-1] <= 1.5 * self.period
+        self.pending = self.pending + [t] if regular else [t]
+        if len(self.pending) < IMU_STEP_CONFIRM:
+            return out
+        moved = self.latest + self.period - (self.pending[0] + self.offset)
+        self.offset += moved
+        self.counters.imu_clock_steps += 1
+        self.counters.last_rejection = (f"IMU stamps from t={self.pending[0]:.3f} s moved by {moved:+.3f} s: the "
+                                        "IMU clock stepped back")
+        self.latest, self.pending = t + self.offset, []
+        return self.latest
 
 
 class FixArrivals:

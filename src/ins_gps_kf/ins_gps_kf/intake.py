@@ -22,6 +22,8 @@ what is too late, what is a restart, and what is counted. The rules (the offline
   looping): everything queued with the old stamps is run, then the filter is reset; what was
   queued for the new run (IMU samples older than the processed ones, fixes stamped nearer the new
   stamps than the old) is kept, the fixes placed anew as the new run's stream;
+* an IMU clock stepping back by less than ``time_jump_s`` is re-stamped to go on
+  (:class:`ins_gps_kf.input_checks.ImuClock`, as the offline replay does), not dropped as late for the rest of the run;
 * a non-finite stamp is rejected and counted (it has no place in the order); what the samples
   carry is the filter's to judge;
 * consecutive IMU samples go to the filter as one chunk (the same numbers as one by one).
@@ -36,7 +38,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ins_gps_kf.input_checks import FixArrivals
+from ins_gps_kf.input_checks import FixArrivals, ImuClock, InputCounters
 
 GPS, IMU = 0, 1  # a fix sorts before an IMU sample of the same stamp (as in the replay)
 
@@ -83,6 +85,8 @@ class StampOrderIntake:
         self.last_t: float | None = None  # newest IMU stamp released to the filter, s
         self._done = (-math.inf, GPS)  # (stamp, kind) of the last message released: the order's front
         self.fix_places = FixArrivals(time_jump_s)
+        # an IMU clock stepping back by less than time_jump_s is re-stamped here, before the stamp order
+        self.imu_clock = ImuClock(time_jump_s, getattr(filt, "input", None) or InputCounters())
 
     @property
     def pending(self) -> int:
@@ -95,6 +99,7 @@ class StampOrderIntake:
         if not math.isfinite(t_s):
             self.counters.bad_stamps += 1
             return
+        t_s = self.imu_clock.one(t_s)
         if self.last_t is not None and t_s < self.last_t - self.time_jump_s:
             self._restart(f"stamp jumped back {self.last_t - t_s:.3f} s (bag restart?)", t_s)
         heapq.heappush(self._heap, (t_s, IMU, next(self._seq), (gyro, accel)))

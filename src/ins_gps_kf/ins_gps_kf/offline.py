@@ -16,7 +16,7 @@ from nav_core.recording import GnssRecording, ImuRecording, Trajectory
 from nav_core.units import DEG
 from ins_gps_kf.error_model import default_mems_model
 from ins_gps_kf.filter import STATUS_CODES, Estimate, InsGpsFilter
-from ins_gps_kf.input_checks import FixArrivals
+from ins_gps_kf.input_checks import FixArrivals, ImuClock
 
 IMU_CHUNK = 65536  # IMU samples per filter call
 
@@ -32,25 +32,27 @@ def fix_places(t_fix: np.ndarray, stale_s: float) -> np.ndarray:
 def run(filt: InsGpsFilter, imu: ImuRecording, gnss: GnssRecording | None, progress: bool = False) -> list[Estimate]:
     """Feed ``imu`` and ``gnss`` to ``filt`` as the node's intake would: each fix at its place (:func:`fix_places`),
     fixes of one place in recorded order and before an IMU sample of that stamp; the filter gets each fix's own
-    stamp and judges it (a stamp gone back is counted and dropped, or re-stamped after a GNSS clock step)."""
+    stamp and judges it (a stamp gone back is counted and dropped, or re-stamped after a GNSS clock step). The IMU
+    stamps go through the intake's :class:`~ins_gps_kf.input_checks.ImuClock` (an IMU clock step back re-stamped)."""
     out: list[Estimate] = []
     bar = None
     if progress:
         from tqdm import tqdm
         bar = tqdm(total=len(imu), unit="epoch", mininterval=0.5, desc="replay")
     start = 0
+    t_imu = ImuClock(filt.cfg.time_jump, filt.input).restamp(imu.t)
 
     def feed(stop):  # the IMU samples up to index ``stop``
         nonlocal start
         for s in range(start, stop, IMU_CHUNK):  # bounded memory; the same numbers as one call
             e = min(s + IMU_CHUNK, stop)
-            out.extend(filt.process_imu(imu.t[s:e], imu.gyro[s:e], imu.accel[s:e]))
+            out.extend(filt.process_imu(t_imu[s:e], imu.gyro[s:e], imu.accel[s:e]))
             bar is not None and bar.update(e - s)
         start = max(start, stop)
 
     places = fix_places(gnss.t, filt.cfg.time_jump) if gnss is not None else np.zeros(0)
     for k in np.argsort(places, kind="stable"):
-        feed(int(np.searchsorted(imu.t, places[k], side="left")))
+        feed(int(np.searchsorted(t_imu, places[k], side="left")))
         filt.process_gps(gnss.t[k], gnss.lat[k], gnss.lon[k], gnss.h[k], gnss.std_enu[k], gnss.status[k])
     feed(len(imu))
     if bar is not None:
