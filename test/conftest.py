@@ -1,6 +1,7 @@
 """Shared test fixtures: repository paths, real-data location, an isolated ROS 2 domain per test."""
 import itertools
 import os
+import re
 
 # Before anything imports numpy: the tests do small dense algebra (15x15 filters, short FFTs), where BLAS threads
 # only cost time, and two test processes share the two cores.
@@ -8,6 +9,13 @@ os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 from pathlib import Path
 
 import pytest
+from hypothesis import settings
+
+# CI (CI=true) runs every property test on the same examples each time: derandomised, no example database, so a
+# rare find cannot fail one run and pass the next; a case found locally goes into the test as an @example.
+settings.register_profile("ci", derandomize=True, database=None, print_blob=True)
+if os.environ.get("CI", "").lower() == "true":
+    settings.load_profile("ci")
 
 REPO = Path(__file__).resolve().parents[1]
 SHARED_DATA = (REPO / ".." / "shared" / "data").resolve()
@@ -22,6 +30,16 @@ def shared_data(*parts) -> Path:
     if not path.exists():
         pytest.skip(f"real data not found: looked for {path}")
     return path
+
+
+def console_scripts() -> dict:
+    """Every console script the workspace declares: name -> ``module:function`` (src/*/setup.py's console_scripts)."""
+    scripts = {}
+    for setup in sorted(REPO.glob("src/*/setup.py")):
+        block = re.search(r'"console_scripts"\s*:\s*\[(.*?)\]', setup.read_text(), flags=re.S)
+        for name, target in re.findall(r'"([\w.-]+)\s*=\s*([\w.]+:\w+)"', block.group(1) if block else ""):
+            scripts[name] = target
+    return scripts
 
 
 def one_error_line(capsys, *words) -> str:
