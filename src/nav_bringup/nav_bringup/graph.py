@@ -27,8 +27,11 @@ class GraphError(RuntimeError):
 class Graph:
     """A set of node processes sharing one environment (ROS_DOMAIN_ID) and params file."""
 
-    def __init__(self, specs, env: dict, params_file: Path = PARAMS_FILE, log_dir: Path | None = None):
+    def __init__(self, specs, env: dict, params_file: Path = PARAMS_FILE, log_dir: Path | None = None,
+                 prefix=None):
+        """``prefix(executable)``: the command prefix that starts a node on its host (:mod:`nav_bringup.hosts`)."""
         self.specs = list(specs)
+        self.prefix = prefix or (lambda executable: ())
         self.env = env
         self.params_file = params_file
         self.log_dir = log_dir
@@ -40,7 +43,7 @@ class Graph:
             remaps = [a for src, dst in spec.remaps for a in ("-r", f"{src}:={dst}")]
             args = (*spec.args, "--ros-args", *remaps, "--") if remaps else spec.args
             proc = NodeProcess(spec.executable, args, env=self.env, params_file=self.params_file,
-                               ros_args=spec.overrides)
+                               ros_args=spec.overrides, prefix=self.prefix(spec.executable))
             self.procs[spec.executable] = proc
             if not proc.wait_for_line(spec.ready, timeout_s):
                 code = proc.proc.poll()

@@ -39,8 +39,9 @@ def diag_values(probe) -> dict:
     return {name: {kv.key: kv.value for kv in st.values} for name, st in probe.diags.items()}
 
 
-def watch(graph, player: str, sim_dir: Path | None, period_s: float = 5.0) -> None:
-    """Print a status line every ``period_s`` until the player node exits (or any node dies)."""
+def watch(graph, player: str, sim_dir: Path | None, period_s: float = 5.0, on_clock=None) -> None:
+    """Print a status line every ``period_s`` until the player node exits (or any node dies); ``on_clock(t)`` is
+    called with the simulated time (s from the start of the drive) of each ``/clock`` received."""
     from nav_msgs.msg import Odometry
     from rclpy.qos import QoSProfile, ReliabilityPolicy
     from rosgraph_msgs.msg import Clock
@@ -50,14 +51,18 @@ def watch(graph, player: str, sim_dir: Path | None, period_s: float = 5.0) -> No
     truth = TruthTrack.from_sim_dir(sim_dir) if sim_dir else None
     with graph_probe({"odometry/filtered": Odometry}) as probe:
         probe.clock = {}  # first and newest /clock (s): the simulated time runs from the start, navigating or not
-        probe.create_subscription(Clock, "/clock", lambda m: _on_clock(probe.clock, stamp_to_s(m.clock)),
+        epoch = truth.epoch_s if truth else None
+        probe.create_subscription(Clock, "/clock", lambda m: _on_clock(probe.clock, stamp_to_s(m.clock), epoch,
+                                                                       on_clock),
                                   QoSProfile(depth=10, reliability=ReliabilityPolicy.BEST_EFFORT))
         _print_status(graph, player, probe, truth, period_s, stamp_to_s)
 
 
-def _on_clock(clock: dict, t_s: float) -> None:
+def _on_clock(clock: dict, t_s: float, epoch_s: float | None = None, on_clock=None) -> None:
     clock.setdefault("first", t_s)
     clock["now"] = t_s
+    if on_clock is not None:
+        on_clock(t_s - (clock["first"] if epoch_s is None else epoch_s))
 
 
 def _print_status(graph, player, probe, truth, period_s, stamp_to_s) -> None:

@@ -25,8 +25,9 @@ def executable(name: str) -> str:
 class NodeProcess:
     """One node executable as a child process; its combined output is collected line by line."""
 
-    def __init__(self, name: str, args=(), env=None, ros_args=None, params_file=None, cwd=None):
-        cmd = [executable(name), *map(str, args)]
+    def __init__(self, name: str, args=(), env=None, ros_args=None, params_file=None, cwd=None, prefix=()):
+        """``prefix``: a command that runs the node, e.g. ``("ip", "netns", "exec", NS)`` on another host."""
+        cmd = [*prefix, executable(name), *map(str, args)]
         if ros_args or params_file:
             cmd.append("--ros-args")
             if params_file:
