@@ -10,7 +10,6 @@ from dataclasses import dataclass, field
 
 import numpy as np
 import pymap3d
-from scipy.interpolate import make_smoothing_spline
 from scipy.spatial.transform import Rotation
 
 from . import earth, ideal, motion, sensor
@@ -81,14 +80,26 @@ FACES = [(0, 0), (180, 0), (0, -90), (0, 90), (90, 0), (-90, 0)]
 """(roll, pitch) of the six faces: z up, z down, x up, x down, y up, y down."""
 
 
-def fixture_sequence(rng, faces, dwell, move, tol_deg):
-    """Attitude pieces of a fixture test and the scenario's nominal segments."""
+OPPOSITE = {0: 1, 1: 0, 2: 3, 3: 2, 4: 5, 5: 4}
+
+
+def six_face_order(rng):
+    """The six faces in a random order with no face followed by its opposite: every move is a 90-deg turn,
+    whose path is unambiguous (a 180-deg flip could turn either way, which static segments cannot say)."""
+    while True:
+        order = list(rng.permutation(6))
+        if all(OPPOSITE[a] != b for a, b in zip(order[:-1], order[1:])):
+            return [FACES[i] for i in order]
+
+
+def fixture_sequence(rng, faces, dwells, move, tol_deg):
+    """Attitude pieces of a fixture test and the scenario's nominal segments; ``dwells[i]`` = (lo, hi) s."""
     yaw0 = rng.choice([0.0, 90.0, 180.0, -90.0]) + rng.uniform(-5, 5)
     nominal = [motion.euler_rot(r, p, yaw0) for r, p in faces]
     true = [n * _tilt(rng, tol_deg) for n in nominal]
     pieces, segs, t = [], [], 0.0
     for i, (nom, tru) in enumerate(zip(nominal, true)):
-        d = rng.uniform(*dwell)
+        d = rng.uniform(*dwells[i])
         pieces.append(motion.Hold(tru, d))
         segs.append(_seg(t, t + d, nom))
         t += d
@@ -98,6 +109,15 @@ def fixture_sequence(rng, faces, dwell, move, tol_deg):
             t += mv
     segs[-1]["t1"] = round(t + 1.0, 6)  # cover the last sample
     return pieces, segs, t
+
+
+def updown_faces(rng, flips):
+    """z up / z down ``flips`` times, each flip through a short pause on the side (y up): two 90-deg turns."""
+    faces, dwells = [(0, 0)], [(30, 50)]
+    for k in range(flips):
+        faces += [(90, 0), (180, 0) if k % 2 == 0 else (0, 0)]
+        dwells += [(1.5, 3.0), (30, 50)]
+    return faces, dwells
 
 
 def rate_table_sequence(rng, tol_deg):
@@ -146,26 +166,38 @@ def _gm_series(rng, t, sigma, tau):
     return sensor.gauss_markov(rng, len(t), dt, np.resize(sig, 3), np.resize(np.atleast_1d(tau), 3))[:, :len(sig)]
 
 
+def slow_error(rng, t, sigma, periods=(20.0, 300.0), k=12):
+    """A smooth low-frequency error, shape (len(t), len(sigma)): k random sinusoids with periods in
+    ``periods`` (log-uniform), scaled to rms ``sigma`` per column (differentiable, unlike a Gauss-Markov)."""
+    sig = np.atleast_1d(sigma)
+    out = np.zeros((len(t), len(sig)))
+    for j in range(len(sig)):
+        f = 1.0 / np.exp(rng.uniform(np.log(periods[0]), np.log(periods[1]), k))
+        a = rng.standard_normal(k)
+        out[:, j] = (a[None] * np.sin(2 * np.pi * f[None] * t[:, None] + rng.uniform(0, 2 * np.pi, k))).sum(1)
+        out[:, j] *= sig[j] / np.sqrt(0.5 * np.sum(a**2))
+    return out
+
+
 def drive_reference(rng, mot, t_rows, datum):
     """Reference truth rows (t, lat, lon, h, roll, pitch, yaw) from a smoothed noisy GNSS track.
 
-    Positions: the IMU path + a Gauss-Markov error (a float/PPK solution's multipath, sigma 5-30 cm,
-    tau 20-120 s) + 2 cm white at 10 Hz, smoothed by a GCV smoothing spline. Attitude: truth rotated
-    by a slow error (roll/pitch 0.005-0.03 deg, yaw 0.02-0.1 deg, tau 30-200 s), as from a smoother."""
+    The smoothing is modelled by its result: the IMU path + a slow error (what smoothing leaves of a
+    float/PPK solution's multipath: rms 5-30 cm, periods 30-600 s). (Smoothing white GNSS noise explicitly
+    with a 0.5-Hz spline left 0.03 m/s^2 rms of 1-s specific-force error from rounding the true
+    accelerations - a reference too poor for any diagnosis, so not generated.) Attitude: truth rotated by a slow error (roll/pitch rms
+    0.005-0.03 deg, yaw 0.02-0.1 deg, periods 30-300 s), as from a forward-backward smoother."""
     enu = np.stack(pymap3d.geodetic2enu(np.degrees(mot.lat), np.degrees(mot.lon), mot.h, *datum), -1)
-    t10 = np.arange(0, mot.t[-1] + 1e-9, 0.1)
-    pos10 = np.stack([np.interp(t10, mot.t, enu[:, i]) for i in range(3)], -1)
     sig = rng.uniform(0.05, 0.3) * np.array([1, 1, 2])
-    tau = rng.uniform(20, 120)
-    err = _gm_series(rng, t10, sig, [tau] * 3) + 0.02 * rng.standard_normal(pos10.shape)
-    ref = np.stack([make_smoothing_spline(t10, pos10[:, i] + err[:, i])(t_rows) for i in range(3)], -1)
+    ref = np.stack([np.interp(t_rows, mot.t, enu[:, i]) for i in range(3)], -1)
+    ref += slow_error(rng, t_rows, sig, periods=(30.0, 600.0))
     lat, lon, h = pymap3d.enu2geodetic(ref[:, 0], ref[:, 1], ref[:, 2], *datum)
     idx = np.rint(np.interp(t_rows, mot.t, np.arange(len(mot.t)))).astype(int)
     att_sig = np.array([rng.uniform(0.005, 0.03), rng.uniform(0.005, 0.03), rng.uniform(0.02, 0.1)])
-    att_err = _gm_series(rng, t_rows, np.radians(att_sig), [rng.uniform(30, 200)] * 3)
+    att_err = slow_error(rng, t_rows, np.radians(att_sig), periods=(30.0, 300.0))
     rot = mot.rot[idx] * Rotation.from_rotvec(att_err)
     rows = np.column_stack([t_rows, lat, lon, h, motion.rpy_deg(rot)])
-    meta = {"ref_pos_sigma_m": sig.tolist(), "ref_pos_tau_s": tau, "ref_att_sigma_deg": att_sig.tolist()}
+    meta = {"ref_pos_rms_m": sig.tolist(), "ref_att_rms_deg": att_sig.tolist()}
     return rows, meta, enu
 
 
@@ -293,12 +325,12 @@ def build_case(name: str, seed: int) -> Case:
     truth_rows = gnss_rows = None
     if cls in ("fixture", "updown", "rate_table"):
         if cls == "fixture":
-            faces = list(FACES)
-            rng.shuffle(faces)
-            pieces, segs, total = fixture_sequence(rng, faces, (45, 75) if long_effect else (20, 35), (3, 6), tol)
+            faces = six_face_order(rng)
+            dwell = (45, 75) if long_effect else (20, 35)
+            pieces, segs, total = fixture_sequence(rng, faces, [dwell] * 6, (3, 6), tol)
         elif cls == "updown":
-            faces = [(0, 0), (180, 0)] * int(rng.integers(2, 4))
-            pieces, segs, total = fixture_sequence(rng, faces, (30, 50), (3, 6), tol)
+            faces, dwells = updown_faces(rng, int(rng.integers(2, 4)))
+            pieces, segs, total = fixture_sequence(rng, faces, dwells, (2, 4), tol)
         else:
             pieces, segs, total = rate_table_sequence(rng, tol)
         n = int(np.floor(total / dt))

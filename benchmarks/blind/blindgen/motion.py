@@ -158,7 +158,7 @@ def road_drive(rng, lat_deg, lon_deg, h_m, t, roll_per_lat_accel_deg=0.5):
     sp_knots, sp_vals, t_now, speed = [], [0.0], 20.0, 0.0
     while t_now < duration - 40:
         target = 0.0 if (speed > 0 and rng.random() < 0.2) else rng.uniform(5, 17)
-        dur = max(3.0, abs(target - speed) / rng.uniform(1.0, 2.5))
+        dur = max(3.0, 1.875 * abs(target - speed) / rng.uniform(0.8, 2.0))  # peak accel 0.8-2 m/s^2
         sp_knots.append((t_now, dur))
         sp_vals.append(target)
         speed = target
@@ -166,13 +166,13 @@ def road_drive(rng, lat_deg, lon_deg, h_m, t, roll_per_lat_accel_deg=0.5):
     sp_knots.append((max(t_now, duration - 30), 12.0))
     sp_vals.append(0.0)
     s, sdot = _smooth_profile(t, sp_knots, sp_vals)
-    # course: turns of +-30..120 deg lasting 4..10 s while moving
+    # course: turns of +-20..100 deg, slow enough for at most 2.5 m/s^2 of lateral acceleration at 17 m/s
     hd_knots, hd_vals, heading = [], [rng.uniform(-np.pi, np.pi)], 0.0
     heading = hd_vals[0]
     t_now = 35.0
     while t_now < duration - 45:
-        turn = np.radians(rng.uniform(30, 120)) * rng.choice([-1, 1])
-        dur = rng.uniform(4, 10)
+        turn = np.radians(rng.uniform(20, 100)) * rng.choice([-1, 1])
+        dur = max(4.0, 1.875 * abs(turn) * 17.0 / 2.5) * rng.uniform(1.0, 1.5)
         hd_knots.append((t_now, dur))
         heading += turn
         hd_vals.append(heading)
