@@ -52,11 +52,13 @@ def test_a_healthy_run_gives_no_event():
 
 
 @pytest.mark.parametrize("effect,channel", [("stuck_output", 0), ("non_finite", 4), ("white_noise_increase", 1),
-                                            ("vibration", 3), ("bias_shift", 5), ("saturation", 2)])
+                                            ("vibration", 3), ("bias_shift", 5), ("saturation", 2),
+                                            ("clipping", 3)])
 def test_each_fault_is_named_first_on_its_channel_near_its_onset(effect, channel):
     t, x = _drive(2)
     rng = np.random.default_rng(3)
     after = t >= 120.0
+    onset = 120.0
     sd = 1.5e-3 * 8 if channel < 3 else 2e-3 * 8
     if effect == "stuck_output":
         x[after, channel] = x[after][0, channel]
@@ -71,12 +73,16 @@ def test_each_fault_is_named_first_on_its_channel_near_its_onset(effect, channel
     elif effect == "saturation":
         x[after, channel] = np.clip(x[after, channel], -np.radians(300), np.radians(300))
         x[np.argmax(after) + 5, channel] = np.radians(300)
+    elif effect == "clipping":  # below the configured range: flat tops from the first sample over 0.3
+        x[after, channel] = np.minimum(x[after, channel], 0.3)
+        onset = t[after & (x[:, channel] >= 0.3)][0]
     events = _run(x, t)
     assert events, "no event"
     first = events[0]
+    effect = "saturation" if effect == "clipping" else effect
     assert first.effect == effect and first.channels == [("gx", "gy", "gz", "ax", "ay", "az")[channel]]
-    assert 0 <= first.t_s - 120.0 <= 30.0
-    assert abs(first.onset_s - 120.0) <= 2.0
+    assert 0 <= first.t_s - onset <= 30.0
+    assert abs(first.onset_s - onset) <= 2.0
     if effect == "vibration":
         assert abs(first.estimate["frequency_hz"] - 11.3) < 0.2
 
@@ -120,3 +126,19 @@ def test_the_cli_writes_health_json_and_a_plot(tmp_path):
     assert doc["events"][0]["effect"] == "stuck_output" and doc["events"][0]["channels"] == ["gz"]
     assert doc["checked_s"] == [pytest.approx(t[0]), pytest.approx(t[-1], abs=1e-6)]
     assert (tmp_path / "out" / "health.png").stat().st_size > 10000
+
+
+def test_the_runtime_package_imports_neither_the_simulator_nor_ros_outside_its_node():
+    import ast
+    from pathlib import Path
+    root = Path(__file__).resolve().parents[1] / "src" / "sensor_health" / "sensor_health"
+    for path in root.glob("*.py"):
+        names = set()
+        for node in ast.walk(ast.parse(path.read_text())):
+            if isinstance(node, ast.Import):
+                names |= {a.name.split(".")[0] for a in node.names}
+            elif isinstance(node, ast.ImportFrom) and node.module:
+                names.add(node.module.split(".")[0])
+        assert not names & {"imu_sim", "nav_bringup", "nav_eval"}, path.name
+        if path.name != "sensor_health_node.py":
+            assert not names & {"rclpy", "std_msgs", "sensor_msgs", "nav_msgs", "diagnostic_msgs"}, path.name

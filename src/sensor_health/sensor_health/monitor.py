@@ -65,18 +65,19 @@ class HealthMonitor:
     """Streaming monitor of one IMU: :meth:`push` samples, get :class:`Event` s."""
 
     def __init__(self, model: SensorModel, config: HealthConfig | None = None, sample_rate_hz: float = 0.0,
-                 keep_trace: bool = True):
+                 keep_trace: bool = True, thresholds: thr.Thresholds | None = None):
+        """``thresholds``: those of an earlier monitor of the same model and config (skips the Monte Carlo)."""
         self.config = cfg = config or HealthConfig()
         self.model = model
         fs = sample_rate_hz or model.sample_rate_hz
         self.dt = 1.0 / fs
         n = max(16, int(round(cfg.window_s * fs)))
         self.grid = WindowGrid.for_model(model, n, self.dt, cfg.f_min_hz)
-        self.thr = thr.monte_carlo(model, self.grid, n * self.dt, cfg.false_alarms_per_10h, cfg.baseline_s,
+        self.thr = thresholds or thr.monte_carlo(model, self.grid, n * self.dt, cfg.false_alarms_per_10h, cfg.baseline_s,
                                    cfg.mc_windows, cfg.seed)
         ranges = np.r_[[cfg.gyro_range_rad_s] * 3, [cfg.accel_range_m_s2] * 3]
         self.samples = SampleChecks(self.dt, ranges, self.thr.stuck_run, cfg.gap_factor, cfg.rate_tolerance,
-                                    cfg.clear_s)
+                                    cfg.clear_s, self.thr.sample_sigma)
         self.trace = Trace() if keep_trace else None
         self._pending_t, self._pending_x, self._pending_f = np.zeros(0), np.zeros((0, 6)), np.zeros((0, 6), bool)
         self._hist_t, self._hist_x = np.zeros(0), np.zeros((0, 6))
@@ -239,7 +240,7 @@ class HealthMonitor:
         if self.bias_base is None:
             if use[list(thr.BIAS_CHANNELS)].all():
                 self.bias_warm.append(mean)
-            warm = max(2, int(round(10.0 / th.window_s)))
+            warm = thr.bias_warmup_windows(th.window_s)
             if len(self.bias_warm) >= warm:
                 self.bias_base = np.mean(self.bias_warm, axis=0)
             return []
@@ -268,10 +269,11 @@ class HealthMonitor:
         return events
 
     def _mean_onset(self, c, start, t1, level):
-        """Change point of the mean of channel c in [start - 10 s, t1]: (onset s, step, sd of the step).
+        """Change point of the mean of channel c in [min(start - 10 s, t1 - 60 s), t1]: (onset s, step, sd).
 
-        The CUSUM's last zero can fall after the onset (noise pulled it back once), hence the 10 s before."""
-        lo = (start if np.isfinite(start) else t1) - max(10.0, 2 * self.thr.window_s)
+        The CUSUM's last zero can fall after the onset (noise pulled it back once), hence the 10 s before; a long
+        stretch before the step sharpens the change point of a weak one."""
+        lo = min((start if np.isfinite(start) else t1) - max(10.0, 2 * self.thr.window_s), t1 - 60.0)
         sel = (self._hist_t >= lo) & (self._hist_t <= t1)
         x, ts = self._hist_x[sel, c], self._hist_t[sel]
         sigma = self.thr.sample_sigma[c] * np.sqrt(max(level, 1.0))

@@ -9,6 +9,11 @@ import numpy as np
 
 from sensor_health.events import CHANNELS, Event
 
+CLIP_LOOK_S = 2.0
+"""A repeated value that is the extreme of this many seconds before it and was hit there before (flat tops recur),
+or lies over CLIP_SIGMAS per-sample sd from their median, is a clip (saturation below the configured range); any
+other repeated value is a frozen output."""
+CLIP_SIGMAS = 3.0
 RATE_CONFIRM = 8
 """Consecutive intervals at one new value that make a sample-rate change (fewer, followed by the old one:
 dropouts)."""
@@ -43,8 +48,11 @@ class SampleChecks:
     """Sample-level detectors; :meth:`push` returns events and per-sample fault flags (m, 6)."""
 
     def __init__(self, dt_s: float, ranges: np.ndarray, stuck_run: np.ndarray, gap_factor: float,
-                 rate_tolerance: float, clear_s: float):
+                 rate_tolerance: float, clear_s: float, sample_sigma: np.ndarray):
         self.dt_s, self.ranges, self.stuck_run = dt_s, np.asarray(ranges, float), np.asarray(stuck_run, int)
+        self.sigma = np.asarray(sample_sigma, float)
+        self.recent = np.zeros((0, 6))
+        """The samples before this push (CLIP_LOOK_S), for telling a clip from a freeze."""
         self.gap_factor, self.rate_tolerance, self.clear_s = gap_factor, rate_tolerance, clear_s
         self.nonfinite = Episodes(clear_s)
         self.saturated = Episodes(clear_s)
@@ -73,6 +81,8 @@ class SampleChecks:
         stuck_events, stuck = self._stuck(t, x)
         events += stuck_events
         flags = ~finite | sat | stuck
+        keep = int(round(CLIP_LOOK_S / self.dt_s))
+        self.recent = np.vstack([self.recent, x])[-keep:]
         return sorted(events, key=lambda e: e.t_s), flags
 
     def _stuck(self, t, x):
@@ -89,16 +99,29 @@ class SampleChecks:
             for i in np.flatnonzero(run == self.stuck_run[c]):
                 start = i - self.stuck_run[c] + 1
                 onset = float(t[start]) if start >= 0 else float(self.run_start_t[c])
-                events.append(Event(float(t[i]), onset, "stuck_output", [CHANNELS[c]], "ERROR", float(x[i, c]),
-                                    [float(x[i, c]), float(x[i, c])],
-                                    f"{CHANNELS[c]} repeats {x[i, c]:.9g} for {self.stuck_run[c]} samples",
-                                    {"run_samples": int(self.stuck_run[c])}))
+                events.append(self._repeat_event(c, float(t[i]), onset, float(x[i, c]), x[:max(start, 0), c]))
             if m:
                 if last_break[-1] >= 0:
                     self.run_start_t[c] = t[last_break[-1]]
                 self.run[c] = run[-1]
                 self.last_x[c] = x[-1, c]
         return events, flags
+
+    def _repeat_event(self, c, t_s, onset, value, before):
+        """stuck_output, or saturation when the repeated value is a clip (see CLIP_LOOK_S)."""
+        look = np.concatenate([self.recent[:, c], before])[-int(round(CLIP_LOOK_S / self.dt_s)):]
+        look = look[np.isfinite(look)]
+        extreme = len(look) > 0 and (value >= look.max() or value <= look.min())
+        clip = extreme and (np.count_nonzero(look == value) >= 2
+                            or abs(value - np.median(look)) > CLIP_SIGMAS * self.sigma[c])
+        name = CHANNELS[c]
+        if clip:
+            return Event(t_s, onset, "saturation", [name], "ERROR", value, [value, value],
+                         f"{name} clips at {value:.6g} (flat top of {self.stuck_run[c]} samples, below the range "
+                         f"{self.ranges[c]:.6g})", {"run_samples": int(self.stuck_run[c])})
+        return Event(t_s, onset, "stuck_output", [name], "ERROR", value, [value, value],
+                     f"{name} repeats {value:.9g} for {self.stuck_run[c]} samples",
+                     {"run_samples": int(self.stuck_run[c])})
 
     def _timing(self, t):
         """Gaps (dropout) and a changed interval (sample_rate_change), confirmed over RATE_CONFIRM intervals."""

@@ -36,6 +36,15 @@ window or two, and a short baseline follows the slow specific-force changes of d
 cos(lat), some mm/s^2 with a period of a lap)."""
 
 
+BIAS_WARMUP_S = 60.0
+"""The bias baseline starts as the mean of this long a stretch (a shorter one leaves an offset the CUSUM climbs)."""
+
+
+def bias_warmup_windows(window_s: float) -> int:
+    """Windows averaged into the first bias baseline."""
+    return max(2, int(round(BIAS_WARMUP_S / window_s)))
+
+
 def baseline_times(bias_k: np.ndarray, baseline_s: float) -> np.ndarray:
     """Per-channel baseline time constant, s: FAST_BASELINE_S where k is at its cap, else ``baseline_s``."""
     return np.where(bias_k >= BIAS_K_RANGE[1], FAST_BASELINE_S, baseline_s)
@@ -148,7 +157,7 @@ def monte_carlo(model: SensorModel, grid: WindowGrid, window_s: float, budget_pe
     sd = stats.iqr(log_level, axis=0) / 1.349
     noise_k = 0.5 * np.log(NOISE_DESIGN_RATIO) / float(np.median(sd))
     noise_h = cusum_threshold((log_level - mu) / sd, noise_k, target)
-    warmup = max(2, int(round(10.0 / window_s)))
+    warmup = bias_warmup_windows(window_s)
     b = np.concatenate([model.gyro.bias_instability, model.accel.bias_instability])
     white_sd = np.std(ws.mean[1:] - ws.mean[:-1], axis=0) / np.sqrt(2)
     bias_k = np.clip(0.5 * BIAS_DESIGN_STEP * b / white_sd, *BIAS_K_RANGE)

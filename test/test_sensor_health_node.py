@@ -1,0 +1,97 @@
+"""sensor_health_node wiring: a real node process fed by an rclpy publisher; events (transient local) and
+/diagnostics observed from probes, and the same events as the core (the CLI's) on the same samples."""
+import json
+import time
+
+import numpy as np
+import pytest
+import rclpy
+from diagnostic_msgs.msg import DiagnosticArray
+from sensor_msgs.msg import Imu
+from std_msgs.msg import String
+
+from nav_core import sensor_model
+from nav_core.processes import NodeProcess
+from nav_core.ros_node import SENSOR_QOS, Probe, imu_from_arrays
+from nav_core.sensor_model import SensorModel, TriadModel
+from sensor_health import noise_sim
+from sensor_health.events import Event
+from sensor_health.monitor import HealthMonitor
+from sensor_health.sensor_health_node import EVENTS_QOS
+from sensor_health.status import ChannelStatus
+
+pytestmark = pytest.mark.ros
+FS = 64.0
+T0 = 1_700_000_000.0
+
+
+def _model():
+    return SensorModel(TriadModel(white_noise=np.full(3, 1.5e-3), quantization=np.full(3, 7e-7)),
+                       TriadModel(white_noise=np.full(3, 2e-3), quantization=np.full(3, 1.4e-5)), FS)
+
+
+def _samples():
+    """40 s of model noise, gz frozen from 25 s on."""
+    n = int(40 * FS)
+    t = T0 + np.arange(n) / FS
+    x = noise_sim.model_noise(_model(), n, 1 / FS, np.random.default_rng(7))
+    x[:, 5] += 9.81
+    x[t >= T0 + 25, 2] = x[t >= T0 + 25][0, 2]
+    return t, x
+
+
+def test_node_names_the_fault_like_the_core_on_a_transient_local_topic_and_in_diagnostics(tmp_path, ros_env,
+                                                                                          rclpy_context):
+    path = sensor_model.save(_model(), tmp_path / "model.yaml")
+    t, x = _samples()
+    expected = HealthMonitor(_model(), keep_trace=False).push(t, x[:, :3], x[:, 3:])
+    assert [e.effect for e in expected] == ["stuck_output"]
+    node = NodeProcess("sensor_health_node", env=ros_env, ros_args={"sensor_model_path": str(path),
+                                                                    "diagnostics_period_s": 0.2})
+    try:
+        assert node.wait_for_line("ready", 60), node.output
+        probe = Probe({"/diagnostics": DiagnosticArray})
+        feeder = rclpy.create_node("feeder")
+        pub = feeder.create_publisher(Imu, "imu/data_raw", SENSOR_QOS)
+        assert probe.spin_until(lambda p: pub.get_subscription_count() > 0, 20)
+        for ti, row in zip(t, x):
+            pub.publish(imu_from_arrays(ti, row[:3], row[3:]))
+            time.sleep(0.001)
+
+        def summary(p):
+            for _, arr in reversed(p.received["/diagnostics"]):
+                for st in arr.status:
+                    if st.name.endswith(": summary"):
+                        values = {kv.key: kv.value for kv in st.values}
+                        if values.get("received") == str(len(t)):
+                            return arr
+            return None
+        assert probe.spin_until(summary, 30), f"the node did not take all {len(t)} samples:\n{node.output}"
+        statuses = {st.name.split(": ")[-1]: ChannelStatus.from_values(st.name, st.level, st.message,
+                                                                        {kv.key: kv.value for kv in st.values})
+                    for st in summary(probe).status}
+        assert statuses["gz"].effect == "stuck_output" and statuses["gz"].level == bytes([2])
+        assert statuses["summary"].events == 1 and statuses["gx"].effect == ""
+
+        late = rclpy.create_node("late_listener")  # joins after the event was published
+        got = []
+        late.create_subscription(String, "sensor_health/events", lambda m: got.append(m.data), EVENTS_QOS)
+        deadline = time.monotonic() + 20
+        while not got and time.monotonic() < deadline:
+            rclpy.spin_once(late, timeout_sec=0.1)
+        assert got, "a late subscriber did not get the event (transient local)"
+        events = [Event.from_dict(json.loads(s)) for s in got]
+        assert [e.to_dict() for e in events] == [e.to_dict() for e in expected]
+        for n in (late, feeder, probe):
+            n.destroy_node()
+    finally:
+        node.stop()
+
+
+def test_node_exits_with_status_2_naming_a_missing_model(ros_env):
+    node = NodeProcess("sensor_health_node", env=ros_env, ros_args={"sensor_model_path": "/nonexistent/m.yaml"})
+    try:
+        assert node.proc.wait(timeout=60) == 2
+    finally:
+        node.stop()
+    assert "/nonexistent/m.yaml" in node.output
