@@ -8,7 +8,7 @@ import yaml
 from hypothesis import given, settings, strategies as st
 from hypothesis.extra.numpy import arrays
 
-from nav_core import recording
+from nav_core import bagio, recording
 from nav_core.processes import executable
 
 from imu_sim import errors
@@ -64,6 +64,10 @@ def test_cli_writes_bag_csvs_truth_and_bp3010_stream_readable_by_the_project_rea
     np.testing.assert_allclose(imu_bag.temp_c, imu_csv.temp_c, atol=1e-6)
     gnss = recording.read_gnss(out / "bag")
     assert np.all(gnss.status[(gnss.t - BAG_EPOCH_S >= 8) & (gnss.t - BAG_EPOCH_S < 12)] == -1)
+    from rosbags.interfaces import QosReliability
+    qos = bagio.offered_qos(out / "bag")  # was empty: every bag says its QoS, as bag_record's do
+    assert set(qos) == {"imu/data_raw", "imu/temperature", "gps/fix"}
+    assert all(len(q) == 1 and q[0].reliability == QosReliability.BEST_EFFORT for q in qos.values()), qos
     truth = recording.read_trajectory_csv(out / "truth.csv")
     assert truth.t[0] == 0.0 and len(truth) == len(imu_csv) + 1
     assert (out / "bp3010.bin").stat().st_size == 16 * len(imu_csv)

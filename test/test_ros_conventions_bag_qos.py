@@ -73,3 +73,24 @@ def test_bag_record_takes_the_offered_qos_and_records_it(tmp_path, rclpy_context
     assert [q.reliability for q in offered["/reliable"]] == [QosReliability.RELIABLE]
     assert [q.durability for q in offered["/latched"]] == [QosDurability.TRANSIENT_LOCAL]
     assert "/sensor" not in conns or [q.reliability for q in offered["/sensor"]] == [QosReliability.BEST_EFFORT]
+
+
+def test_a_bag_written_offline_records_the_qos_our_publishers_offer_and_plays_with_it(tmp_path):
+    import numpy as np
+    from rosbags.interfaces import QosDurability, QosReliability
+
+    from imu_driver.bag_play_node import playback_qos
+    from nav_core import bagio, recording
+    from nav_core.recording import ImuRecording
+
+    rec = ImuRecording(1.7e9 + np.arange(64) / 64, np.zeros((64, 3)), np.tile([0.0, 0.0, 9.8], (64, 1)))
+    bag = recording.write_bag(tmp_path / "bag", rec, storage="mcap")
+    with bagio.BagWriter(tmp_path / "tf", "mcap") as writer:
+        writer.write_cdr("/tf_static", "tf2_msgs/msg/TFMessage", 1, b"\x00\x01\x00\x00\x00\x00\x00\x00")
+    qos = {**bagio.offered_qos(bag), **bagio.offered_qos(tmp_path / "tf")}
+    # was: empty offered_qos_profiles in every bag but bag_record's
+    assert qos["imu/data_raw"][0].reliability == QosReliability.BEST_EFFORT
+    assert qos["tf_static"][0].durability == QosDurability.TRANSIENT_LOCAL
+    played = playback_qos(qos["imu/data_raw"])
+    assert played is not None and played.reliability == ReliabilityPolicy.BEST_EFFORT
+    assert playback_qos(qos["tf_static"]).durability == DurabilityPolicy.TRANSIENT_LOCAL

@@ -24,7 +24,6 @@ from nav_core import bagio
 from nav_core.params import ConfigError, Param, did_you_mean
 from nav_core.ros_node import SENSOR_QOS, declare_parameters, run_node
 
-SENSOR_TYPES = {"sensor_msgs/msg/Imu", "sensor_msgs/msg/NavSatFix", "sensor_msgs/msg/Temperature"}
 
 PARAMS = (
     Param("bag", "", "rosbag2 bag to play: folder, .db3 or .mcap"),
@@ -89,7 +88,7 @@ class BagPlayer(Node):
             if cls is None:
                 self.get_logger().warning(f"skipping {topic}: type {msgtype} is not installed")
                 continue
-            qos = playback_qos(recorded_qos.get(topic)) or (SENSOR_QOS if msgtype in SENSOR_TYPES
+            qos = playback_qos(recorded_qos.get(topic)) or (SENSOR_QOS if msgtype in bagio.SENSOR_TYPES
                                                             else QoSProfile(depth=100))
             pubs[topic] = (cls, self.create_publisher(cls, "/" + topic, qos))
         if not pubs:
@@ -190,7 +189,11 @@ def playback_qos(offered) -> QoSProfile | None:
 
 def main(args=None) -> int:
     """Entry point of ``bag_play``."""
-    return run_node(BagPlayer, args)
+    return run_node(BagPlayer, args, usage=(
+        "bag_play",
+        "Publish a rosbag2 bag's messages with their original timing, and /clock for nodes with use_sim_time.",
+        PARAMS,
+        "bag_play --ros-args -p bag:=out/katwijk/bag -p rate:=2.0"))
 
 
 if __name__ == "__main__":

@@ -325,7 +325,12 @@ def _finite(est: Estimate) -> bool:
 
 def main(args=None) -> int:
     """Console script ``ins_gps_kf_node``."""
-    return run_node(InsGpsKfNode, args=args)
+    return run_node(InsGpsKfNode, args=args, usage=(
+        "ins_gps_kf_node",
+        "Fuse IMU and GPS in the INS/GPS Kalman filter into odometry/filtered, imu/data and /tf.",
+        [_param(s) for s in kfconfig.PARAMETERS] + list(NODE_PARAMS),
+        "ins_gps_kf_node --ros-args --params-file config/navigation.yaml "
+        "-p sensor_model_path:=config/sensor_models/bp3010.yaml"))
 
 
 if __name__ == "__main__":

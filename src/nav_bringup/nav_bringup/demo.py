@@ -22,7 +22,7 @@ from pathlib import Path
 
 from nav_bringup.description import PLAYER_SETTLE_S, GraphInputs, navigation_graph, played_topics  # noqa: F401
 from nav_bringup.graph import PARAMS_FILE, REPO, Graph, GraphError
-from nav_core.cli import USER_ERRORS, add_common, debug_wanted, number, one_line
+from nav_core.cli import USER_ERRORS, about, add_common, debug_wanted, number, one_line
 from nav_core.cli import parse_args as cli_parse_args
 from nav_core.outputs import check_out_dir
 
@@ -33,8 +33,11 @@ DEFAULT_OUT = REPO / "out" / "demo"
 
 def parse_args(argv=None):
     """Command-line options."""
-    p = argparse.ArgumentParser(prog="nav-demo", description=__doc__,
-                                formatter_class=argparse.RawDescriptionHelpFormatter)
+    detail = __doc__.split("\n\n", 1)[1]
+    p = argparse.ArgumentParser(prog="nav-demo", **about(
+        "Run the live navigation graph on the built-in drive (no hardware needed) or on a recording, with a report."
+        "\n\n" + detail.rstrip(),
+        "nav-demo --rate 8", "nav-demo --duration 120", "nav-demo --recording out/katwijk --rate 4"))
     p.add_argument("--rate", type=number(0.0, 100.0, low_open=True), default=1.0,
                    help="speed in (0, 100]: 4 runs four times faster than real time")
     p.add_argument("--duration", type=number(0.0, None), default=0.0,

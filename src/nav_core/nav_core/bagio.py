@@ -17,6 +17,7 @@ TYPESTORE = get_typestore(Stores.ROS2_JAZZY)
 IMU_TYPE = "sensor_msgs/msg/Imu"
 NAVSATFIX_TYPE = "sensor_msgs/msg/NavSatFix"
 TEMPERATURE_TYPE = "sensor_msgs/msg/Temperature"
+SENSOR_TYPES = frozenset({IMU_TYPE, NAVSATFIX_TYPE, TEMPERATURE_TYPE})  # published with the sensor-data QoS
 STORAGES = {"sqlite3": StoragePlugin.SQLITE3, "mcap": StoragePlugin.MCAP}
 
 
@@ -315,6 +316,21 @@ def temperature_message(t_s: float, temp_c: float, frame_id: str = "imu_link"):
     return types[TEMPERATURE_TYPE](header=header, temperature=float(temp_c), variance=0.0)
 
 
+def default_qos(topic: str, msgtype: str) -> list:
+    """The QoS (rosbags ``Qos`` list, as ``offered_qos_profiles``) our publishers offer on ``topic``: sensor messages
+    the sensor-data QoS (best effort, keep last 5), ``/tf_static`` reliable and transient local (latched), the rest
+    reliable, keep last 10 (rclpy's default). What a bag written without a live publisher records."""
+    from rosbags.interfaces import Qos, QosDurability, QosHistory, QosLiveliness, QosReliability, QosTime
+
+    zero = QosTime(0, 0)  # rclpy's default deadline, lifespan and lease: none
+    sensor = msgtype in SENSOR_TYPES
+    latched = norm_topic(topic) == "tf_static"
+    return [Qos(QosHistory.KEEP_LAST, 5 if sensor else 1 if latched else 10,
+                QosReliability.BEST_EFFORT if sensor else QosReliability.RELIABLE,
+                QosDurability.TRANSIENT_LOCAL if latched else QosDurability.VOLATILE, zero, zero,
+                QosLiveliness.AUTOMATIC, zero, False)]
+
+
 class BagWriter:
     """Write messages to a new rosbag2 bag; use as a context manager.
 
@@ -344,11 +360,13 @@ class BagWriter:
 
     def add_topic(self, topic: str, msgtype: str, offered_qos_profiles=()) -> None:
         """Declare ``topic`` before its first message, with the QoS its publishers offered (rosbags ``Qos``),
-        which ``ros2 bag play`` offers again (metadata ``offered_qos_profiles``)."""
+        which ``ros2 bag play`` offers again (metadata ``offered_qos_profiles``); none given (a bag written
+        offline, a publisher gone): :func:`default_qos`, so every bag says its QoS."""
         key = "/" + norm_topic(topic)
         if key not in self._conns:
+            qos = tuple(offered_qos_profiles) or tuple(default_qos(topic, msgtype))
             self._conns[key] = self._writer.add_connection(key, msgtype, typestore=TYPESTORE,
-                                                           offered_qos_profiles=tuple(offered_qos_profiles))
+                                                           offered_qos_profiles=qos)
 
     def write(self, topic: str, log_ns: int, msg) -> None:
         """Serialize a rosbags message and write it at log time ``log_ns``."""
