@@ -159,7 +159,11 @@ class AllanNode(Node):
 
 def main(args=None) -> int:
     """Console-script entry point (``allan_node``)."""
-    return run_node(AllanNode, args)
+    return run_node(AllanNode, args, usage=(
+        "allan_node",
+        "Characterise IMU noise (Allan deviation, five-term fit) from a recording or a live topic.",
+        PARAMS,
+        "allan_node --ros-args -p recording:=static_bag -p out_dir:=out/allan -p exit_when_done:=true"))
 
 
 if __name__ == "__main__":

@@ -22,7 +22,7 @@ import numpy as np
 
 from imu_calib import model_io, multi_position, rate_table, screen, two_position
 from nav_core import sensor_model
-from nav_core.cli import add_common, number, parse_args, run_cli
+from nav_core.cli import about, add_common, number, parse_args, run_cli
 from nav_core.outputs import check_out_dir, check_out_file, rebase, staged_dir
 from nav_core.recording import IMU_TOPIC
 from nav_core.units import DEG
@@ -74,13 +74,23 @@ def _add_site(p, required: bool = True) -> None:
     p.add_argument("--height-m", type=number(-1.2e4, 1e5), default=0.0, help="site ellipsoidal height, m")
 
 
+UPDOWN = "../shared/data/ucalgary_adi_updown"
+"""The real x-up/x-down recordings the help's examples use (relative to the repository)."""
+
+
 def build_parser() -> argparse.ArgumentParser:
     """The argument parser with its four subcommands."""
-    parser = argparse.ArgumentParser(prog="imu-calib", description=__doc__.split("\n")[0])
+    parser = argparse.ArgumentParser(prog="imu-calib", **about(
+        "Characterise an IMU's noise (Allan deviation) and calibrate its biases and scale factors from recordings.",
+        "imu-calib allan static_bag --topic imu/data_raw --out out/my_imu"))
     add_common(parser)
     sub = parser.add_subparsers(dest="command", required=True)
 
-    p = sub.add_parser("allan", help="Allan deviation, 5-term noise fit -> sensor_model.yaml, imu.yaml, allan.png")
+    p = sub.add_parser("allan", help="Allan deviation, 5-term noise fit -> sensor_model.yaml, imu.yaml, allan.png",
+                       **about("Fit the five Allan noise terms of a static recording: sensor_model.yaml, imu.yaml, "
+                               "allan.png.",
+                               "imu-calib allan static_bag --topic imu/data_raw --out out/my_imu",
+                               f"imu-calib allan {UPDOWN}/x_adi_up.txt --format ucalgary --out out/adi"))
     p.add_argument("recording", help="rosbag2 bag or recording CSV of a static IMU")
     p.add_argument("--out", required=True, help="output folder (new or empty; --force replaces it)")
     add_common(p, force=True, sub=True)
@@ -95,7 +105,11 @@ def build_parser() -> argparse.ArgumentParser:
     _add_format(p)
     p.set_defaults(func=cmd_allan)
 
-    p = sub.add_parser("two-position", help="accelerometer bias and scale of one axis (paper eqs. 1-4)")
+    p = sub.add_parser("two-position", help="accelerometer bias and scale of one axis (paper eqs. 1-4)",
+                       **about("Calibrate one accelerometer axis's bias and scale from two static positions (axis up, "
+                               "then down).",
+                               f"imu-calib two-position --up {UPDOWN}/x_adi_up.txt --down {UPDOWN}/x_adi_down.txt "
+                               "--format ucalgary --axis x --lat-deg 51.0784 --height-m 1100 --out model.yaml"))
     p.add_argument("--up", required=True, help="recording with the axis pointing up")
     p.add_argument("--down", required=True, help="recording with the axis pointing down")
     p.add_argument("--axis", required=True, choices=("x", "y", "z"))
@@ -105,7 +119,10 @@ def build_parser() -> argparse.ArgumentParser:
     _add_format(p, imutk=False)
     p.set_defaults(func=cmd_two_position)
 
-    p = sub.add_parser("rate-table", help="gyro scale and bias of one axis at two table rates (eqs. 5-7)")
+    p = sub.add_parser("rate-table", help="gyro scale and bias of one axis at two table rates (eqs. 5-7)",
+                       **about("Calibrate one gyro axis's bias and scale from two rate-table recordings.",
+                               "imu-calib rate-table --rec1 cw_bag --rate1-dps 100 --rec2 ccw_bag --rate2-dps -100 "
+                               "--axis z --direction up --lat-deg 51.08 --out model.yaml"))
     p.add_argument("--rec1", required=True)
     p.add_argument("--rate1-dps", type=number(), required=True, help="table rate of rec1, deg/s")
     p.add_argument("--rec2", required=True)
@@ -120,7 +137,12 @@ def build_parser() -> argparse.ArgumentParser:
     p.set_defaults(func=cmd_rate_table)
 
     p = sub.add_parser("multi-position", help="accel bias, scale, misalignment, gyro bias, scale and misalignment "
-                                              "from many orientations")
+                                              "from many orientations",
+                       **about("Calibrate both triads (bias, scale, misalignment) from one recording in many static "
+                               "orientations.",
+                               "imu-calib multi-position ../shared/data/imutk_multiposition/xsens_acc.mat "
+                               "--gyro-file ../shared/data/imutk_multiposition/xsens_gyro.mat --format imutk "
+                               "--gravity 9.81 --out model.yaml"))
     p.add_argument("recording")
     p.add_argument("--out", required=True, help="sensor-model YAML to create or update")
     add_common(p, sub=True)

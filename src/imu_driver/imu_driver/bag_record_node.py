@@ -122,7 +122,11 @@ def bag_qos(q: QoSProfile) -> Qos:
 
 def main(args=None) -> int:
     """Entry point of ``bag_record``."""
-    return run_node(BagRecorder, args)
+    return run_node(BagRecorder, args, usage=(
+        "bag_record",
+        "Record topics into a new rosbag2 bag (sqlite3 or MCAP) that ros2 bag reads.",
+        PARAMS,
+        'bag_record --ros-args -p output:=my_bag -p "topics:=[imu/data_raw, gps/fix]"'))
 
 
 if __name__ == "__main__":

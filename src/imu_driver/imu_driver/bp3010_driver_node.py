@@ -283,7 +283,11 @@ class Bp3010Driver(Node):
 
 def main(args=None) -> int:
     """Entry point of ``bp3010_driver``."""
-    return run_node(Bp3010Driver, args)
+    return run_node(Bp3010Driver, args, usage=(
+        "bp3010_driver",
+        "Read BP3010 frames from a serial port and publish sensor_msgs/Imu on imu/data_raw.",
+        PARAMS,
+        "bp3010_driver --ros-args --params-file config/navigation.yaml -p port:=/dev/ttyUSB0"))
 
 
 if __name__ == "__main__":

@@ -6,13 +6,15 @@ import tempfile
 from pathlib import Path
 
 from imu_driver.emulator import SCENARIOS, Emulator, FaultPlan, PtyPort, SerialPort, counts_from_source
-from nav_core.cli import number
+from nav_core.cli import about, number
 from nav_core.cli import parse_args as cli_parse_args
 
 
 def parse_args(argv=None):
     """Command-line options."""
-    p = argparse.ArgumentParser(prog="bp3010_emulator", description=__doc__)
+    p = argparse.ArgumentParser(prog="bp3010_emulator", **about(
+        "Stream BP3010 frames to a pseudo-terminal (or a real port), with fault injection.",
+        "bp3010_emulator --source rotating --link /tmp/bp3010 --garbage-every 20"))
     p.add_argument("--source", default="still",
                    help=f"built-in scenario {SCENARIOS}, a BP3010 .bin stream, or a recording (CSV/bag) at 64 Hz")
     p.add_argument("--seconds", type=number(0.0, 1e6, low_open=True), default=60.0,

@@ -8,7 +8,7 @@ from pathlib import Path
 
 from tqdm import tqdm
 
-from nav_core.cli import add_common, number, parse_args, run_cli
+from nav_core.cli import about, add_common, number, parse_args, run_cli
 from nav_core.outputs import check_out_dir, rebase, staged_dir
 
 from imu_sim.plots import overview_png
@@ -17,10 +17,15 @@ from imu_sim.simulate import FORMATS, simulate, write_outputs
 
 
 def _parser() -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(prog="imu-sim", description="MEMS IMU / GPS / BP3010 simulator.")
+    parser = argparse.ArgumentParser(prog="imu-sim", **about(
+        "Simulate a MEMS IMU, GPS and BP3010 stream, and diagnose a simulation against a real recording.",
+        "imu-sim simulate --scenario config/scenarios/paper_drive.yaml --out out/drive"))
     add_common(parser)
     sub = parser.add_subparsers(dest="command", required=True)
-    sim = sub.add_parser("simulate", help="simulate a scenario into a recording folder")
+    sim = sub.add_parser("simulate", help="simulate a scenario into a recording folder", **about(
+        "Simulate a scenario into a recording folder: bag and/or CSVs, BP3010 stream, truth, GPS.",
+        "imu-sim simulate --scenario config/scenarios/paper_drive.yaml --model config/sensor_models/bp3010.yaml "
+        "--seed 1 --out out/drive"))
     add_common(sim, force=True, sub=True)
     sim.add_argument("--scenario", required=True, help="scenario YAML (see src/imu_sim/README.md)")
     sim.add_argument("--model", default=None, help="sensor-model YAML (default: the scenario's, else ideal)")
@@ -31,7 +36,11 @@ def _parser() -> argparse.ArgumentParser:
                      help=f"IMU rate in (0, {MAX_RATE_HZ:g}] Hz (default: scenario's, else 64)")
     sim.add_argument("--format", choices=FORMATS, default="all", help="bag, csv or all")
     sim.add_argument("--storage", choices=("sqlite3", "mcap"), default="sqlite3", help="rosbag2 storage")
-    diag = sub.add_parser("diagnose", help="sim versus real: locate the mismatch, name and model the missing physics")
+    diag = sub.add_parser("diagnose", help="sim versus real: locate the mismatch, name and model the missing physics",
+                          **about("Compare a recording with its simulation; name and fit the physical effects "
+                                  "that explain the difference.",
+                                  "imu-sim diagnose --recording out/ucal/imu.csv --scenario out/ucal/scenario.yaml "
+                                  "--model out/ucal/model.yaml --out out/ucal_diag"))
     add_common(diag, force=True, sub=True)
     diag.add_argument("--recording", required=True, help="rosbag2 bag or recording CSV (t, gx..az[, temp_c], SI)")
     diag.add_argument("--scenario", required=True, help="scenario YAML (trajectory or static_segments)")
@@ -40,7 +49,10 @@ def _parser() -> argparse.ArgumentParser:
     diag.add_argument("--gnss", default=None, help="GNSS CSV (t, lat_deg, lon_deg, h_m, std_e, std_n, std_u)")
     diag.add_argument("--max-effects", type=number(0, 16, integer=True), default=4,
                       help="most effects to add (iterations, 0-16)")
-    prep = sub.add_parser("prepare-real", help="write recording CSV + scenario + noise model for a real data set")
+    prep = sub.add_parser("prepare-real", help="write recording CSV + scenario + noise model for a real data set",
+                          **about("Write a recording CSV, its scenario and a noise model for a public real data set.",
+                                  "imu-sim prepare-real --dataset ucalgary_updown "
+                                  "--data-dir ../shared/data/ucalgary_adi_updown --out out/ucal"))
     add_common(prep, force=True, sub=True)
     prep.add_argument("--dataset", choices=("adis16405", "ucalgary_updown"), required=True)
     prep.add_argument("--data-dir", required=True, help="folder of the data set (../shared/data/<name>)")

@@ -25,7 +25,7 @@ import numpy as np  # noqa: E402
 
 from nav_core import recording, units  # noqa: E402
 from nav_core.units import DEG  # noqa: E402
-from nav_core.cli import add_common, parse_args, run_cli  # noqa: E402
+from nav_core.cli import about, add_common, parse_args, run_cli  # noqa: E402
 from nav_core.params import did_you_mean  # noqa: E402
 from nav_core.outputs import check_out_file, staged_file  # noqa: E402
 from ins_gps_kf import config as kfconfig, input_checks  # noqa: E402
@@ -177,10 +177,17 @@ def _summary(filt: InsGpsFilter) -> dict:
 
 def main(argv=None) -> int:
     """``ins-gps-kf replay ...`` (see module doc); exit 2 on bad input or config."""
-    parser = argparse.ArgumentParser(prog="ins-gps-kf", description=__doc__.splitlines()[0])
+    parser = argparse.ArgumentParser(prog="ins-gps-kf", **about(
+        "Run the node's INS/GPS filter over a recording (rosbag2 bag, or IMU and GNSS CSVs) as fast as it can.",
+        "ins-gps-kf replay --recording my_bag --imu-topic /imu/data --gps-topic /fix --model default "
+        "--out out/trajectory.csv"))
     add_common(parser)
     sub = parser.add_subparsers(dest="command", required=True)
-    rp = sub.add_parser("replay", help="run the filter over a recording and write the trajectory CSV")
+    rp = sub.add_parser("replay", help="run the filter over a recording and write the trajectory CSV", **about(
+        "Run the filter over a recording; write the trajectory CSV, its plot and the run's counts.",
+        "ins-gps-kf replay --recording my_bag --imu-topic /imu/data --gps-topic /fix --model default "
+        "--param imu_rate_hz=100 --out out/trajectory.csv",
+        "ins-gps-kf replay --recording imu.csv --gnss gnss.csv --model sensor_model.yaml --out out/trajectory.csv"))
     add_common(rp, force=True, sub=True)
     rp.add_argument("--recording", required=True, help="rosbag2 bag (folder, .db3, .mcap) or IMU CSV")
     rp.add_argument("--gnss", help="GNSS CSV or bag (default: the recording itself)")

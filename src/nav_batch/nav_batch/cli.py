@@ -17,7 +17,7 @@ import os
 import sys
 from pathlib import Path
 
-from nav_core.cli import add_common, number, parse_args, run_cli
+from nav_core.cli import about, add_common, number, parse_args, run_cli
 from nav_core.outputs import OutputError, check_out_dir
 
 from nav_batch import batch, results
@@ -26,14 +26,21 @@ from nav_batch.tools import TOOLS
 
 def build_parser() -> argparse.ArgumentParser:
     """The parser: one subcommand per tool, each with the cluster options and its tool's options."""
-    parser = argparse.ArgumentParser(prog="nav-batch", description=__doc__.split("\n")[0],
-                                     formatter_class=argparse.RawDescriptionHelpFormatter, epilog=__doc__)
+    parser = argparse.ArgumentParser(prog="nav-batch", **about(
+        "Run one single-recording tool over a fleet's recordings on Dask, one task per recording.\n"
+        + __doc__.split("\n", 1)[1].rstrip(),
+        "nav-batch allan bags/*.mcap --out out/fleet_allan --workers 2",
+        "nav-batch replay bags/*.mcap --model default --imu-topic /imu/data --gps-topic /fix --out out/fleet_replay "
+        "--scheduler tcp://10.0.0.5:8786"))
     add_common(parser)
     sub = parser.add_subparsers(dest="tool", required=True)
-    for name, help_text in (("allan", "imu-calib allan on each recording"),
-                            ("diagnose", "imu-sim diagnose on each recording (one scenario and model for all)"),
-                            ("replay", "ins-gps-kf replay on each recording (a bag with imu and gps topics)")):
-        p = sub.add_parser(name, help=help_text)
+    for name, help_text, example in (
+            ("allan", "imu-calib allan on each recording", "nav-batch allan bags/*.mcap --out out/fleet_allan"),
+            ("diagnose", "imu-sim diagnose on each recording (one scenario and model for all)",
+             "nav-batch diagnose run1.csv run2.csv --scenario scenario.yaml --model model.yaml --out out/fleet_diag"),
+            ("replay", "ins-gps-kf replay on each recording (a bag with imu and gps topics)",
+             "nav-batch replay bags/*.mcap --model default --out out/fleet_replay --workers 2")):
+        p = sub.add_parser(name, help=help_text, **about(f"Run {help_text}, one Dask task per recording.", example))
         p.add_argument("recordings", nargs="+", metavar="REC", help="recordings (bag folders, .mcap, .db3, .csv)")
         p.add_argument("--out", type=Path, required=True, help="output folder (new or empty; --force, --resume)")
         add_common(p, force=True, sub=True)

@@ -21,7 +21,7 @@ import yaml
 
 from nav_eval import datasets as kf_datasets
 from nav_core import datasets, recording, sensor_model
-from nav_core.cli import add_common, parse_args, run_cli
+from nav_core.cli import about, add_common, parse_args, run_cli
 from nav_core.outputs import check_out_dir, staged_dir
 from nav_core.recording import ImuRecording
 from nav_bringup.graph import PARAMS_FILE, REPO
@@ -122,8 +122,10 @@ def convert(name: str, out: Path, csv: Path | None = None) -> dict:
 
 def main(argv=None) -> int:
     """Command line."""
-    p = argparse.ArgumentParser(prog="nav-convert", description=__doc__,
-                                formatter_class=argparse.RawDescriptionHelpFormatter)
+    purpose, detail = __doc__.split("\n", 1)
+    p = argparse.ArgumentParser(prog="nav-convert", **about(
+        purpose.replace("``nav-convert``: turn", "Turn") + "\n" + detail.rstrip(),
+        "nav-convert katwijk --out out/katwijk", "nav-convert balzer --out out/balzer"))
     p.add_argument("source", choices=sorted(KF_OVERRIDES))
     p.add_argument("--out", type=Path, required=True)
     p.add_argument("--csv", type=Path, default=None, help="balzer: which car CSV")

@@ -225,7 +225,11 @@ class ScenarioPlayer(Node):
 
 def main(args=None) -> int:
     """Entry point of ``scenario_player``."""
-    return run_node(ScenarioPlayer, args)
+    return run_node(ScenarioPlayer, args, usage=(
+        "scenario_player",
+        "Play a simulated run live: BP3010 frames into a pty, GPS fixes and /clock.",
+        PARAMS,
+        "scenario_player --ros-args -p sim_dir:=out/demo/sim_seed1 -p link:=/tmp/bp3010"))
 
 
 if __name__ == "__main__":

@@ -107,3 +107,29 @@ def run_cli(prog: str, func, args, user_errors=USER_ERRORS) -> int:
         print(f"{prog}: internal error: {type(err).__name__}: {one_line(err)} (run with --debug for the traceback)",
               file=sys.stderr)
         return 1
+
+
+def about(purpose: str, *examples: str) -> dict:
+    """``ArgumentParser``/``add_parser`` keywords for a ``--help`` that starts with ``purpose`` (one line saying what
+    the command is for, then any detail) and ends with ``examples``, both printed as written."""
+    heading = "example:" if len(examples) == 1 else "examples:"
+    return {"description": purpose, "epilog": "\n".join([heading, *(f"  {e}" for e in examples)]),
+            "formatter_class": argparse.RawDescriptionHelpFormatter}
+
+
+def help_wanted(argv) -> bool:
+    """Whether ``-h``/``--help`` is among a node's own arguments (those before ``--ros-args``)."""
+    argv = list(argv)
+    own = argv[:argv.index("--ros-args")] if "--ros-args" in argv else argv
+    return "-h" in own or "--help" in own
+
+
+def node_help(prog: str, purpose: str, params, example: str) -> str:
+    """A node's ``--help``: what it is for (one line), its parameters (``nav_core.params.Param``), an example."""
+    lines = [f"usage: {prog} [--ros-args [--params-file FILE] [-p NAME:=VALUE ...] [-r FROM:=TO ...]]", "",
+             purpose, "", "parameters (-p NAME:=VALUE, or the node's section of a params file such as "
+             "config/navigation.yaml):"]
+    for p in params:
+        lines.append(f"  {p.name} ({p.allowed()}, default {p.default!r})")
+        lines.append(f"      {p.description}")
+    return "\n".join(lines + ["", "example:", f"  {example}"])

@@ -4,6 +4,7 @@ The only module of ``nav_core`` that imports rclpy.
 """
 from __future__ import annotations
 
+import sys
 import threading
 import time
 
@@ -18,6 +19,7 @@ from rclpy.qos import QoSProfile, ReliabilityPolicy, qos_profile_sensor_data
 from geometry_msgs.msg import Vector3
 from sensor_msgs.msg import Imu
 
+from nav_core.cli import help_wanted, node_help
 from nav_core.imu_cdr import ImuBatch, ImuCdrError, decode_imu, encode_imu
 from nav_core.params import ConfigError
 from nav_core.params_ros import declare_parameters, init_error_line  # noqa: F401  (re-exported)
@@ -33,8 +35,15 @@ DIAG_LEVELS = {"OK": DiagnosticStatus.OK, "WARN": DiagnosticStatus.WARN,
                "ERROR": DiagnosticStatus.ERROR, "STALE": DiagnosticStatus.STALE}
 
 
-def run_node(node_factory, args=None) -> int:
-    """The ros2/demos main: init, build, spin, shut down cleanly; a ConfigError exits with status 2."""
+def run_node(node_factory, args=None, usage=None) -> int:
+    """The ros2/demos main: init, build, spin, shut down cleanly; a ConfigError exits with status 2.
+
+    ``usage`` (``(prog, purpose, params, example)`` for :func:`nav_core.cli.node_help`) is printed for
+    ``-h``/``--help`` (before any ``--ros-args``), and the node is not started.
+    """
+    if usage is not None and help_wanted(sys.argv[1:] if args is None else args):
+        print(node_help(*usage))
+        return 0
     try:
         rclpy.init(args=args)
     except Exception as err:  # rcl refuses a params file it cannot read or parse, or bad --ros-args

@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import json
 
+from nav_core.cli import about
 from nav_core.recording import RecordingError
 
 DATASETS = ("paper-sim", "katwijk", "canada", "balzer")
@@ -14,7 +15,10 @@ DATASETS = ("paper-sim", "katwijk", "canada", "balzer")
 
 def add_parser(subparsers) -> None:
     """Add the ``evaluate`` subcommand to the ``ins-gps-kf`` parser; it runs :func:`evaluate`."""
-    ev = subparsers.add_parser("evaluate", help="accuracy figures and plots on a simulated or real dataset")
+    ev = subparsers.add_parser("evaluate", help="accuracy figures and plots on a simulated or real dataset", **about(
+        "Measure the filter's accuracy on the simulated paper drive or a real recording: JSON figures and plots.",
+        "ins-gps-kf evaluate --dataset katwijk --out out/eval_katwijk",
+        "ins-gps-kf evaluate --dataset paper-sim --claims --seed 1 --out out/claims"))
     ev.add_argument("--dataset", required=True, choices=DATASETS)
     ev.add_argument("--out", required=True, help="output folder (JSON figures and PNG plots)")
     ev.add_argument("--seed", type=int, default=0, help="simulation seed (paper-sim)")

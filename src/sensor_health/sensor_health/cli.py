@@ -14,7 +14,7 @@ import numpy as np
 from tqdm import tqdm
 
 from nav_core import recording, sensor_model
-from nav_core.cli import add_common, number, parse_args, run_cli
+from nav_core.cli import about, add_common, number, parse_args, run_cli
 from nav_core.outputs import staged_dir
 from nav_core.units import deg2rad, g2mps2
 from sensor_health.events import EFFECTS, _finite
@@ -24,8 +24,9 @@ from sensor_health.plot import plot_health
 
 def build_parser() -> argparse.ArgumentParser:
     """The CLI's options."""
-    p = argparse.ArgumentParser(prog="sensor-health", description="Name IMU faults in a recording (health.json, "
-                                "health.png).")
+    p = argparse.ArgumentParser(prog="sensor-health", **about(
+        "Name IMU faults in a recording (effect, channel, onset): health.json and health.png.",
+        "sensor-health --recording my_bag --model out/my_imu/sensor_model.yaml --out out/health"))
     p.add_argument("--recording", required=True, type=Path, help="rosbag2 bag or recording CSV (imu/data_raw)")
     p.add_argument("--gnss", type=Path, default=None, help="GNSS CSV or bag (its span is reported; the "
                    "statistics use the IMU alone)")

@@ -16,7 +16,7 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 from tqdm import tqdm  # noqa: E402
 
-from nav_core.cli import add_common, number, parse_args, run_cli  # noqa: E402
+from nav_core.cli import about, add_common, number, parse_args, run_cli  # noqa: E402
 from nav_core.outputs import check_out_dir, staged_dir  # noqa: E402
 from nav_core.units import rad2deg  # noqa: E402
 from nav_core.datasets import read_balzer_csv  # noqa: E402
@@ -116,8 +116,9 @@ def _simulated_tables(name: str, results: dict) -> list[str]:
 
 def main(argv=None) -> int:
     """``wmra-report``: exit 2 with one line for a bad --out or input (``--debug``: the traceback)."""
-    parser = argparse.ArgumentParser(prog="wmra-report",
-                                     description="WMRA evidence: plots and numbers (simulated runs, real car).")
+    parser = argparse.ArgumentParser(prog="wmra-report", **about(
+        "Show what WMRA denoising does: plots and numbers on simulated runs and a real car drive.",
+        "wmra-report --out out/wmra"))
     parser.add_argument("--out", required=True, type=Path, help="output folder (new or empty; --force replaces it)")
     add_common(parser, force=True)
     parser.add_argument("--seed", type=number(0, 2**63 - 1, integer=True), default=2024,

@@ -179,7 +179,12 @@ def _levels_text(lam: np.ndarray) -> str:
 
 def main(args=None) -> int:
     """Console script ``wmra_node``."""
-    return run_node(WmraNode, args)
+    return run_node(WmraNode, args, usage=(
+        "wmra_node",
+        "Calibrate and wavelet-denoise (WMRA) imu/data_raw into imu/data_corrected.",
+        PARAMS,
+        "wmra_node --ros-args --params-file config/navigation.yaml "
+        "-p sensor_model_path:=config/sensor_models/bp3010.yaml"))
 
 
 if __name__ == "__main__":
