@@ -29,6 +29,7 @@ from ins_gps_kf.alignment import InMotionAligner
 from ins_gps_kf.bridging import GapBridge, time_breaks
 from ins_gps_kf.config import FilterConfig
 from ins_gps_kf.gnss_policy import GnssPolicy
+from ins_gps_kf.odometry import Odometry, epoch_span, odometry
 from ins_gps_kf.records import (ALIGNING, HEADING_PENDING, NAVIGATING, STATUS_CODES, WAITING,  # noqa: F401
                                 Counters, Estimate, Fix)
 from ins_gps_kf.updates import Epoch, GnssPosition, ZeroVelocity
@@ -91,6 +92,22 @@ class InsGpsFilter:
     def navigating(self) -> bool:
         """Whether a navigation solution exists (aligned)."""
         return self.nav is not None
+
+    # ------------------------------------------------------------------ outputs (what the node publishes)
+
+    def odometry(self, est: Estimate, prev_t: float) -> Odometry:
+        """The odometry of ``est`` (:func:`ins_gps_kf.odometry.odometry`); ``prev_t`` the previous epoch, s."""
+        return odometry(est, self.noise, epoch_span(est.t, prev_t, self.cfg.filter_rate_hz, self.cfg.imu_rate_hz))
+
+    def oriented_imu(self, gyro, accel) -> tuple:
+        """(quaternion xyzw, attitude covariance (3, 3) rad^2, gyro rad/s, accel m/s^2): a sample ``gyro``,
+        ``accel`` with the current biases removed and the current attitude; only while navigating."""
+        return (self.nav[strapdown.Q].copy(), self.cov[em.PHI, em.PHI].copy(), gyro - self.gyro_bias,
+                accel - self.accel_bias)
+
+    def imu_variances(self) -> tuple:
+        """Per-sample white-noise variances (3,) of the gyro (rad^2/s^2) and accel (m^2/s^4) at the IMU rate."""
+        return self.noise.gyro_white ** 2 * self.cfg.imu_rate_hz, self.noise.accel_white ** 2 * self.cfg.imu_rate_hz
 
     # ------------------------------------------------------------------ GPS input
 

@@ -49,12 +49,11 @@ from nav_core.tf_ros import TfBroadcaster  # noqa: E402
 from nav_core.tf_tree import OdomChain, Pose, static_mounts  # noqa: E402
 from nav_core.units import DEG  # noqa: E402
 from ins_gps_kf import config as kfconfig  # noqa: E402
-from ins_gps_kf import error_model as em  # noqa: E402
 from ins_gps_kf import strapdown  # noqa: E402
-from ins_gps_kf.filter import ALIGNING, NAVIGATING, Estimate, InsGpsFilter  # noqa: E402
+from ins_gps_kf.filter import Estimate, InsGpsFilter  # noqa: E402
 from ins_gps_kf.intake import StampOrderIntake, warm_up  # noqa: E402
-from ins_gps_kf.odometry import epoch_span, odometry  # noqa: E402
 from ins_gps_kf.offline import load_model  # noqa: E402
+from ins_gps_kf.status import filter_status  # noqa: E402
 
 GPS, IMU = 0, 1  # arrival-merge order of a fix and an IMU message received at the same instant
 
@@ -225,7 +224,8 @@ class InsGpsKfNode(Node):
         f = self.filter
         if not f.navigating or self.closing:
             return
-        row = (t, f.nav[strapdown.Q].copy(), f.cov[em.PHI, em.PHI].ravel(), gyro - f.gyro_bias, accel - f.accel_bias)
+        quat, att_cov, gyro_c, accel_c = f.oriented_imu(gyro, accel)
+        row = (t, quat, att_cov.ravel(), gyro_c, accel_c)
         if all(np.all(np.isfinite(v)) for v in row):  # a non-finite state is caught (and counted) at the epoch
             self.imu_out.append(row)
 
@@ -235,20 +235,17 @@ class InsGpsKfNode(Node):
             return
         t, quat, quat_cov, gyro, accel = (np.array(col) for col in zip(*self.imu_out))
         self.imu_out.clear()
-        f = self.filter
+        gyro_var, accel_var = self.filter.imu_variances()
         sec, nanosec = stamps_from_s(t)
         publish_imu_batch(self.imu_pub, sec, nanosec, gyro, accel, self.params["child_frame_id"],
-                          gyro_var=f.noise.gyro_white ** 2 * f.cfg.imu_rate_hz,
-                          accel_var=f.noise.accel_white ** 2 * f.cfg.imu_rate_hz,
-                          orientation_xyzw=quat, orientation_cov=quat_cov)
+                          gyro_var=gyro_var, accel_var=accel_var, orientation_xyzw=quat, orientation_cov=quat_cov)
 
     def publish_odometry(self, est: Estimate):
         """Pose (ENU, map) and twist (body) with covariances: :func:`ins_gps_kf.odometry.odometry`, converted."""
         self.last_estimate = est
         if self.closing:
             return
-        f = self.filter
-        odom = odometry(est, f.noise, epoch_span(est.t, self._last_epoch_t, f.cfg.filter_rate_hz, f.cfg.imu_rate_hz))
+        odom = self.filter.odometry(est, self._last_epoch_t)
         self._last_epoch_t = est.t
         msg = Odometry()
         msg.header.stamp = stamp_from_s(odom.t)
@@ -277,45 +274,10 @@ class InsGpsKfNode(Node):
                              (p["odom_frame_id"], p["child_frame_id"], tf.odom_base)])
 
     def publish_diagnostics(self):
-        """State, NIS, rejected fixes, GPS age, alignment status, resets."""
-        f, ic = self.filter, self.intake.counters
-        c = f.counters
-        age = (self.intake.last_t - f.last_fix_t) if self.intake.last_t is not None else math.inf
-        stale_gps = age > 3.0 / f.cfg.gps_rate_hz
-        if f.status == NAVIGATING and not stale_gps:
-            level, message = "OK", "navigating"
-        elif f.status == NAVIGATING:
-            level, message = "WARN", f"navigating on INS only (GPS age {age:.1f} s)"
-        else:
-            level, message = "WARN", f.status
-        if ic.dropped or self.nonfinite_estimates or self.processing_errors:
-            level = "ERROR" if level == "ERROR" else "WARN"
-            message += (f"; input dropped {ic.dropped}, non-finite estimates {self.nonfinite_estimates}, "
-                        f"errors {self.processing_errors}")
-        if f.input.gnss_clock_steps:  # fixes re-stamped onto the IMU clock: worth a look at the receiver
-            level = "ERROR" if level == "ERROR" else "WARN"
-            message += f"; GNSS clock steps {f.input.gnss_clock_steps}"
-        values = {"state": f.status, "last_nis": f.last_nis, "fixes": c.fixes, "rejected_fixes": c.fixes_rejected,
-                  "invalid_fixes": c.fixes_invalid, "reused_fixes": c.fixes_reused, "gps_resets": c.gps_resets,
-                  "gps_age_s": age, "zupts": c.zupts, "epochs": c.epochs,
-                  "alignment": ("aligned" if f.alignment is not None else
-                                f"{f.aligner.elapsed_s:.1f}/{f.cfg.alignment_time_s:.0f} s stationary"
-                                if f.status == ALIGNING else "waiting for a GPS fix (datum)"),
-                  "filter_resets": c.resets, "imu_gaps_bridged": c.gaps_bridged,
-                  "last_reset": (c.reset_reasons[-1] if c.reset_reasons else ""),
-                  # the intake: everything it dropped, and why; samples missing in the stamps it released
-                  "late_dropped": ic.dropped, "late_imu": ic.late_imu, "late_fixes": ic.late_fixes,
-                  "bad_stamps": ic.bad_stamps, "imu_missing": ic.imu_missing, "node_resets": ic.restarts,
-                  "fixes_stamped_back": ic.fixes_stamped_back, "fixes_stamped_ahead": ic.fixes_stamped_ahead,
-                  "imu_received": ic.imu_samples, "fixes_received": ic.fixes, "queued": self.intake.pending,
-                  "first_imu_stamp_s": "" if self.first_imu_t is None else f"{self.first_imu_t:.6f}",
-                  "first_fix_stamp_s": "" if self.first_fix_t is None else f"{self.first_fix_t:.6f}",
-                  "bad_imu_messages": self.imu_intake.bad_messages, "nonfinite_estimates": self.nonfinite_estimates,
-                  "processing_errors": self.processing_errors, "last_processing_error": self.last_processing_error}
-        values.update(getattr(f, "input_counters", {}))  # the core's rejected and doubtful input, by kind
-        if f.alignment is not None:
-            values.update({"align_roll_deg": f.alignment.roll / DEG, "align_pitch_deg": f.alignment.pitch / DEG})
-        self.diag.publish(level, message, values)
+        """The typed status (:class:`ins_gps_kf.status.FilterStatus`) on /diagnostics."""
+        st = filter_status(self.filter, self.intake, self.first_imu_t, self.first_fix_t, self.imu_intake.bad_messages,
+                           self.nonfinite_estimates, self.processing_errors, self.last_processing_error)
+        self.diag.publish(st.level, st.message, st.to_values())
 
 
 def _finite(est: Estimate) -> bool:

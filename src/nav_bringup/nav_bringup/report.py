@@ -25,6 +25,7 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 from scipy.spatial.transform import Rotation  # noqa: E402
 
+from ins_gps_kf.status import FilterStatus  # noqa: E402
 from nav_bringup.truth import TruthTrack  # noqa: E402
 from nav_core import bagio, recording  # noqa: E402
 from nav_core.earth import LocalFrame  # noqa: E402
@@ -155,11 +156,11 @@ def plot_raw_vs_denoised(raw, den, path: Path) -> None:
     plt.close(fig)
 
 
-def compare_with_offline(bag: Path, odom, filter_params: dict, filter_diag: dict | None = None) -> dict:
+def compare_with_offline(bag: Path, odom, filter_params: dict, filter_diag: FilterStatus | dict | None = None) -> dict:
     """The recorded odometry against an offline replay of the bag's ``imu/data_corrected`` and ``gps/fix``.
 
     ``filter_params``: the filter node's parameters (as in the params file, with the run's
-    overrides); ``filter_diag``: its last /diagnostics values. Where the node's first received
+    overrides); ``filter_diag``: its last status (or /diagnostics values). Where the node's first received
     stamps (``first_imu_stamp_s``, ``first_fix_stamp_s``) come after the bag's, the node missed the
     bag's start (its subscription matched the player after playing began: the recorder, which
     subscribes once it sees the player, has it): that is counted, and the replay starts where the
@@ -197,21 +198,21 @@ BAG_LATE_FIXES = "fixes the filter had before the bag's first (s)"
 BAG_LATE_IMU = "IMU the filter had before the bag's first (s)"
 
 
-def _filter_values(diags: dict) -> dict:
-    """The filter node's last /diagnostics values ({} when it published none)."""
-    return next((v for n, (_, _, v) in diags.items() if n.startswith("ins_gps_kf")), {})
+def filter_status(diags: dict) -> FilterStatus | None:
+    """The filter node's last status, parsed through its type (:class:`ins_gps_kf.status.FilterStatus`); None
+    when it published none."""
+    found = next(((lvl, msg, v) for n, (lvl, msg, v) in diags.items() if n.startswith("ins_gps_kf")), None)
+    if found is None:
+        return None
+    level, message, values = found
+    return FilterStatus.from_values(values, ("OK", "WARN", "ERROR", "STALE")[min(level, 3)], message)
 
 
 def _from_filter_start(imu, gnss, diag: dict):
     """The bag's IMU and fixes from the filter node's first received stamps on; what was before them (counts),
     and how long the filter had input before the bag's first (s: the recorder subscribed late)."""
-    def first(key):
-        try:
-            return float(diag.get(key, "nan") or "nan")
-        except ValueError:
-            return float("nan")
-
-    t_imu, t_fix = first("first_imu_stamp_s"), first("first_fix_stamp_s")
+    st = diag if isinstance(diag, FilterStatus) else FilterStatus.from_values(diag)
+    t_imu, t_fix = (float("nan") if t is None else t for t in (st.first_imu_stamp_s, st.first_fix_stamp_s))
     # the node prints its stamps to 1 us and a float64 near 1.7e9 s resolves 0.24 us: match within
     # FIRST_STAMP_TOLERANCE_S (a 1e-7 tolerance took the bag's first sample for one the filter missed)
     keep_imu = imu.t >= t_imu - FIRST_STAMP_TOLERANCE_S if np.isfinite(t_imu) else np.ones(len(imu), bool)
@@ -241,8 +242,7 @@ def write_report(run_dir: Path, sim_dir: Path | None = None, truth_csv: Path | N
     offline = None
     if filter_params is not None:
         try:
-            kf = _filter_values(diags)
-            offline = compare_with_offline(bag, odom, filter_params, kf)
+            offline = compare_with_offline(bag, odom, filter_params, filter_status(diags))
         except (recording.RecordingError, ValueError) as err:
             offline = {"not compared": str(err)}
     gnss = recording.read_gnss(bag)
@@ -293,12 +293,10 @@ def _stream_checks(raw, den, diags) -> dict:
     if raw is not None and den is not None and len(raw) and len(den):
         # the denoiser subscribed late (DDS discovery at the player's start) or the recorder lost its start
         out["imu/data_corrected start - imu/data_raw start (s)"] = round(float(den.t[0] - raw.t[0]), 3)
-    kf = _filter_values(diags)
-    for key, label in (("imu_received", "IMU samples the filter received"),
-                       ("late_dropped", "messages the filter dropped"),
-                       ("imu_missing", "IMU samples missing in the filter's input")):
-        if key in kf:
-            out[label] = int(float(kf[key]))
+    kf = filter_status(diags)
+    if kf is not None:
+        out.update({"IMU samples the filter received": kf.imu_received, "messages the filter dropped": kf.late_dropped,
+                    "IMU samples missing in the filter's input": kf.imu_missing})
     return out
 
 
@@ -347,12 +345,11 @@ def _frame_numbers(recorded, sent, first: int, look_ahead: int = 64) -> np.ndarr
 
 def _no_odometry(run_dir: Path, diags: dict, codes: dict) -> str:
     """The run ended before the filter navigated (too short to align, or no GPS): say so, with its state."""
-    state = next((f"{m} ({v.get('alignment', '')})" for n, (_, m, v) in diags.items() if "ins_gps_kf" in n),
-                 "no diagnostics from the filter")
-    refused = next((v for n, (_, _, v) in diags.items() if "ins_gps_kf" in n
-                    and str(v.get("alignment_not_gravity", "0")) != "0"), None)
-    why = (f"It never found the IMU at rest: {refused.get('last_rejection', '')} "
-           f"({refused['alignment_not_gravity']} blocks refused)." if refused else
+    kf = filter_status(diags)
+    state = f"{kf.message} ({kf.alignment})" if kf is not None else "no diagnostics from the filter"
+    refused = kf if kf is not None and kf.input.alignment_not_gravity else None
+    why = (f"It never found the IMU at rest: {refused.input.last_rejection} "
+           f"({refused.input.alignment_not_gravity} blocks refused)." if refused else
            "It aligns on the first 45 s at rest and takes its heading from the GPS course once the vehicle "
            "moves, so a run must last beyond that.")
     text = f"=== Navigation report: {run_dir}\n    the filter published no odometry: {state}. {why}"

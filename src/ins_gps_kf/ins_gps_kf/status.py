@@ -1,0 +1,157 @@
+"""The filter node's status, typed: built from the core, serialised to ``/diagnostics`` key-value strings by the
+node and parsed back by the report through the same type, so no key is spelled in two places.
+
+:meth:`FilterStatus.to_values` gives the ``DiagnosticStatus`` values (strings); :meth:`FilterStatus.from_values`
+reads them back (a missing or unreadable value takes the field's default: a status from an older node
+still parses). The rejected-input counts are :class:`ins_gps_kf.input_checks.InputCounters`' own fields.
+"""
+from __future__ import annotations
+
+import dataclasses
+import math
+from dataclasses import dataclass, field
+
+from nav_core.units import DEG
+from ins_gps_kf.input_checks import InputCounters
+from ins_gps_kf.records import ALIGNING, NAVIGATING
+
+STAMP_FIELDS = ("first_imu_stamp_s", "first_fix_stamp_s")  # printed to 1 us: the report matches bag stamps by them
+
+
+@dataclass
+class FilterStatus:
+    """What the filter node reports each second: state, GNSS use, the intake's drops, rejected input (SI, s)."""
+
+    level: str = "STALE"  # OK | WARN | ERROR
+    message: str = ""
+    state: str = ""
+    last_nis: float = math.nan
+    fixes: int = 0
+    rejected_fixes: int = 0
+    invalid_fixes: int = 0
+    reused_fixes: int = 0
+    gps_resets: int = 0
+    gps_age_s: float = math.inf
+    zupts: int = 0
+    epochs: int = 0
+    alignment: str = ""
+    filter_resets: int = 0
+    imu_gaps_bridged: int = 0
+    last_reset: str = ""
+    # the node's intake: everything it dropped, and why; samples missing in the stamps it released
+    late_dropped: int = 0
+    late_imu: int = 0
+    late_fixes: int = 0
+    bad_stamps: int = 0
+    imu_missing: int = 0
+    node_resets: int = 0
+    fixes_stamped_back: int = 0
+    fixes_stamped_ahead: int = 0
+    imu_received: int = 0
+    fixes_received: int = 0
+    queued: int = 0
+    # the first stamps received: the report replays the run's bag from them, s (None until one comes)
+    first_imu_stamp_s: float | None = None
+    first_fix_stamp_s: float | None = None
+    bad_imu_messages: int = 0
+    nonfinite_estimates: int = 0
+    processing_errors: int = 0
+    last_processing_error: str = ""
+    input: InputCounters = field(default_factory=InputCounters)  # the core's rejected and doubtful input
+    align_roll_deg: float | None = None
+    align_pitch_deg: float | None = None
+
+    def to_values(self) -> dict:
+        """``/diagnostics`` key -> string, the input counters flat among the others."""
+        out = {}
+        for f in dataclasses.fields(self):
+            if f.name in ("level", "message"):
+                continue
+            value = getattr(self, f.name)
+            if f.name == "input":
+                out.update({k: str(v) for k, v in dataclasses.asdict(value).items()})
+            elif value is None:
+                out[f.name] = ""
+            elif f.name in STAMP_FIELDS:
+                out[f.name] = f"{value:.6f}"
+            elif isinstance(value, float):
+                out[f.name] = f"{value:.6g}"
+            else:
+                out[f.name] = str(value)
+        return out
+
+    @classmethod
+    def from_values(cls, values: dict, level: str = "STALE", message: str = "") -> FilterStatus:
+        """The status from ``/diagnostics`` values (strings); a missing or unreadable value is the default."""
+        kwargs = {"level": level, "message": message}
+        for f in dataclasses.fields(cls):
+            if f.name == "input":
+                kwargs["input"] = _parse_fields(InputCounters, values)
+            elif f.name not in ("level", "message") and f.name in values:
+                kwargs[f.name] = _parse(f, values[f.name])
+        return cls(**{k: v for k, v in kwargs.items() if v is not _DEFAULT})
+
+
+_DEFAULT = object()
+
+
+def _parse_fields(cls, values: dict):
+    """A dataclass ``cls`` from the string ``values`` of its fields."""
+    kwargs = {f.name: _parse(f, values[f.name]) for f in dataclasses.fields(cls) if f.name in values}
+    return cls(**{k: v for k, v in kwargs.items() if v is not _DEFAULT})
+
+
+def _parse(f: dataclasses.Field, text):
+    """The value of field ``f`` from its string (the field's type from its default), or _DEFAULT."""
+    default = f.default if f.default is not dataclasses.MISSING else None
+    text = str(text)
+    try:
+        if isinstance(default, bool):
+            return text == "True"
+        if isinstance(default, int):
+            return int(float(text))
+        if isinstance(default, float) or default is None and f.name.endswith(("_s", "_deg")):
+            return None if text == "" and default is None else float(text)
+    except ValueError:
+        return _DEFAULT
+    return text
+
+
+def filter_status(filt, intake, first_imu_t=None, first_fix_t=None, bad_imu_messages=0, nonfinite_estimates=0,
+                  processing_errors=0, last_processing_error="") -> FilterStatus:
+    """The status of ``filt`` (:class:`ins_gps_kf.filter.InsGpsFilter`) behind ``intake``
+    (:class:`ins_gps_kf.intake.StampOrderIntake`), with the node's own counts; level and message included."""
+    c, ic, cfg = filt.counters, intake.counters, filt.cfg
+    age = (intake.last_t - filt.last_fix_t) if intake.last_t is not None else math.inf
+    level, message = _level(filt, age, ic.dropped, nonfinite_estimates, processing_errors)
+    return FilterStatus(
+        level, message, filt.status, filt.last_nis, c.fixes, c.fixes_rejected, c.fixes_invalid, c.fixes_reused,
+        c.gps_resets, age, c.zupts, c.epochs,
+        ("aligned" if filt.alignment is not None else
+         f"{filt.aligner.elapsed_s:.1f}/{cfg.alignment_time_s:.0f} s stationary" if filt.status == ALIGNING
+         else "waiting for a GPS fix (datum)"),
+        c.resets, c.gaps_bridged, c.reset_reasons[-1] if c.reset_reasons else "",
+        ic.dropped, ic.late_imu, ic.late_fixes, ic.bad_stamps, ic.imu_missing, ic.restarts, ic.fixes_stamped_back,
+        ic.fixes_stamped_ahead, ic.imu_samples, ic.fixes, intake.pending, first_imu_t, first_fix_t,
+        bad_imu_messages, nonfinite_estimates, processing_errors, last_processing_error,
+        dataclasses.replace(filt.input),
+        filt.alignment.roll / DEG if filt.alignment is not None else None,
+        filt.alignment.pitch / DEG if filt.alignment is not None else None)
+
+
+def _level(filt, age, dropped, nonfinite, errors) -> tuple[str, str]:
+    """(level, message): OK while navigating on fresh GNSS, WARN on INS only, while aligning or after drops."""
+    stale_gps = age > 3.0 / filt.cfg.gps_rate_hz
+    if filt.status == NAVIGATING and not stale_gps:
+        level, message = "OK", "navigating"
+    elif filt.status == NAVIGATING:
+        level, message = "WARN", f"navigating on INS only (GPS age {age:.1f} s)"
+    else:
+        level, message = "WARN", filt.status
+    if dropped or nonfinite or errors:
+        message += f"; input dropped {dropped}, non-finite estimates {nonfinite}, errors {errors}"
+        level = "WARN"
+    if filt.input.gnss_clock_steps:  # fixes re-stamped onto the IMU clock: worth a look at the receiver
+        message += f"; GNSS clock steps {filt.input.gnss_clock_steps}"
+        level = "WARN"
+    return level, message

@@ -1,0 +1,70 @@
+"""The filter node's typed status: built from the core, written as /diagnostics strings, read back by the report
+through the same type (ins_gps_kf.status.FilterStatus), so a key cannot be spelled two ways."""
+import dataclasses
+import math
+
+import numpy as np
+
+from ins_gps_kf import config
+from ins_gps_kf.filter import NAVIGATING, InsGpsFilter
+from ins_gps_kf.intake import StampOrderIntake
+from ins_gps_kf.status import FilterStatus, filter_status
+from ins_gps_kf import synthetic
+from nav_bringup import report
+
+
+def _same(a, b) -> bool:
+    return a == b or (isinstance(a, float) and isinstance(b, float) and math.isnan(a) and math.isnan(b))
+
+
+def _status(seconds=60.0):
+    cfg = config.from_params({"alignment_time_s": 10.0})
+    filt = InsGpsFilter(cfg)
+    intake = StampOrderIntake(filt, 0.1, 1.0, cfg.imu_rate_hz)
+    motion = synthetic.straight(still_s=15.0, accel_s=5.0, cruise_s=seconds - 20.0)
+    imu = synthetic.add_imu_errors(synthetic.ideal_imu(motion, cfg.imu_rate_hz), np.random.default_rng(1),
+                                   gyro_white=1e-4, accel_white=1e-3)
+    gnss = synthetic.gnss(motion, cfg.imu_rate_hz, 1.0, np.random.default_rng(2))
+    t0 = 1.7e9  # bag-like stamps: the first ones must come back to 1 us
+    t = imu.t + t0
+    k_fix = 0
+    for k in range(len(t)):
+        while k_fix < len(gnss) and gnss.t[k_fix] <= imu.t[k]:
+            intake.add_fix(gnss.t[k_fix] + t0, gnss.lat[k_fix], gnss.lon[k_fix], gnss.h[k_fix], gnss.std_enu[k_fix], 0)
+            k_fix += 1
+        intake.add_imu(t[k], imu.gyro[k], imu.accel[k])
+        if k % 32 == 0:
+            intake.release()
+    intake.flush()
+    return filter_status(filt, intake, first_imu_t=float(t[0]), first_fix_t=float(t[0]), bad_imu_messages=2), filt
+
+
+def test_the_status_round_trips_through_diagnostics_strings():
+    st, filt = _status()
+    assert st.state == NAVIGATING and st.fixes > 50 and st.zupts > 0 and st.imu_received > 3000
+    values = st.to_values()
+    assert all(isinstance(v, str) for v in values.values())
+    back = FilterStatus.from_values(values, st.level, st.message)
+    for f in dataclasses.fields(FilterStatus):
+        if f.name in ("last_nis", "gps_age_s", "align_roll_deg", "align_pitch_deg"):  # printed to 6 digits
+            a, b = getattr(st, f.name), getattr(back, f.name)
+            assert a is None and b is None or math.isclose(a, b, rel_tol=1e-5) or math.isnan(a) and math.isnan(b)
+        else:
+            assert _same(getattr(back, f.name), getattr(st, f.name)), f.name
+    assert abs(back.first_imu_stamp_s - st.first_imu_stamp_s) < 1e-6  # 1.7e9 s to the microsecond
+    assert back.input == filt.input  # every rejected-input counter, by the core's own field names
+
+
+def test_the_report_reads_the_filter_node_s_status_through_the_type():
+    st, _ = _status(30.0)
+    diags = {"ins_gps_kf_node: ins_gps_kf": (1, st.message, st.to_values()), "wmra_node: wmra": (0, "ok", {})}
+    parsed = report.filter_status(diags)
+    assert parsed.imu_received == st.imu_received and parsed.late_dropped == st.late_dropped
+    assert parsed.level == "WARN" and parsed.bad_imu_messages == 2
+    assert report.filter_status({"wmra_node: wmra": (0, "ok", {})}) is None
+
+
+def test_an_older_or_partial_status_still_parses_with_defaults():
+    back = FilterStatus.from_values({"fixes": "7", "first_imu_stamp_s": "", "last_nis": "nan", "gps_age_s": "x"})
+    assert back.fixes == 7 and back.first_imu_stamp_s is None and math.isnan(back.last_nis)
+    assert back.gps_age_s == math.inf and back.input.gps_jumps == 0
