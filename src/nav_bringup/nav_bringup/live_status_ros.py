@@ -8,6 +8,7 @@ from pathlib import Path
 
 import numpy as np
 
+from ins_gps_kf.status import FilterStatus
 from nav_bringup.truth import TruthTrack
 
 
@@ -75,7 +76,7 @@ def _print_status(graph, player, probe, truth, period_s, stamp_to_s) -> None:
         dead = graph.dead()
         odom = probe.received["odometry/filtered"]
         kf = probe.diags.get("ins_gps_kf_node")
-        kfv = diag_values(probe).get("ins_gps_kf_node", {})
+        kfv = FilterStatus.from_values(diag_values(probe)["ins_gps_kf_node"]) if kf else None
         err = ""
         if odom and truth is not None:
             msg = odom[-1][1]
@@ -84,8 +85,8 @@ def _print_status(graph, player, probe, truth, period_s, stamp_to_s) -> None:
         clock = probe.clock
         sim_t = clock["now"] - (truth.epoch_s if truth else clock["first"]) if clock else 0.0
         print(f"{time.monotonic() - start:6.0f} {sim_t:8.1f} {len(odom):6d} "
-              f"{(kf.message if kf else 'waiting')[:28]:<28} {kfv.get('fixes', '-'):>6} "
-              f"{kfv.get('rejected_fixes', '-'):>4} {err:>8}", flush=True)
+              f"{(kf.message if kf else 'waiting')[:28]:<28} {kfv.fixes if kf else '-':>6} "
+              f"{kfv.rejected_fixes if kf else '-':>4} {err:>8}", flush=True)
         if player in dead:
             time.sleep(2.0)  # let the filter finish the last samples
             return
