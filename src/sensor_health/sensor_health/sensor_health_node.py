@@ -128,7 +128,11 @@ class SensorHealthNode(Node):
 
 def main(args=None) -> int:
     """Console script ``sensor_health_node``."""
-    return run_node(SensorHealthNode, args)
+    return run_node(SensorHealthNode, args, usage=(
+        "sensor_health_node",
+        "Watch imu/data_raw live and name sensor faults (effect, channel, onset) on sensor_health/events.",
+        PARAMS,
+        "sensor_health_node --ros-args -p sensor_model_path:=out/my_imu/sensor_model.yaml"))
 
 
 if __name__ == "__main__":
