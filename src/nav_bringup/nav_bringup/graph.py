@@ -11,8 +11,9 @@ from pathlib import Path
 
 from nav_bringup.description import NodeSpec  # noqa: F401  (re-exported: the runner starts these)
 from nav_core.processes import NodeProcess
+from nav_core.workspace import workspace_root
 
-REPO = Path(__file__).resolve().parents[3]
+REPO = workspace_root()  # $MEMS_NAV_ROOT, or the current folder or a parent holding config/navigation.yaml
 PARAMS_FILE = REPO / "config" / "navigation.yaml"
 
 

@@ -24,8 +24,9 @@ import numpy as np
 
 from nav_core.recording import GnssRecording, ImuRecording, RecordingError, Trajectory
 from nav_core.units import DEG, G0
+from nav_core.workspace import shared_data
 
-NAVEGO = Path(__file__).resolve().parents[3] / ".." / "shared" / "data" / "navego_rover"
+NAVEGO = shared_data("navego_rover")
 
 
 # ---------------------------------------------------------------- calibration recordings

@@ -19,7 +19,7 @@ from nav_core.recording import GnssRecording
 from nav_core.units import DEG
 from ins_gps_kf.filter import NAVIGATING
 from nav_eval.metrics import run_case, truth_at
-from nav_eval.paths import PAPER_DRIVE, workspace_file
+from nav_core.workspace import PAPER_DRIVE, workspace_file
 
 GLITCH_T_S = 300.0  # the damage starts at this fix stamp, s
 T_FROM_S = 60.0  # after alignment and the heading fix

@@ -22,7 +22,7 @@ from wmra_filter.wmra import WmraConfig, denoise_imu
 from nav_eval.datasets import KATWIJK_PARAMS
 from nav_eval.metrics import consistency, drop_fixes, error_figures, outage_drift, outage_windows, run_case, \
     write_report
-from nav_eval.paths import PAPER_DRIVE, workspace_file
+from nav_core.workspace import PAPER_DRIVE, workspace_file
 
 
 def passthrough_model(model):

@@ -14,7 +14,7 @@ from nav_core.units import DEG
 from ins_gps_kf.offline import plot_north_east, to_trajectory
 from nav_eval.metrics import consistency, drop_fixes, error_figures, outage_drift, outage_windows, run_case, \
     write_report
-from nav_eval.paths import PAPER_DRIVE, workspace_file
+from nav_core.workspace import PAPER_DRIVE, workspace_file
 
 
 def paper_sim(out_dir, seed: int = 0, scenario=None) -> dict:

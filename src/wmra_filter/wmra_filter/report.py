@@ -20,10 +20,11 @@ from nav_core.cli import about, add_common, number, parse_args, run_cli  # noqa:
 from nav_core.outputs import check_out_dir, staged_dir  # noqa: E402
 from nav_core.units import rad2deg  # noqa: E402
 from nav_core.datasets import read_balzer_csv  # noqa: E402
+from nav_core.workspace import shared_data  # noqa: E402
 from wmra_filter import evaluation as ev  # noqa: E402
 from wmra_filter.wmra import WmraConfig  # noqa: E402
 
-BALZER = Path(__file__).resolve().parents[3] / ".." / "shared" / "data" / "balzer_car"
+BALZER = shared_data("balzer_car")
 UNIT = {"g": ("deg/s", rad2deg), "a": ("m/s^2", lambda v: v)}
 
 
