@@ -13,6 +13,8 @@ from rosbags.rosbag2 import Reader, Writer
 from rosbags.rosbag2.enums import StoragePlugin
 from rosbags.typesys import Stores, get_typestore
 
+from nav_core import units
+
 TYPESTORE = get_typestore(Stores.ROS2_JAZZY)
 IMU_TYPE = "sensor_msgs/msg/Imu"
 NAVSATFIX_TYPE = "sensor_msgs/msg/NavSatFix"
@@ -42,14 +44,14 @@ def is_bag(path) -> bool:
 
 def stamp_to_s(stamp) -> float:
     """``builtin_interfaces/Time`` to float seconds."""
-    return stamp.sec + 1e-9 * stamp.nanosec
+    return units.s_from_sec_nanosec(stamp.sec, stamp.nanosec)
 
 
 def s_to_stamp(t_s: float):
     """Float seconds to a rosbags ``builtin_interfaces/Time``."""
     time_cls = TYPESTORE.types["builtin_interfaces/msg/Time"]
-    ns = int(round(t_s * 1e9))
-    return time_cls(sec=ns // 1_000_000_000, nanosec=ns % 1_000_000_000)
+    sec, nanosec = units.sec_nanosec(units.ns_from_s(t_s))
+    return time_cls(sec=sec, nanosec=nanosec)
 
 
 def topics(path) -> dict:

@@ -18,6 +18,8 @@ from functools import lru_cache
 
 import numpy as np
 
+from nav_core import units
+
 CDR_LE_HEADER = b"\x00\x01\x00\x00"
 _DOUBLES = (("orientation", 4), ("orientation_covariance", 9), ("angular_velocity", 3),
             ("angular_velocity_covariance", 9), ("linear_acceleration", 3),
@@ -61,18 +63,17 @@ class ImuBatch:
     @property
     def t_s(self) -> np.ndarray:
         """Stamps as float seconds."""
-        return self.sec + 1e-9 * self.nanosec
+        return units.s_from_sec_nanosec(self.sec, self.nanosec)
 
     @property
     def t_ns(self) -> np.ndarray:
         """Stamps as int64 nanoseconds."""
-        return self.sec.astype(np.int64) * 1_000_000_000 + self.nanosec
+        return self.sec.astype(np.int64) * units.NS_PER_S + self.nanosec
 
 
 def stamps_from_s(t_s) -> tuple[np.ndarray, np.ndarray]:
     """(sec, nanosec) int64 arrays of float-second stamps, rounded to the nanosecond."""
-    ns = np.round(np.asarray(t_s, dtype=float) * 1e9).astype(np.int64)
-    return ns // 1_000_000_000, ns % 1_000_000_000
+    return units.sec_nanosec(units.ns_from_s(np.asarray(t_s, dtype=float)))
 
 
 def encode_imu(sec, nanosec, gyro, accel, frame_id: str = "imu_link", gyro_var=0.0, accel_var=0.0,

@@ -26,7 +26,7 @@ from pathlib import Path
 import numpy as np
 
 from nav_core import timestamps
-from nav_core import table_rows
+from nav_core import table_rows, units
 from nav_core.table_rows import numbers
 from nav_core.timestamps import TimeCheck  # noqa: F401  (part of this module's API)
 from nav_core.units import DEG
@@ -424,7 +424,7 @@ def write_bag(path, imu: ImuRecording | None = None, gnss: GnssRecording | None 
     events.sort()
     with bagio.BagWriter(path, storage) as bag:
         for t, kind, i in events:
-            ns = int(round(t * 1e9))
+            ns = units.ns_from_s(t)
             if kind == 0:
                 bag.write(imu_topic, ns, bagio.imu_message(t, imu.gyro[i], imu.accel[i], imu.frame_id,
                                                            gyro_std**2, accel_std**2))

@@ -20,6 +20,7 @@ from geometry_msgs.msg import Vector3
 from sensor_msgs.msg import Imu
 
 from nav_core.cli import help_wanted, node_help
+from nav_core import units
 from nav_core.imu_cdr import ImuBatch, ImuCdrError, decode_imu, encode_imu
 from nav_core.params import ConfigError
 from nav_core.params_ros import declare_parameters, init_error_line  # noqa: F401  (re-exported)
@@ -230,13 +231,13 @@ def stamp_from_s(t_s: float):
     """``builtin_interfaces/Time`` from float seconds."""
     from builtin_interfaces.msg import Time
 
-    ns = int(round(t_s * 1e9))
-    return Time(sec=ns // 1_000_000_000, nanosec=ns % 1_000_000_000)
+    sec, nanosec = units.sec_nanosec(units.ns_from_s(t_s))
+    return Time(sec=sec, nanosec=nanosec)
 
 
 def stamp_to_s(stamp) -> float:
     """Float seconds from ``builtin_interfaces/Time``."""
-    return stamp.sec + 1e-9 * stamp.nanosec
+    return units.s_from_sec_nanosec(stamp.sec, stamp.nanosec)
 
 
 def imu_to_arrays(msg: Imu):

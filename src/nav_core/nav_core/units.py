@@ -75,3 +75,24 @@ def imu_unit_problem(gyro, accel, gyro_name: str = "gyro", accel_name: str = "ac
     if w > 1.0:
         return f"{gyro_name}: median |angular rate| {w:.4g}, expected well below 1 rad/s for a vehicle (in deg/s?)"
     return None
+
+
+NS_PER_S = 1_000_000_000
+"""Nanoseconds per second (ROS stamps: int32 sec, uint32 nanosec)."""
+
+
+def ns_from_s(t_s):
+    """Float seconds (scalar or array) to integer nanoseconds, rounded (int, or an int64 array)."""
+    if np.ndim(t_s) == 0 and not isinstance(t_s, np.ndarray):
+        return int(round(float(t_s) * 1e9))
+    return np.round(np.asarray(t_s, dtype=float) * 1e9).astype(np.int64)
+
+
+def sec_nanosec(ns):
+    """Integer nanoseconds (scalar or int64 array) to a stamp's (sec, nanosec)."""
+    return ns // NS_PER_S, ns % NS_PER_S
+
+
+def s_from_sec_nanosec(sec, nanosec):
+    """A stamp's (sec, nanosec) (scalars or arrays) to float seconds."""
+    return sec + 1e-9 * nanosec
