@@ -77,7 +77,7 @@ class HealthMonitor:
                                    cfg.mc_windows, cfg.seed)
         ranges = np.r_[[cfg.gyro_range_rad_s] * 3, [cfg.accel_range_m_s2] * 3]
         self.samples = SampleChecks(self.dt, ranges, self.thr.stuck_run, cfg.gap_factor, cfg.rate_tolerance,
-                                    cfg.clear_s, self.thr.sample_sigma)
+                                    cfg.clear_s, self.thr.clip_ties)
         self.trace = Trace() if keep_trace else None
         self._pending_t, self._pending_x, self._pending_f = np.zeros(0), np.zeros((0, 6)), np.zeros((0, 6), bool)
         self._hist_t, self._hist_x = np.zeros(0), np.zeros((0, 6))
@@ -86,6 +86,7 @@ class HealthMonitor:
         self.noise_active = np.zeros(6, bool)
         self.noise_quiet = np.zeros(6, int)
         self.line_last = np.full(6, -np.inf)
+        self.clip_last = np.full(6, -np.inf)
         self.bias_base = None
         self.bias_warm = []
         self.bias_pos, self.bias_neg = np.zeros(6), np.zeros(6)
@@ -119,10 +120,17 @@ class HealthMonitor:
             self._pending_t, self._pending_x = self._pending_t[nw * n:], self._pending_x[nw * n:]
             self._pending_f = self._pending_f[nw * n:]
         events.sort(key=lambda e: e.t_s)
+        kept = []
         for e in events:
+            # two detectors can name the same fault (a clip by its flat tops and by a long run): report it once
+            if all(e.t_s - self.active[(e.effect, ch)].t_s <= self.config.clear_s
+                   for ch in e.channels if (e.effect, ch) in self.active) and \
+                    all((e.effect, ch) in self.active for ch in e.channels):
+                continue
+            kept.append(e)
             for ch in e.channels:
                 self.active[(e.effect, ch)] = e
-        return events
+        return kept
 
     def _remember(self, t, x):
         keep = self.config.history_s
@@ -146,6 +154,7 @@ class HealthMonitor:
             events += self._noise(w, t0, t1, y[w], ws, use[w])
             events += self._line(w, t1, ws, use[w], xw[w])
             events += self._bias(w, t0, t1, ws, use[w])
+            events += self._clip(w, tw[w], xw[w], ws, use[w])
             if self.trace is not None:
                 self.trace.t.append(t1)
                 self.trace.level.append(ws.level[w].copy())
@@ -231,6 +240,22 @@ class HealthMonitor:
         amp = 2 * np.abs(e @ x) / n / sinc
         sd = self.thr.sample_sigma[chans] * np.sqrt(level) * np.sqrt(2.0 / n) / sinc
         return amp, sd
+
+    def _clip(self, w, tw, xwin, ws, use) -> list:
+        """Flat tops: more samples exactly at the window's extreme than the model's noise ever gives."""
+        th, t1 = self.thr, float(tw[-1])
+        hit = use & (ws.ties[w] >= th.clip_ties)
+        fired = np.flatnonzero(hit & (t1 - self.clip_last > self.config.clear_s))
+        self.clip_last = np.where(hit, t1, self.clip_last)
+        events = []
+        for c in fired:
+            hi = np.count_nonzero(xwin[:, c] == xwin[:, c].max()) >= np.count_nonzero(xwin[:, c] == xwin[:, c].min())
+            value = float(xwin[:, c].max() if hi else xwin[:, c].min())
+            onset = float(tw[np.argmax(xwin[:, c] == value)])
+            events.append(Event(t1, onset, "saturation", [CHANNELS[c]], "ERROR", value, [value, value],
+                                f"{CHANNELS[c]} clips at {value:.6g} ({int(ws.ties[w, c])} samples of the window at it)",
+                                {"ties": int(ws.ties[w, c]), "threshold": int(th.clip_ties[c])}))
+        return events
 
     def _bias(self, w, t0, t1, ws, use) -> list:
         th = self.thr

@@ -26,10 +26,6 @@ def model_noise(model: SensorModel, n: int, dt: float, rng: np.random.Generator)
     for c in range(6):
         tri, i = model.triad(("gyro", "accel")[c // 3]), c % 3
         x = rng.normal(0.0, tri.white_noise[i] / np.sqrt(dt), n)
-        q = tri.quantization[i]
-        if q > 0:  # counted increments with the remainder carried (Allan Q^2 = var of the remainder)
-            e = rng.uniform(-0.5, 0.5, n + 1) * q * np.sqrt(12.0)
-            x += np.diff(e) / dt
         b, tc = tri.bias_instability[i], tri.bias_correlation_time[i]
         if b > 0:
             taus = (tc,) if tc > 0 else FLICKER_TAUS_S
@@ -37,5 +33,10 @@ def model_noise(model: SensorModel, n: int, dt: float, rng: np.random.Generator)
                 x += _gauss_markov(rng, n, dt, b / np.sqrt(len(taus)), tau)
         if tri.rate_random_walk[i] > 0:
             x += np.cumsum(rng.normal(0.0, tri.rate_random_walk[i] * np.sqrt(dt), n))
+        q = tri.quantization[i]
+        if q > 0:  # counted increments of lsb = Q sqrt(12) with the remainder carried: outputs on a lattice
+            lsb = q * np.sqrt(12.0)
+            counts = np.round(np.cumsum(x) * dt / lsb + rng.uniform())
+            x = np.diff(np.concatenate([[np.round(x[0] * dt / lsb)], counts])) * lsb / dt
         out[:, c] = x
     return out

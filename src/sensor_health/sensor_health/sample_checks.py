@@ -10,10 +10,11 @@ import numpy as np
 from sensor_health.events import CHANNELS, Event
 
 CLIP_LOOK_S = 2.0
-"""A repeated value that is the extreme of this many seconds before it and was hit there before (flat tops recur),
-or lies over CLIP_SIGMAS per-sample sd from their median, is a clip (saturation below the configured range); any
-other repeated value is a frozen output."""
-CLIP_SIGMAS = 3.0
+"""A repeated value (a run of ``stuck_run``) that is not the extreme of this many seconds before it, or was never
+hit there, is a frozen output; one that is their extreme and was hit there as often as the clip test of a window
+needs (``clip_ties``: flat tops recur) is a clip (saturation below the configured range). In between it is
+unsure until the run ends (a clip) or goes on UNSURE_WAIT_S longer (a freeze)."""
+UNSURE_WAIT_S = 0.5
 RATE_CONFIRM = 8
 """Consecutive intervals at one new value that make a sample-rate change (fewer, followed by the old one:
 dropouts)."""
@@ -48,9 +49,9 @@ class SampleChecks:
     """Sample-level detectors; :meth:`push` returns events and per-sample fault flags (m, 6)."""
 
     def __init__(self, dt_s: float, ranges: np.ndarray, stuck_run: np.ndarray, gap_factor: float,
-                 rate_tolerance: float, clear_s: float, sample_sigma: np.ndarray):
+                 rate_tolerance: float, clear_s: float, clip_ties: np.ndarray):
         self.dt_s, self.ranges, self.stuck_run = dt_s, np.asarray(ranges, float), np.asarray(stuck_run, int)
-        self.sigma = np.asarray(sample_sigma, float)
+        self.clip_ties = np.asarray(clip_ties, int)
         self.recent = np.zeros((0, 6))
         """The samples before this push (CLIP_LOOK_S), for telling a clip from a freeze."""
         self.gap_factor, self.rate_tolerance, self.clear_s = gap_factor, rate_tolerance, clear_s
@@ -60,6 +61,7 @@ class SampleChecks:
         self.last_x = np.full(6, np.nan)
         self.run = np.zeros(6, int)
         self.run_start_t = np.full(6, np.nan)
+        self.unsure = [None] * 6
         self.pending = None
         self.last_dropout_t = -np.inf
         self.dropouts = 0
@@ -96,10 +98,16 @@ class SampleChecks:
             last_break = np.maximum.accumulate(np.where(~eq, idx, -1))
             run = np.where(last_break >= 0, idx - last_break + 1, self.run[c] + idx + 1)
             flags[:, c] = run >= self.stuck_run[c]
+            events += self._resolve_pending(c, t, x, run, 0)
             for i in np.flatnonzero(run == self.stuck_run[c]):
                 start = i - self.stuck_run[c] + 1
                 onset = float(t[start]) if start >= 0 else float(self.run_start_t[c])
-                events.append(self._repeat_event(c, float(t[i]), onset, float(x[i, c]), x[:max(start, 0), c]))
+                kind = self._repeat_kind(c, float(x[i, c]), x[:max(start, 0), c])
+                if kind == "unsure":
+                    self.unsure[c] = {"onset": onset, "value": float(x[i, c])}
+                    events += self._resolve_pending(c, t, x, run, i + 1)
+                else:
+                    events.append(self._repeat_event(c, kind, float(t[i]), onset, float(x[i, c])))
             if m:
                 if last_break[-1] >= 0:
                     self.run_start_t[c] = t[last_break[-1]]
@@ -107,20 +115,39 @@ class SampleChecks:
                 self.last_x[c] = x[-1, c]
         return events, flags
 
-    def _repeat_event(self, c, t_s, onset, value, before):
-        """stuck_output, or saturation when the repeated value is a clip (see CLIP_LOOK_S)."""
+    def _resolve_pending(self, c, t, x, run, j0):
+        """An unsure repeat: a freeze if the run goes on UNSURE_WAIT_S more, a clip if it ends first."""
+        p = self.unsure[c]
+        if p is None:
+            return []
+        rest = run[j0:]
+        longer = self.stuck_run[c] + int(round(UNSURE_WAIT_S / self.dt_s))
+        ends = np.flatnonzero((rest == 1) | (rest == longer))
+        if len(ends) == 0:
+            return []
+        j = j0 + int(ends[0])
+        self.unsure[c] = None
+        kind = "stuck_output" if run[j] == longer else "saturation"
+        return [self._repeat_event(c, kind, float(t[j]), p["onset"], p["value"])]
+
+    def _repeat_kind(self, c, value, before):
+        """saturation, stuck_output or unsure: see CLIP_LOOK_S."""
         look = np.concatenate([self.recent[:, c], before])[-int(round(CLIP_LOOK_S / self.dt_s)):]
         look = look[np.isfinite(look)]
         extreme = len(look) > 0 and (value >= look.max() or value <= look.min())
-        clip = extreme and (np.count_nonzero(look == value) >= 2
-                            or abs(value - np.median(look)) > CLIP_SIGMAS * self.sigma[c])
+        hits = np.count_nonzero(look == value)
+        if not extreme or hits == 0:
+            return "stuck_output"
+        return "saturation" if hits >= self.clip_ties[c] else "unsure"
+
+    def _repeat_event(self, c, kind, t_s, onset, value):
         name = CHANNELS[c]
-        if clip:
+        if kind == "saturation":
             return Event(t_s, onset, "saturation", [name], "ERROR", value, [value, value],
-                         f"{name} clips at {value:.6g} (flat top of {self.stuck_run[c]} samples, below the range "
-                         f"{self.ranges[c]:.6g})", {"run_samples": int(self.stuck_run[c])})
+                         f"{name} clips at {value:.6g} (flat top, below the range {self.ranges[c]:.6g})",
+                         {"run_samples": int(self.stuck_run[c])})
         return Event(t_s, onset, "stuck_output", [name], "ERROR", value, [value, value],
-                     f"{name} repeats {value:.9g} for {self.stuck_run[c]} samples",
+                     f"{name} repeats {value:.9g} for {self.stuck_run[c]} samples or more",
                      {"run_samples": int(self.stuck_run[c])})
 
     def _timing(self, t):

@@ -9,6 +9,7 @@ statistics and the same CUSUM recursions as the monitor. Per detector and channe
   grows exponentially with its threshold) and solved for the budget's run length;
 * the line gate (one window, chi-square(2) max over the searched bins): an exponential tail fitted to the
   upper 2 % of the simulated maxima, solved for the budget's per-window probability.
+* the clip test (samples exactly at a window's extreme): two more than the most any simulated window had;
 * the stuck-output run length is exact: the probability that quantized noise repeats a value.
 """
 from __future__ import annotations
@@ -76,6 +77,8 @@ class Thresholds:
     """chi-square(2) gate of the line statistic."""
     stuck_run: np.ndarray
     """(6,) samples repeating one value that make a stuck output."""
+    clip_ties: np.ndarray
+    """(6,) samples of a window exactly at its extreme that make a clip: 2 more than the most the Monte Carlo saw."""
     sample_sigma: np.ndarray
     """(6,) per-sample sd of the model's white and quantization noise."""
     budget_per_10h: float
@@ -173,5 +176,6 @@ def monte_carlo(model: SensorModel, grid: WindowGrid, window_s: float, budget_pe
         bias_h[c] = cusum_threshold(np.column_stack([z[:, c], -z[:, c]]), bias_k[c], target / 2)
     line_h = exp_tail_threshold(ws.line.ravel(), per_test * window_s / SECONDS_PER_10H)
     stuck = stuck_run_length(model, grid.dt, per_test, max_run=max(3, grid.n))
-    return Thresholds(window_s, mu, sd, noise_k, noise_h, bias_sd, bias_k, bias_h, tau, line_h, stuck,
+    clip_ties = np.maximum(3, ws.ties.max(axis=0) + 2)
+    return Thresholds(window_s, mu, sd, noise_k, noise_h, bias_sd, bias_k, bias_h, tau, line_h, stuck, clip_ties,
                       sample_sigma(model, grid.dt), budget_per_10h, mc_windows)

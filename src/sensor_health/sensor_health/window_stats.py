@@ -8,7 +8,8 @@ motion is slow next to the sample rate), and its DFT is tapered (Hann) and white
   model's; 1 on a healthy sensor whatever the motion's few low bins do;
 * ``line``: the largest whitened periodogram ordinate above ``f_min_hz``, chi-square(2) under the model
   after dividing out ``level`` (so a rise of the whole noise floor is not a line);
-* ``mean``: the window mean (for the bias CUSUM).
+* ``mean``: the window mean (for the bias CUSUM);
+* ``ties``: how many samples sit exactly at the window's extreme (a clip's flat tops).
 """
 from __future__ import annotations
 
@@ -83,6 +84,8 @@ class WindowStats:
     line_bin: np.ndarray
     mean: np.ndarray
     finite: np.ndarray
+    ties: np.ndarray
+    """Samples exactly at the window's largest or smallest value, whichever has more (flat tops of a clip)."""
 
 
 def window_stats(grid: WindowGrid, x: np.ndarray) -> WindowStats:
@@ -100,4 +103,7 @@ def window_stats(grid: WindowGrid, x: np.ndarray) -> WindowStats:
     bins = np.flatnonzero(grid.line_bins)[k]
     level = np.where(finite, level, 1.0)
     line = np.where(finite, line, 0.0)
-    return WindowStats(level, line, bins, xs.mean(axis=1), finite)
+    ties = np.maximum((xs == xs.max(axis=1, keepdims=True)).sum(axis=1),
+                      (xs == xs.min(axis=1, keepdims=True)).sum(axis=1))
+    ties = np.where(finite & (np.ptp(xs, axis=1) > 0), ties, 0)
+    return WindowStats(level, line, bins, xs.mean(axis=1), finite, ties)
