@@ -21,6 +21,7 @@ import time
 from pathlib import Path
 
 from nav_bringup.description import PLAYER_SETTLE_S, GraphInputs, navigation_graph, played_topics  # noqa: F401
+from nav_bringup import hosts
 from nav_bringup.graph import PARAMS_FILE, REPO, Graph, GraphError
 from nav_core.cli import USER_ERRORS, about, add_common, debug_wanted, number, one_line
 from nav_core.cli import parse_args as cli_parse_args
@@ -50,6 +51,11 @@ def parse_args(argv=None):
     p.add_argument("--truth", type=Path, default=None, help="truth CSV for --recording (else compared with GPS)")
     p.add_argument("--out", type=Path, default=DEFAULT_OUT, help="folder for the simulation, bag, logs, report")
     p.add_argument("--params", type=Path, default=PARAMS_FILE, help="the graph's params file")
+    p.add_argument("--hosts", type=int, choices=(1, 2), default=1,
+                   help="2: the sensor host (player, driver) and the compute host (the other nodes) in two network "
+                        "namespaces joined by a veth link (root only; nav_bringup.hosts)")
+    p.add_argument("--cut-link", metavar="AT_S:FOR_S", default=None,
+                   help="with --hosts 2: take the link down at AT_S of simulated time for FOR_S seconds")
     add_common(p)
     return cli_parse_args(p, argv)
 
@@ -194,8 +200,11 @@ def main(argv=None) -> int:
     env = dict(os.environ)
     env.setdefault("ROS_DOMAIN_ID", str(random.randint(1, 99)))
     env.setdefault("ROS_AUTOMATIC_DISCOVERY_RANGE", "LOCALHOST")
+    if args.hosts == 2:
+        env = hosts.discovery_env(env)  # across the link: no localhost-only discovery
     os.environ.update({k: env[k] for k in ("ROS_DOMAIN_ID", "ROS_AUTOMATIC_DISCOVERY_RANGE")})
     try:
+        cut = hosts.plan(args.hosts, args.cut_link)  # not root: one line, exit 2, before any work
         check_inputs(args)
         check_out_dir(args.out, allow_existing=True)  # a file or an unwritable --out fails before any work
         sim_dir = None if args.recording else simulate_once(args.scenario, args.model, args.seed, args.out)
@@ -206,14 +215,16 @@ def main(argv=None) -> int:
         return 2
     run_dir = args.out / time.strftime("run_%Y%m%d_%H%M%S")
     run_dir.mkdir(parents=True)
-    graph = Graph(graph_specs(args, run_dir, sim_dir), env, args.params, log_dir=run_dir / "logs")
+    two = hosts.HostRun(cut, args.rate) if args.hosts == 2 else None
+    graph = Graph(graph_specs(args, run_dir, sim_dir), env, args.params, log_dir=run_dir / "logs",
+                  prefix=two.prefix if two else None)
     player = "bag_play" if args.recording else "scenario_player"
     print(f"[demo] starting the graph (ROS_DOMAIN_ID={env['ROS_DOMAIN_ID']}); output in {run_dir}")
     try:
         graph.start()
         from nav_bringup.live_status_ros import watch
 
-        watch(graph, player, sim_dir)
+        watch(graph, player, sim_dir, on_clock=two.on_clock if two else None)
     except GraphError as err:
         print(f"[demo] {err}", file=sys.stderr)
         graph.stop()
@@ -227,6 +238,8 @@ def main(argv=None) -> int:
     summary = write_report(run_dir, sim_dir=sim_dir, truth_csv=args.truth, exit_codes=codes,
                            filter_params=filter_params(args.params, graph.specs))
     print(summary)
+    if two:
+        print(two.finish(run_dir))
     return 0 if all(c == 0 for c in codes.values()) else 1
 
 

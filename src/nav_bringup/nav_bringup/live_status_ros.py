@@ -41,8 +41,8 @@ def diag_values(probe) -> dict:
 
 
 def watch(graph, player: str, sim_dir: Path | None, period_s: float = 5.0, on_clock=None) -> None:
-    """Print a status line every ``period_s`` until the player node exits (or any node dies); ``on_clock(t)`` is
-    called with the simulated time (s from the start of the drive) of each ``/clock`` received."""
+    """Print a status line every ``period_s`` until the player node exits (or any node dies); ``on_clock(t, clock)``
+    is called with the simulated time of each ``/clock`` received (s from the start of the drive, and as sent)."""
     from nav_msgs.msg import Odometry
     from rclpy.qos import QoSProfile, ReliabilityPolicy
     from rosgraph_msgs.msg import Clock
@@ -63,7 +63,7 @@ def _on_clock(clock: dict, t_s: float, epoch_s: float | None = None, on_clock=No
     clock.setdefault("first", t_s)
     clock["now"] = t_s
     if on_clock is not None:
-        on_clock(t_s - (clock["first"] if epoch_s is None else epoch_s))
+        on_clock(t_s - (clock["first"] if epoch_s is None else epoch_s), t_s)
 
 
 def _print_status(graph, player, probe, truth, period_s, stamp_to_s) -> None:

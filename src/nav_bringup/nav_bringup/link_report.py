@@ -1,0 +1,107 @@
+"""The two-host run's part of the report: the link's cuts, the gap they left and the recovery, from the compute
+host's bag (everything there was received on the compute host, log times on its simulated clock).
+
+Figures (``summary.json``): ``hosts``, ``link_cuts`` (``{at_s, for_s}``, simulated seconds from the start of the
+drive), ``odometry_max_gap_s`` (the longest time between two odometry messages the compute host received, by
+their log times), ``gnss_resumed_after_s`` (per cut: from the link's return to the first filter status that
+counts a fix fused after it; the status comes once a simulated second, so this is an upper bound within 1 s),
+``input_stale_max_s`` (the longest input staleness the filter reported), ``live_vs_offline_max_m`` and
+``horizontal_rms_m`` (the report's: live odometry against the offline replay of this bag, and against the truth).
+"""
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import numpy as np
+
+from nav_core import bagio
+
+ODOM, DIAG = "odometry/filtered", "diagnostics"
+
+
+def _series(bag: Path):
+    """(odometry log times s, [(log time s, fixes, input_stale_s)] of the filter's statuses)."""
+    odom, diag = [], []
+    for topic, log_ns, msg in bagio.iter_messages(bag, [ODOM, DIAG]):
+        if bagio.norm_topic(topic) == ODOM:
+            odom.append(log_ns * 1e-9)
+            continue
+        for st in msg.status:
+            if st.name.startswith("ins_gps_kf"):
+                values = {kv.key: kv.value for kv in st.values}
+                diag.append((log_ns * 1e-9, int(float(values.get("fixes", 0))),
+                             float(values.get("input_stale_s", 0) or 0)))
+    return np.array(odom), diag
+
+
+def _summary(run_dir: Path) -> dict:
+    """The report's summary.json ({} when the run had no odometry to report)."""
+    path = Path(run_dir) / "summary.json"
+    return json.loads(path.read_text()) if path.exists() else {}
+
+
+def link_figures(run_dir: Path, cuts: list, epoch_s: float) -> dict:
+    """The two-host figures of ``run_dir`` (its bag and summary.json); ``epoch_s``: the drive's start, clock s."""
+    odom, diag = _series(Path(run_dir) / "bag")
+    resumed = []
+    for cut in cuts:
+        at, back = epoch_s + cut["at_s"], epoch_s + cut["restored_at_s"]
+        before = max((f for t, f, _ in diag if t <= at), default=0)
+        after = next((t for t, f, _ in diag if t > back and f > before), None)
+        resumed.append(None if after is None else round(after - back, 3))
+    summary = _summary(run_dir)
+    offline = summary.get("offline") or {}
+    return {"hosts": 2, "link_cuts": [{"at_s": c["at_s"], "for_s": c["for_s"]} for c in cuts],
+            "odometry_max_gap_s": round(float(np.max(np.diff(odom))), 3) if len(odom) > 1 else None,
+            "gnss_resumed_after_s": resumed[0] if len(resumed) == 1 else resumed,
+            "input_stale_max_s": max((s for _, _, s in diag), default=0.0),
+            "live_vs_offline_max_m": offline.get("largest difference (m)"),
+            "horizontal_rms_m": (summary.get("rms") or {}).get("horizontal position (m)")}
+
+
+def plot_link(run_dir: Path, cuts: list, epoch_s: float, path: Path) -> Path:
+    """Odometry spacing and the filter's fused fixes against simulated time, the cuts shaded."""
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    odom, diag = _series(Path(run_dir) / "bag")
+    fig, (ax1, ax2) = plt.subplots(2, 1, figsize=(9, 5.5), sharex=True)
+    if len(odom) > 1:
+        ax1.plot(odom[1:] - epoch_s, np.diff(odom), ".", ms=2)
+    if diag:
+        t, fixes, stale = (np.array(v) for v in zip(*diag))
+        ax2.plot(t - epoch_s, fixes, "-", label="fixes fused")
+        ax2b = ax2.twinx()
+        ax2b.plot(t - epoch_s, stale, "r.", ms=3, label="input stale (s, filter)")
+        ax2b.set_ylabel("input stale (s)", color="r")
+    for cut in cuts:
+        for ax in (ax1, ax2):
+            ax.axvspan(cut["at_s"], cut["restored_at_s"], color="0.85", label="link down" if ax is ax1 else None)
+    ax1.set_ylabel("odometry spacing (s)")
+    ax1.legend(loc="upper left")
+    ax2.set_ylabel("fixes fused")
+    ax2.set_xlabel("simulated time from the start of the drive (s)")
+    ax1.set_title("two hosts: the link cut, the gap and the recovery (compute host's bag)")
+    fig.tight_layout()
+    fig.savefig(path, dpi=100)
+    plt.close(fig)
+    return path
+
+
+def add_to_report(run_dir: Path, cuts: list, epoch_s: float) -> dict:
+    """Add the two-host figures to ``summary.json`` and the link plot to ``report.html``; return the figures."""
+    run_dir = Path(run_dir)
+    figures = link_figures(run_dir, cuts, epoch_s)
+    summary = _summary(run_dir)
+    summary.update(figures)
+    (run_dir / "summary.json").write_text(json.dumps(summary, indent=1, default=str))
+    plot_link(run_dir, cuts, epoch_s, run_dir / "link.png")
+    html = run_dir / "report.html"
+    if html.exists():
+        rows = "".join(f"<tr><td>{k}</td><td>{v}</td></tr>" for k, v in figures.items())
+        part = f'<h2>Two hosts</h2><table>{rows}</table><img src="link.png">'
+        text = html.read_text()
+        html.write_text(text.replace("</body>", part + "</body>") if "</body>" in text else text + part)
+    return figures
