@@ -49,8 +49,20 @@ build_tf2_msgs() {
   echo "$want_tf" > "$stamp_tf"
 }
 
+# Numba kernels (cache=True) are cached in __pycache__ beside their source: compile them here, once per change of
+# the kernels' sources or the pinned packages, so a new user's first replay does not spend a minute compiling.
+warm_numba() {
+  local want_nb stamp_nb="$VENV/.numba-stamp"
+  want_nb=$(cat requirements.lock $(grep -rl --include='*.py' numba src) | sha256sum | cut -d' ' -f1)
+  if [ -f "$stamp_nb" ] && [ "$(cat "$stamp_nb")" = "$want_nb" ] \
+     && ls src/ins_gps_kf/ins_gps_kf/__pycache__/*.nbi >/dev/null 2>&1; then return 0; fi
+  echo "setup: compiling the numba kernels into their cache (a minute on 2 cores, once)"
+  "$VENV/bin/python" scripts/warm_numba.py || { echo "setup: compiling the numba kernels failed" >&2; exit 1; }
+  echo "$want_nb" > "$stamp_nb"
+}
+
 want=$(cat requirements.lock src/*/setup.py src/*/package.xml | sha256sum | cut -d' ' -f1)
-if [ -f "$STAMP" ] && [ "$(cat "$STAMP")" = "$want" ]; then build_tf2_msgs; exit 0; fi
+if [ -f "$STAMP" ] && [ "$(cat "$STAMP")" = "$want" ]; then build_tf2_msgs; warm_numba; exit 0; fi
 
 echo "setup: installing pinned dependencies into $VENV (first run takes a few minutes)"
 "$VENV/bin/python" -m pip install -q --upgrade pip >"$VENV/setup.log" 2>&1
@@ -60,5 +72,6 @@ for pkg in src/*/; do
   "$VENV/bin/python" -m pip install -q --no-deps --no-build-isolation -e "$pkg" >>"$VENV/setup.log" 2>&1 || { cat "$VENV/setup.log" >&2; exit 1; }
 done
 build_tf2_msgs
+warm_numba
 echo "$want" > "$STAMP"
 echo "setup: done"
