@@ -33,6 +33,13 @@ class FrameError(ValueError):
     """A single frame is malformed; the message names the byte."""
 
 
+GYRO_WHITE_NOISE = 1.75e-3
+"""The BP3010's gyro white noise (angle random walk), rad/s/sqrt(Hz): the one value the driver's default stddev,
+the simulator's BP3010-grade model and config/sensor_models/bp3010.yaml share (a test holds them together)."""
+ACCEL_WHITE_NOISE = 1.96e-3
+"""The BP3010's accelerometer white noise (velocity random walk), m/s^2/sqrt(Hz)."""
+
+
 @dataclass(frozen=True)
 class FrameFormat:
     """Every constant of the frame layout (defaults: the assumed BP3010 layout)."""

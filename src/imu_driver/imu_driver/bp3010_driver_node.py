@@ -8,6 +8,7 @@ port and send the rate command) or refused (the frame layout and the stamping).
 """
 from __future__ import annotations
 
+import math
 import struct
 import threading
 import time
@@ -19,7 +20,7 @@ from rcl_interfaces.msg import SetParametersResult
 from rosgraph_msgs.msg import Clock
 from sensor_msgs.msg import Imu
 
-from imu_driver.bp3010_codec import FIELDS, RATE_SELECT, FrameFormat
+from imu_driver.bp3010_codec import ACCEL_WHITE_NOISE, FIELDS, GYRO_WHITE_NOISE, RATE_SELECT, FrameFormat
 from imu_driver.driver_core import ClockFollower, DriverCore
 from nav_core import sensor_model
 from nav_core.imu_cdr import stamps_from_s
@@ -28,10 +29,9 @@ from nav_core.ros_node import (SENSOR_QOS, Diagnostics, PolledSubscription, decl
                                run_node)
 from rclpy.node import Node
 
-# The shipped BP3010 model's white noise (config/sensor_models/bp3010.yaml: 0.00175 rad/s/sqrt(Hz),
-# 0.00196 m/s^2/sqrt(Hz)) at 64 Hz: sigma per sample = N sqrt(rate).
-GYRO_SIGMA_64HZ = 0.00175 * 8.0
-ACCEL_SIGMA_64HZ = 0.00196 * 8.0
+# The BP3010's white noise (bp3010_codec) at 64 Hz: sigma per sample = N sqrt(rate).
+GYRO_SIGMA_64HZ = GYRO_WHITE_NOISE * math.sqrt(64.0)
+ACCEL_SIGMA_64HZ = ACCEL_WHITE_NOISE * math.sqrt(64.0)
 
 PARAMS = (
     Param("port", "/dev/ttyUSB0", "serial device (or a stable symlink such as /dev/serial/by-id/...)"),
