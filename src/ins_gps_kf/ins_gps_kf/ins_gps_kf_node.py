@@ -33,6 +33,7 @@ import time  # noqa: E402
 
 import numpy as np  # noqa: E402
 from nav_msgs.msg import Odometry  # noqa: E402
+from rclpy.clock import Clock, ClockType  # noqa: E402
 from rclpy.exceptions import InvalidParameterTypeException, InvalidParameterValueException  # noqa: E402
 from rclpy.serialization import deserialize_message  # noqa: E402
 from rclpy.node import Node  # noqa: E402
@@ -53,7 +54,7 @@ from ins_gps_kf import strapdown  # noqa: E402
 from ins_gps_kf.filter import Estimate, InsGpsFilter  # noqa: E402
 from ins_gps_kf.intake import StampOrderIntake, warm_up  # noqa: E402
 from ins_gps_kf.offline import load_model  # noqa: E402
-from ins_gps_kf.status import filter_status  # noqa: E402
+from ins_gps_kf.status import INPUT_STALE_S, filter_status, mark_stale  # noqa: E402
 
 GPS, IMU = 0, 1  # arrival-merge order of a fix and an IMU message received at the same instant
 
@@ -124,6 +125,10 @@ class InsGpsKfNode(Node):
         self.lock = threading.Lock()
         self.diag = Diagnostics(self, "ins_gps_kf")
         self.create_timer(1.0, self._locked(self.publish_diagnostics))
+        # the simulated clock stops when /clock stops (a link down from the sensor host): staleness is said on
+        # the node's own steady clock
+        self._last_input_wall: float | None = None
+        self.create_timer(1.0, self._locked(self._diagnostics_if_stale), clock=Clock(clock_type=ClockType.STEADY_TIME))
         start = time.monotonic()
         strapdown.warm_up()
         warm_up(cfg, model)  # every numba kernel compiled (or loaded from cache) now, not at the first epoch
@@ -146,6 +151,7 @@ class InsGpsKfNode(Node):
         imu, fixes = self.imu_intake.take_all(), self.gps_intake.take_all()
         if not imu and not fixes:
             return
+        self._last_input_wall = time.monotonic()
         batch = self.imu_intake.decode([blob for blob, _ in imu])
         if len(batch) != len(imu):  # a bad message was skipped: arrival order is lost for this batch only
             imu = [(None, imu[-1][1])] * len(batch)
@@ -277,7 +283,13 @@ class InsGpsKfNode(Node):
         """The typed status (:class:`ins_gps_kf.status.FilterStatus`) on /diagnostics."""
         st = filter_status(self.filter, self.intake, self.first_imu_t, self.first_fix_t, self.imu_intake.bad_messages,
                            self.nonfinite_estimates, self.processing_errors, self.last_processing_error)
+        mark_stale(st, 0.0 if self._last_input_wall is None else time.monotonic() - self._last_input_wall)
         self.diag.publish(st.level, st.message, st.to_values())
+
+    def _diagnostics_if_stale(self):
+        """The status each second of the steady clock while the input is stale (the sim-time timer may be stopped)."""
+        if self._last_input_wall is not None and time.monotonic() - self._last_input_wall > INPUT_STALE_S:
+            self.publish_diagnostics()
 
 
 def _finite(est: Estimate) -> bool:

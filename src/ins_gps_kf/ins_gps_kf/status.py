@@ -15,6 +15,9 @@ from nav_core.units import DEG
 from ins_gps_kf.input_checks import InputCounters
 from ins_gps_kf.records import ALIGNING, NAVIGATING
 
+INPUT_STALE_S = 1.0
+"""s of the node's steady clock with no IMU or GPS message after which its status says the input is stale (a link
+down between the sensor and the compute host; the simulated /clock may be stopped with it)."""
 STAMP_FIELDS = ("first_imu_stamp_s", "first_fix_stamp_s")  # printed to 1 us: the report matches bag stamps by them
 
 
@@ -60,6 +63,7 @@ class FilterStatus:
     input: InputCounters = field(default_factory=InputCounters)  # the core's rejected and doubtful input
     align_roll_deg: float | None = None
     align_pitch_deg: float | None = None
+    input_stale_s: float = 0.0  # the node's steady-clock time since its last IMU or GPS message (0 before any)
 
     def to_values(self) -> dict:
         """``/diagnostics`` key -> string, the input counters flat among the others."""
@@ -155,3 +159,13 @@ def _level(filt, age, dropped, nonfinite, errors) -> tuple[str, str]:
         message += f"; GNSS clock steps {filt.input.gnss_clock_steps}"
         level = "WARN"
     return level, message
+
+
+def mark_stale(st: FilterStatus, stale_s: float) -> FilterStatus:
+    """``st`` with its input's staleness ``stale_s`` (s, steady clock); past :data:`INPUT_STALE_S` it warns that
+    the filter holds its last estimate until input comes back (then it bridges the gap: ``max_bridged_gap_s``)."""
+    st.input_stale_s = float(stale_s)
+    if stale_s > INPUT_STALE_S:
+        st.level = "WARN" if st.level == "OK" else st.level
+        st.message = f"input stale for {stale_s:.1f} s (no IMU or GPS message): holding the last estimate; {st.message}"
+    return st
