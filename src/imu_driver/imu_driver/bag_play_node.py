@@ -20,7 +20,7 @@ from rclpy.node import Node
 from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
 from rosgraph_msgs.msg import Clock
 
-from nav_core import bagio
+from nav_core import bagio, units
 from nav_core.params import ConfigError, Param, did_you_mean
 from nav_core.ros_node import SENSOR_QOS, declare_parameters, run_node
 
@@ -156,7 +156,7 @@ class BagPlayer(Node):
     def _publish_clock(self, ns: int) -> None:
         if self.p["publish_clock"]:
             msg = Clock()
-            msg.clock.sec, msg.clock.nanosec = ns // 1_000_000_000, ns % 1_000_000_000
+            msg.clock.sec, msg.clock.nanosec = units.sec_nanosec(ns)
             self.clock_pub.publish(msg)
 
     def _wait_until(self, deadline: float) -> None:

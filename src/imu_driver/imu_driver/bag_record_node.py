@@ -21,6 +21,7 @@ from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
 from rosbags.interfaces import Qos, QosDurability, QosHistory, QosLiveliness, QosReliability, QosTime
 
 from imu_driver.bag_play_node import message_class
+from nav_core import units
 from nav_core.bagio import BagWriter
 from nav_core.params import ConfigError, Param
 from nav_core.ros_node import PolledSubscription, declare_parameters, run_node
@@ -112,7 +113,7 @@ def bag_qos(q: QoSProfile) -> Qos:
     """rclpy QoSProfile -> rosbags Qos (the rmw enum values and durations rosbag2 writes in its metadata)."""
     def span(duration) -> QosTime:
         ns = duration.nanoseconds
-        return QosTime(ns // 1_000_000_000, ns % 1_000_000_000)
+        return QosTime(*units.sec_nanosec(ns))
 
     return Qos(QosHistory(int(q.history)), int(q.depth), QosReliability(int(q.reliability)),
                QosDurability(int(q.durability)), span(q.deadline), span(q.lifespan),

@@ -22,7 +22,7 @@ from sensor_msgs.msg import Imu
 
 from imu_driver.bp3010_codec import ACCEL_WHITE_NOISE, FIELDS, GYRO_WHITE_NOISE, RATE_SELECT, FrameFormat
 from imu_driver.driver_core import ClockFollower, DriverCore
-from nav_core import sensor_model
+from nav_core import sensor_model, units
 from nav_core.imu_cdr import stamps_from_s
 from nav_core.params import ConfigError, Param
 from nav_core.ros_node import (SENSOR_QOS, Diagnostics, PolledSubscription, declare_parameters, publish_imu_batch,
@@ -220,7 +220,7 @@ class Bp3010Driver(Node):
             return
         for blob, received_ns in self._clock_sub.take_all():
             sec, nanosec = _CLOCK_CDR.unpack_from(blob, 4)
-            self._sim.update(sec + 1e-9 * nanosec, received_ns * 1e-9)
+            self._sim.update(units.s_from_sec_nanosec(sec, nanosec), received_ns * 1e-9)
         batch = self.core.decoder.feed(data)
         if len(batch):
             self._pending.append((wall_s, batch))
