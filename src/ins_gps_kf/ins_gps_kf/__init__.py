@@ -15,6 +15,7 @@ Modules: :mod:`strapdown` (per-sample mechanization, numba), :mod:`alignment`,
 :mod:`error_model`, :mod:`kalman`, :mod:`measurements`, :mod:`input_checks` (bad input,
 counted in ``InsGpsFilter.input_counters``), :mod:`records`, :mod:`filter` (the epoch logic
 shared by the node and the replay), :mod:`offline` (``run``, ``to_trajectory``, ``load_model``),
-:mod:`replay` (the ``ins-gps-kf`` CLI), :mod:`synthetic` (closed-form test motions).
+:mod:`replay` (the ``ins-gps-kf`` CLI), :mod:`track_check` (do the fixes show the IMU's motion), :mod:`synthetic`
+(closed-form test motions).
 Only :mod:`ins_gps_kf_node` imports rclpy. The evaluations are the ``nav_eval`` package.
 """

@@ -28,7 +28,7 @@ from nav_core.units import DEG  # noqa: E402
 from nav_core.cli import about, add_common, parse_args, run_cli  # noqa: E402
 from nav_core.params import did_you_mean  # noqa: E402
 from nav_core.outputs import check_out_file, staged_file  # noqa: E402
-from ins_gps_kf import config as kfconfig, input_checks  # noqa: E402
+from ins_gps_kf import config as kfconfig, track_check  # noqa: E402
 from ins_gps_kf.filter import ALIGNING, InsGpsFilter  # noqa: E402
 from ins_gps_kf.offline import load_model, plot_north_east, run, to_trajectory  # noqa: E402
 
@@ -118,18 +118,18 @@ def check_fixes_against_ins(imu, gnss, estimates, filt: InsGpsFilter) -> None:
     changes differ from the INS's by a factor of ``TRACK_RATIO`` or more, or the filter rejected most of them."""
     c = filt.counters
     enu = filt.frame.to_enu(gnss.lat / DEG, gnss.lon / DEG, gnss.h)
-    ratio = input_checks.track_disagreement(imu.t, imu.accel, estimates, gnss.t, enu)
-    if ratio is not None and not 1.0 / input_checks.TRACK_RATIO < ratio < input_checks.TRACK_RATIO:
+    ratio = track_check.track_disagreement(imu.t, imu.accel, estimates, gnss.t, enu)
+    if ratio is not None and not 1.0 / track_check.TRACK_RATIO < ratio < track_check.TRACK_RATIO:
         unit = " (near 1/57.3: radians read as degrees?)" if abs(np.log(ratio * 180.0 / np.pi)) < np.log(2.0) else ""
         raise recording.RecordingError(
             f"{gnss.source}: the fixes' velocity changes are {ratio:.3g} times the INS's{unit} (median over "
-            f"{input_checks.TRACK_WINDOW_S:g}-s windows): not the motion the IMU measured. Likely: "
-            f"{input_checks.LIKELY_CAUSES}")
-    if c.fixes >= 20 and c.fixes_rejected > input_checks.REJECTED_FRACTION * c.fixes:
+            f"{track_check.TRACK_WINDOW_S:g}-s windows): not the motion the IMU measured. Likely: "
+            f"{track_check.LIKELY_CAUSES}")
+    if c.fixes >= 20 and c.fixes_rejected > track_check.REJECTED_FRACTION * c.fixes:
         raise recording.RecordingError(
             f"{gnss.source}: the filter rejected {c.fixes_rejected} of {c.fixes} fixes (persistently: the INS "
             f"and the fixes disagree, {c.gps_resets} GPS resets). Likely: a std far below the fixes' real scatter "
-            f"(set gps_std_m), {input_checks.LIKELY_CAUSES}")
+            f"(set gps_std_m), {track_check.LIKELY_CAUSES}")
 
 
 def _why_no_epoch(filt: InsGpsFilter) -> str:
