@@ -26,6 +26,7 @@ import numpy as np  # noqa: E402
 from scipy.spatial.transform import Rotation  # noqa: E402
 
 from ins_gps_kf.status import FilterStatus  # noqa: E402
+from nav_eval.metrics import rms  # noqa: E402
 from nav_bringup.truth import TruthTrack  # noqa: E402
 from nav_core import bagio, recording  # noqa: E402
 from nav_core.earth import LocalFrame  # noqa: E402
@@ -43,12 +44,6 @@ def last_diagnostics(bag: Path) -> dict:
     except bagio.BagDamage as err:
         out["bag"] = (2, str(err), {})
     return out
-
-
-def _rms(x) -> float:
-    x = np.asarray(x, dtype=float)
-    x = x[np.isfinite(x)]
-    return float(np.sqrt(np.mean(x**2))) if len(x) else float("nan")
 
 
 def evaluate(odom, gnss, truth: TruthTrack | None, frame: LocalFrame) -> dict:
@@ -73,15 +68,15 @@ def evaluate(odom, gnss, truth: TruthTrack | None, frame: LocalFrame) -> dict:
         res["pos_err"] = odom.position - ref
         res["reference"] = "GPS"
     nav = odom.t >= odom.t[0]
-    res["rms"] = {"horizontal position (m)": _rms(np.hypot(*res["pos_err"][nav, :2].T)),
-                  "vertical position (m)": _rms(res["pos_err"][nav, 2])}
+    res["rms"] = {"horizontal position (m)": rms(np.hypot(*res["pos_err"][nav, :2].T)),
+                  "vertical position (m)": rms(res["pos_err"][nav, 2])}
     if "gps_err" in res:
-        res["rms"]["raw GPS horizontal (m)"] = _rms(np.hypot(*res["gps_err"][:, :2].T))
+        res["rms"]["raw GPS horizontal (m)"] = rms(np.hypot(*res["gps_err"][:, :2].T))
     if "vel_err" in res:
-        res["rms"]["horizontal velocity (m/s)"] = _rms(np.hypot(*res["vel_err"][:, :2].T))
+        res["rms"]["horizontal velocity (m/s)"] = rms(np.hypot(*res["vel_err"][:, :2].T))
     if "att_err" in res:
-        res["rms"].update({"roll (deg)": _rms(res["att_err"][:, 0] / DEG), "pitch (deg)": _rms(res["att_err"][:, 1] / DEG),
-                           "yaw (deg)": _rms(res["att_err"][:, 2] / DEG)})
+        res["rms"].update({"roll (deg)": rms(res["att_err"][:, 0] / DEG), "pitch (deg)": rms(res["att_err"][:, 1] / DEG),
+                           "yaw (deg)": rms(res["att_err"][:, 2] / DEG)})
     return res
 
 

@@ -42,7 +42,11 @@ def truth_at(truth: Trajectory, frame, t) -> TruthAt:
     return TruthAt(pos, vel, euler)
 
 
-def _rms(x):
+def rms(x) -> float:
+    """Root mean square of the finite entries of ``x`` (an epoch without a truth value is NaN and left out);
+    NaN when none is finite. The one RMS of the evaluations and nav-demo's report."""
+    x = np.asarray(x, dtype=float)
+    x = x[np.isfinite(x)]
     return float(np.sqrt(np.mean(np.square(x)))) if len(x) else float("nan")
 
 
@@ -56,20 +60,20 @@ def error_figures(est: list[Estimate], truth: Trajectory, frame, gnss: GnssRecor
     ref = truth_at(truth, frame, t)
     pos = np.array([e.position_n for e in nav])
     d = pos - ref.enu
-    out = {"epochs": len(nav), "pos_h_rms_m": _rms(np.hypot(d[:, 0], d[:, 1])), "pos_u_rms_m": _rms(d[:, 2]),
+    out = {"epochs": len(nav), "pos_h_rms_m": rms(np.hypot(d[:, 0], d[:, 1])), "pos_u_rms_m": rms(d[:, 2]),
            "pos_h_max_m": float(np.max(np.hypot(d[:, 0], d[:, 1]))) if len(d) else float("nan")}
     if ref.velocity_n is not None:
         dv = np.array([e.velocity_n for e in nav]) - ref.velocity_n
-        out["vel_rms_mps"] = _rms(np.linalg.norm(dv, axis=1))
+        out["vel_rms_mps"] = rms(np.linalg.norm(dv, axis=1))
     if ref.euler is not None:
         eul = np.column_stack(frames.euler_from_quat_xyzw(np.array([e.quat_xyzw for e in nav])))
         da = frames.wrap_angle(eul - ref.euler) / DEG
-        out.update({"roll_rms_deg": _rms(da[:, 0]), "pitch_rms_deg": _rms(da[:, 1]), "yaw_rms_deg": _rms(da[:, 2])})
+        out.update({"roll_rms_deg": rms(da[:, 0]), "pitch_rms_deg": rms(da[:, 1]), "yaw_rms_deg": rms(da[:, 2])})
     if gnss is not None:
         ok = (gnss.status >= 0) & np.isfinite(gnss.lat) & (gnss.t >= t_from) & (gnss.t <= truth.t[-1])
         g = frame.to_enu(gnss.lat[ok] / DEG, gnss.lon[ok] / DEG, gnss.h[ok])
         dg = g - truth_at(truth, frame, gnss.t[ok]).enu
-        out["gps_h_rms_m"] = _rms(np.hypot(dg[:, 0], dg[:, 1]))
+        out["gps_h_rms_m"] = rms(np.hypot(dg[:, 0], dg[:, 1]))
     return out
 
 
