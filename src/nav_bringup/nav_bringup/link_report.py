@@ -5,7 +5,7 @@ Figures (``summary.json``): ``hosts``, ``link_cuts`` (``{at_s, for_s}``, simulat
 drive), ``odometry_max_gap_s`` (the longest time between two odometry messages the compute host received, by
 their log times), ``gnss_resumed_after_s`` (per cut: from the link's return to the first filter status that
 counts a fix fused after it; the status comes once a simulated second, so this is an upper bound within 1 s),
-``input_stale_max_s`` (the longest input staleness the filter reported), ``live_vs_offline_max_m`` and
+``input_stale_max_s`` (the longest input staleness the filter reported through the cuts, its steady-clock s), ``live_vs_offline_max_m`` and
 ``horizontal_rms_m`` (the report's: live odometry against the offline replay of this bag, and against the truth).
 """
 from __future__ import annotations
@@ -18,6 +18,9 @@ import numpy as np
 from nav_core import bagio
 
 ODOM, DIAG = "odometry/filtered", "diagnostics"
+STALE_AFTER_S = 5.0
+"""s of simulated time after a link's return in which the filter's stale reports still belong to the cut (later
+ones are the end of the run: the player done, the graph not yet stopped)."""
 
 
 def _series(bag: Path):
@@ -44,9 +47,10 @@ def _summary(run_dir: Path) -> dict:
 def link_figures(run_dir: Path, cuts: list, epoch_s: float) -> dict:
     """The two-host figures of ``run_dir`` (its bag and summary.json); ``epoch_s``: the drive's start, clock s."""
     odom, diag = _series(Path(run_dir) / "bag")
-    resumed = []
+    resumed, stale = [], [0.0]
     for cut in cuts:
         at, back = epoch_s + cut["at_s"], epoch_s + cut["restored_at_s"]
+        stale += [s for t, _, s in diag if at <= t <= back + STALE_AFTER_S]
         before = max((f for t, f, _ in diag if t <= at), default=0)
         after = next((t for t, f, _ in diag if t > back and f > before), None)
         resumed.append(None if after is None else round(after - back, 3))
@@ -55,7 +59,7 @@ def link_figures(run_dir: Path, cuts: list, epoch_s: float) -> dict:
     return {"hosts": 2, "link_cuts": [{"at_s": c["at_s"], "for_s": c["for_s"]} for c in cuts],
             "odometry_max_gap_s": round(float(np.max(np.diff(odom))), 3) if len(odom) > 1 else None,
             "gnss_resumed_after_s": resumed[0] if len(resumed) == 1 else resumed,
-            "input_stale_max_s": max((s for _, _, s in diag), default=0.0),
+            "input_stale_max_s": round(max(stale), 3),
             "live_vs_offline_max_m": offline.get("largest difference (m)"),
             "horizontal_rms_m": (summary.get("rms") or {}).get("horizontal position (m)")}
 

@@ -1,0 +1,76 @@
+"""nav-demo --hosts 2: the graph over two network namespaces joined by a veth link; the link cut and restored;
+the filter says its input is stale and fuses GNSS again after; not root is one line and exit 2."""
+import json
+import os
+import re
+import subprocess
+
+import pytest
+
+from ins_gps_kf.status import FilterStatus, mark_stale
+from nav_bringup import demo, hosts
+from nav_core.processes import executable
+
+from conftest import one_error_line
+
+
+def test_cut_link_is_two_numbers_and_needs_two_hosts():
+    assert hosts.parse_cut("60:10") == (60.0, 10.0)
+    for bad in ("60", "a:b", "60:0", "-1:5", "1:2:3"):
+        with pytest.raises(ValueError, match="--cut-link"):
+            hosts.parse_cut(bad)
+    with pytest.raises(ValueError, match="needs --hosts 2"):
+        hosts.plan(1, "60:10")
+    assert hosts.plan(1, None) is None
+
+
+def test_stale_input_turns_the_status_to_a_warning_saying_for_how_long():
+    st = mark_stale(FilterStatus(level="OK", message="navigating"), 7.25)
+    assert st.level == "WARN" and st.message.startswith("input stale for 7.2 s") and "navigating" in st.message
+    assert FilterStatus.from_values(st.to_values()).input_stale_s == 7.25
+    fresh = mark_stale(FilterStatus(level="OK", message="navigating"), 0.3)
+    assert fresh.level == "OK" and fresh.message == "navigating"
+
+
+def test_without_root_two_hosts_is_one_line_and_exit_2(monkeypatch, capsys, tmp_path):
+    monkeypatch.setattr(os, "geteuid", lambda: 1000)
+    assert demo.main(["--hosts", "2", "--out", str(tmp_path / "out")]) == 2
+    one_error_line(capsys, "nav-demo: error:", "--hosts 2", "root")
+    assert not (tmp_path / "out").exists()  # refused before any work
+
+
+def _diag_statuses(bag):
+    from nav_core import bagio
+    for _, _, msg in bagio.iter_messages(bag, ["diagnostics"]):
+        for st in msg.status:
+            if st.name.startswith("ins_gps_kf"):
+                yield st
+
+
+@pytest.mark.ros
+@pytest.mark.slow
+@pytest.mark.skipif(os.geteuid() != 0, reason="network namespaces need root (CI runs as root)")
+def test_two_hosts_cut_link_stale_then_fused_again_and_live_equals_offline(ros_env, tmp_path):
+    out = tmp_path / "demo"
+    proc = subprocess.run([executable("nav-demo"), "--hosts", "2", "--duration", "170", "--rate", "4",
+                           "--cut-link", "110:8", "--out", str(out)], capture_output=True, text=True, timeout=540,
+                          env=ros_env)
+    assert proc.returncode == 0, proc.stdout[-4000:] + proc.stderr[-3000:]
+    assert "link cut at t = 110" in proc.stdout and "link restored" in proc.stdout
+    run_dir = next(out.glob("run_*"))
+    summary = json.loads((run_dir / "summary.json").read_text())
+    assert summary["hosts"] == 2
+    assert summary["link_cuts"][0]["for_s"] == 8.0 and 110.0 <= summary["link_cuts"][0]["at_s"] < 111.0
+    assert 7.0 < summary["odometry_max_gap_s"] < 14.0  # the cut shows as the gap, nothing else as long
+    assert 0.0 < summary["gnss_resumed_after_s"] <= 3.0
+    assert summary["live_vs_offline_max_m"] == 0.0
+    assert summary["horizontal_rms_m"] < 1.5
+    assert summary["offline"]["live stamps going back"] == 0
+    assert all(code == 0 for code in summary["exit_codes"].values()), summary["exit_codes"]
+    stale = [st for st in _diag_statuses(run_dir / "bag") if "input stale" in st.message]
+    assert stale, "the filter never said its input was stale"
+    assert max(float({kv.key: kv.value for kv in st.values}["input_stale_s"]) for st in stale) > 1.0
+    assert (run_dir / "link.png").stat().st_size > 1000 and "Two hosts" in (run_dir / "report.html").read_text()
+    ours = re.search(r"sensor (navs-\d+)", proc.stdout).group(1)
+    left = subprocess.run(["ip", "netns", "list"], capture_output=True, text=True).stdout
+    assert ours not in left and ours.replace("navs", "navc") not in left  # both namespaces removed
