@@ -54,22 +54,26 @@ def test_node_names_the_fault_like_the_core_on_a_transient_local_topic_and_in_di
         feeder = rclpy.create_node("feeder")
         pub = feeder.create_publisher(Imu, "imu/data_raw", SENSOR_QOS)
         assert probe.spin_until(lambda p: pub.get_subscription_count() > 0, 20)
-        for ti, row in zip(t, x):
-            pub.publish(imu_from_arrays(ti, row[:3], row[3:]))
-            time.sleep(0.001)
-
-        def summary(p):
-            for _, arr in reversed(p.received["/diagnostics"]):
-                for st in arr.status:
-                    if st.name.endswith(": summary"):
+        def summary(count):
+            """The latest diagnostics whose summary says ``count`` samples were received."""
+            def find(p):
+                for _, arr in reversed(p.received["/diagnostics"]):
+                    for st in arr.status:
                         values = {kv.key: kv.value for kv in st.values}
-                        if values.get("received") == str(len(t)):
+                        if st.name.endswith(": summary") and int(values.get("received", -1)) >= count:
                             return arr
-            return None
-        assert probe.spin_until(summary, 30), f"the node did not take all {len(t)} samples:\n{node.output}"
+                return None
+            return find
+        # paced by what the node reports taken: best effort loses nothing when the reader is never behind
+        for a in range(0, len(t), 64):
+            for ti, row in zip(t[a:a + 64], x[a:a + 64]):
+                pub.publish(imu_from_arrays(ti, row[:3], row[3:]))
+                time.sleep(0.0005)
+            assert probe.spin_until(summary(min(a + 64, len(t))), 20), \
+                f"the node did not take samples {a}..{a + 64}:\n{node.output}"
         statuses = {st.name.split(": ")[-1]: ChannelStatus.from_values(st.name, st.level, st.message,
                                                                         {kv.key: kv.value for kv in st.values})
-                    for st in summary(probe).status}
+                    for st in summary(len(t))(probe).status}
         assert statuses["gz"].effect == "stuck_output" and statuses["gz"].level == bytes([2])
         assert statuses["summary"].events == 1 and statuses["gx"].effect == ""
 

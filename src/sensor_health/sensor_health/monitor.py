@@ -5,7 +5,8 @@ Sample-level checks (:mod:`sensor_health.sample_checks`) run on every sample. Wi
 (:mod:`sensor_health.window_stats`) run on consecutive windows of ``window_s`` s (counted in samples) and feed:
 
 * a CUSUM per channel on the standardised log noise level (``white_noise_increase``);
-* a chi-square gate per channel on the largest whitened line (``vibration``);
+* a chi-square gate per channel on the largest whitened line, against the run's own spectrum after a 30-s
+  warm-up (``vibration``: a *new* line; the vehicle's own vibration is not a fault);
 * a two-sided CUSUM per channel on the window mean minus a slow baseline (``bias_shift``, gx gy az).
 
 Thresholds come from :func:`sensor_health.thresholds.monte_carlo`. A channel touched by a deterministic fault
@@ -26,6 +27,9 @@ from sensor_health.sample_checks import SampleChecks
 from sensor_health.window_stats import WindowGrid, detrend, window_stats
 
 Z95 = 1.959964
+CLIP_ONSET_LOOK_S = 10.0
+LINE_WARMUP_S = 30.0
+LINE_REFERENCE_S = 300.0
 
 
 @dataclass
@@ -87,6 +91,7 @@ class HealthMonitor:
         self.noise_quiet = np.zeros(6, int)
         self.line_last = np.full(6, -np.inf)
         self.clip_last = np.full(6, -np.inf)
+        self.line_ref, self.line_n, self.line_now = None, 0, np.zeros(6)
         self.bias_base = None
         self.bias_warm = []
         self.bias_pos, self.bias_neg = np.zeros(6), np.zeros(6)
@@ -158,7 +163,7 @@ class HealthMonitor:
             if self.trace is not None:
                 self.trace.t.append(t1)
                 self.trace.level.append(ws.level[w].copy())
-                self.trace.line.append(ws.line[w].copy())
+                self.trace.line.append(self.line_now.copy())
                 self.trace.noise_cusum.append(self.noise_s.copy())
                 self.trace.bias_cusum.append(np.maximum(self.bias_pos, self.bias_neg))
         return events
@@ -210,17 +215,42 @@ class HealthMonitor:
         nll = k * np.log(np.maximum(v1, 1e-300)) + (len(d2) - k) * np.log(np.maximum(v2, 1e-300))
         return float(ts[k[np.argmin(nll)]])
 
+    def _line_statistic(self, w, ws, use):
+        """The largest whitened power against the run's own spectrum: power x 2 / max(reference, 2) per channel.
+
+        The reference is the mean whitened power per bin over the run (LINE_REFERENCE_S exponential, from the first
+        LINE_WARMUP_S): 2 on the model's noise, so the statistic is the plain chi-square(2) gate there, and higher
+        where the vehicle itself vibrates, so only a *new* line is named. None during the warm-up."""
+        p = ws.power[w]
+        if self.line_ref is None:
+            self.line_ref = np.zeros_like(p)
+        stat = None
+        warm = int(round(LINE_WARMUP_S / self.thr.window_s))
+        if self.line_n >= warm:
+            ratio = p * 2.0 / np.maximum(self.line_ref, 2.0)
+            k = np.argmax(ratio, axis=1)
+            stat = (ratio[np.arange(6), k], np.flatnonzero(self.grid.line_bins)[k])
+        alpha = max(1.0 / (self.line_n + 1), self.thr.window_s / LINE_REFERENCE_S)
+        self.line_ref = np.where(use[:, None], self.line_ref + alpha * (p - self.line_ref), self.line_ref)
+        self.line_n += 1
+        return stat
+
     def _line(self, w, t1, ws, use, xwin) -> list:
         th = self.thr
-        hit = use & (ws.line[w] > th.line_h)
+        stat = self._line_statistic(w, ws, use)
+        if stat is None:
+            return []
+        line, line_bin = stat
+        self.line_now = line
+        hit = use & (line > th.line_h)
         fired = np.flatnonzero(hit & (t1 - self.line_last > self.config.clear_s))
         self.line_last = np.where(hit, t1, self.line_last)
         if len(fired) == 0:
             return []
         wh = noise_stats.Whitener(self.grid.n, self.dt, self.grid.weights, ws.level[w])
         resid = detrend(np.where(np.isfinite(xwin), xwin, 0.0))
-        c0 = fired[np.argmax(ws.line[w, fired])]
-        f0 = float(self.grid.freqs[ws.line_bin[w, c0]])
+        c0 = fired[np.argmax(line[fired])]
+        f0 = float(self.grid.freqs[line_bin[c0]])
         f_hat, f_lo, f_hi = noise_stats.fit_line_frequency(wh, resid * np.isin(np.arange(6), fired), f0)
         amp, sd = self._line_amplitude(resid[:, fired], f_hat, ws.level[w, fired], fired)
         names = [CHANNELS[c] for c in fired]
@@ -230,7 +260,7 @@ class HealthMonitor:
         msg = ", ".join(f"{n} {a:.3g}" for n, a in zip(names, amp))
         return [Event(t1, float(t1 - th.window_s), "vibration", names, "WARN", estimate, interval,
                       f"line at {f_hat:.3g} Hz, amplitude {msg}",
-                      {"chi2": ws.line[w, fired].tolist(), "threshold": th.line_h})]
+                      {"chi2": line[fired].tolist(), "threshold": th.line_h})]
 
     def _line_amplitude(self, x, f_hz, level, chans):
         """Amplitude (k,) of a line at f_hz in x (n, k), corrected for interval means (sinc), and its sd."""
@@ -251,7 +281,10 @@ class HealthMonitor:
         for c in fired:
             hi = np.count_nonzero(xwin[:, c] == xwin[:, c].max()) >= np.count_nonzero(xwin[:, c] == xwin[:, c].min())
             value = float(xwin[:, c].max() if hi else xwin[:, c].min())
-            onset = float(tw[np.argmax(xwin[:, c] == value)])
+            # the clip began at its first flat top, often a window or more before enough of them gathered
+            recent = (self._hist_t > t1 - CLIP_ONSET_LOOK_S) & (self._hist_t <= t1)
+            hits = self._hist_t[recent][self._hist_x[recent, c] == value]
+            onset = float(hits[0]) if len(hits) else float(tw[np.argmax(xwin[:, c] == value)])
             events.append(Event(t1, onset, "saturation", [CHANNELS[c]], "ERROR", value, [value, value],
                                 f"{CHANNELS[c]} clips at {value:.6g} ({int(ws.ties[w, c])} samples of the window at it)",
                                 {"ties": int(ws.ties[w, c]), "threshold": int(th.clip_ties[c])}))

@@ -82,6 +82,8 @@ class WindowStats:
     level: np.ndarray
     line: np.ndarray
     line_bin: np.ndarray
+    power: np.ndarray
+    """(nw, 6, nb) whitened power of the searched bins (chi-square(2) each under the model)."""
     mean: np.ndarray
     finite: np.ndarray
     ties: np.ndarray
@@ -106,4 +108,5 @@ def window_stats(grid: WindowGrid, x: np.ndarray) -> WindowStats:
     ties = np.maximum((xs == xs.max(axis=1, keepdims=True)).sum(axis=1),
                       (xs == xs.min(axis=1, keepdims=True)).sum(axis=1))
     ties = np.where(finite & (np.ptp(xs, axis=1) > 0), ties, 0)
-    return WindowStats(level, line, bins, xs.mean(axis=1), finite, ties)
+    power = np.where(finite[..., None], power, 0.0)
+    return WindowStats(level, line, bins, power, xs.mean(axis=1), finite, ties)
