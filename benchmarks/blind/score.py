@@ -118,14 +118,14 @@ def coverage(answer: dict, finding: dict):
     return covered, scored
 
 
-def score_case(name: str, seed: int, work: Path, pkg_root: str, timeout_s: float) -> dict:
+def score_case(name: str, seed: int, work: Path, pkg_root: str, timeout_s: float, perfect: bool = False) -> dict:
     """Generate (if needed) and diagnose one case; the row of its outcome."""
     folder = work / "cases" / f"{name.replace('/', '__')}__s{seed}"
     row_path = folder / "row.json"
     if row_path.exists():
         return json.loads(row_path.read_text())
     if not (folder / "answer.json").exists():
-        io.write_case(cases.build_case(name, seed), folder)
+        io.write_case(cases.build_case(name, seed, perfect_reference=perfect), folder)
     answer = json.loads((folder / "answer.json").read_text())
     input_notes = []
     code, err, secs = run_diagnose(folder, Path(pkg_root), timeout_s)
@@ -215,6 +215,8 @@ def main(argv=None) -> int:
     ap.add_argument("--workers", type=int, default=2)
     ap.add_argument("--timeout-s", type=float, default=1200.0)
     ap.add_argument("--report", default=None)
+    ap.add_argument("--perfect-reference", action="store_true",
+                    help="control run: fixtures at their nominal attitudes, drive truth without its error")
     args = ap.parse_args(argv)
     work = Path(args.work)
     work.mkdir(parents=True, exist_ok=True)
@@ -223,13 +225,16 @@ def main(argv=None) -> int:
     jobs = [(n, s) for s in parse_seeds(args.seeds) for n in names]
     rows = []
     with ProcessPoolExecutor(args.workers) as pool:
-        futs = {pool.submit(score_case, n, s, work, str(pkg_root), args.timeout_s): (n, s) for n, s in jobs}
+        futs = {pool.submit(score_case, n, s, work, str(pkg_root), args.timeout_s,
+                           args.perfect_reference): (n, s) for n, s in jobs}
         for i, fut in enumerate(as_completed(futs), 1):
             row = fut.result()
             rows.append(row)
             print(f"[{i}/{len(jobs)}] {row['case']} s{row['seed']} ({row['grade']}): "
                   f"{'ok' if miss_class(row) is None else 'MISS'} {row['seconds']:.0f} s", flush=True)
     text = summarise(rows, sha)
+    if args.perfect_reference:
+        text = "CONTROL (perfect reference: no fixture error, no drive-truth error)\n" + text
     print(text)
     if args.report:
         Path(args.report).write_text(text + "\n")

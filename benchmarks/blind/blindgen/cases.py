@@ -179,7 +179,7 @@ def slow_error(rng, t, sigma, periods=(20.0, 300.0), k=12):
     return out
 
 
-def drive_reference(rng, mot, t_rows, datum):
+def drive_reference(rng, mot, t_rows, datum, error_scale=1.0):
     """Reference truth rows (t, lat, lon, h, roll, pitch, yaw) from a smoothed noisy GNSS track.
 
     The smoothing is modelled by its result: the IMU path + a slow error (what smoothing leaves of a
@@ -188,12 +188,12 @@ def drive_reference(rng, mot, t_rows, datum):
     accelerations - a reference too poor for any diagnosis, so not generated.) Attitude: truth rotated by a slow error (roll/pitch rms
     0.005-0.03 deg, yaw 0.02-0.1 deg, periods 30-300 s), as from a forward-backward smoother."""
     enu = np.stack(pymap3d.geodetic2enu(np.degrees(mot.lat), np.degrees(mot.lon), mot.h, *datum), -1)
-    sig = rng.uniform(0.05, 0.3) * np.array([1, 1, 2])
+    sig = rng.uniform(0.05, 0.3) * np.array([1, 1, 2]) * error_scale
     ref = np.stack([np.interp(t_rows, mot.t, enu[:, i]) for i in range(3)], -1)
     ref += slow_error(rng, t_rows, sig, periods=(30.0, 600.0))
     lat, lon, h = pymap3d.enu2geodetic(ref[:, 0], ref[:, 1], ref[:, 2], *datum)
     idx = np.rint(np.interp(t_rows, mot.t, np.arange(len(mot.t)))).astype(int)
-    att_sig = np.array([rng.uniform(0.005, 0.03), rng.uniform(0.005, 0.03), rng.uniform(0.02, 0.1)])
+    att_sig = np.array([rng.uniform(0.005, 0.03), rng.uniform(0.005, 0.03), rng.uniform(0.02, 0.1)]) * error_scale
     att_err = slow_error(rng, t_rows, np.radians(att_sig), periods=(30.0, 300.0))
     rot = mot.rot[idx] * Rotation.from_rotvec(att_err)
     rows = np.column_stack([t_rows, lat, lon, h, motion.rpy_deg(rot)])
@@ -308,11 +308,15 @@ def _base(name, seed):
     return cls, effect, rng, grade
 
 
-def build_case(name: str, seed: int) -> Case:
-    """Build the case ``name`` ('class/effect') for ``seed``: deterministic in (name, seed)."""
+def build_case(name: str, seed: int, perfect_reference: bool = False) -> Case:
+    """Build the case ``name`` ('class/effect') for ``seed``: deterministic in (name, seed).
+
+    ``perfect_reference``: the control - fixtures exactly at their nominal attitudes, a drive's truth
+    without its slow error (every other draw the same)."""
     cls, effect, rng, grade = _base(name, seed)
     terms = sensor.draw_triads(rng, grade)
     tol = float(rng.choice([0.25, 0.5, 1.0]))
+    tol_true = 0.0 if perfect_reference else tol
     long_effect = effect in ("warmup_drift", "temperature_bias", "gauss_markov_bias", "bias_random_walk")
     rate = 100.0 if cls == "rate_table" else float(rng.choice([50.0, 64.0]))
     if cls == "drive":
@@ -321,18 +325,18 @@ def build_case(name: str, seed: int) -> Case:
     lat, lon, h = _location(rng, need_gravity_gap=(effect == "gravity_model"))
     scenario = {"name": f"blind {name} seed {seed}", "latitude_deg": lat, "longitude_deg": lon, "height_m": h,
                 "rate_hz": rate}
-    meta = {"grade": grade, "rate_hz": rate}
+    meta = {"grade": grade, "rate_hz": rate, "perfect_reference": perfect_reference}
     truth_rows = gnss_rows = None
     if cls in ("fixture", "updown", "rate_table"):
         if cls == "fixture":
             faces = six_face_order(rng)
             dwell = (45, 75) if long_effect else (20, 35)
-            pieces, segs, total = fixture_sequence(rng, faces, [dwell] * 6, (3, 6), tol)
+            pieces, segs, total = fixture_sequence(rng, faces, [dwell] * 6, (3, 6), tol_true)
         elif cls == "updown":
             faces, dwells = updown_faces(rng, int(rng.integers(2, 4)))
-            pieces, segs, total = fixture_sequence(rng, faces, dwells, (2, 4), tol)
+            pieces, segs, total = fixture_sequence(rng, faces, dwells, (2, 4), tol_true)
         else:
-            pieces, segs, total = rate_table_sequence(rng, tol)
+            pieces, segs, total = rate_table_sequence(rng, tol_true)
         n = int(np.floor(total / dt))
         fine_t = np.arange(n * M_FINE + 1) * dt / M_FINE
         mot = motion.fixed_point(pieces, lat, lon, h, fine_t)
@@ -347,7 +351,8 @@ def build_case(name: str, seed: int) -> Case:
         t_rows = np.arange(0, fine_t[-1] + 0.05, 0.1)
         t_rows[-1] = max(t_rows[-1], fine_t[-1])
         t_rows = np.minimum(t_rows, fine_t[-1])
-        truth_rows, ref_meta, enu = drive_reference(rng, mot, t_rows, (lat, lon, h))
+        truth_rows, ref_meta, enu = drive_reference(rng, mot, t_rows, (lat, lon, h),
+                                                    0.0 if perfect_reference else 1.0)
         meta.update(ref_meta)
         scenario.update({"trajectory": "truth.csv"})
     t = np.arange(1, n + 1) * dt
