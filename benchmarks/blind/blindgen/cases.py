@@ -183,10 +183,8 @@ def drive_reference(rng, mot, t_rows, datum, error_scale=1.0):
     """Reference truth rows (t, lat, lon, h, roll, pitch, yaw) from a smoothed noisy GNSS track.
 
     The smoothing is modelled by its result: the IMU path + a slow error (what smoothing leaves of a
-    float/PPK solution's multipath: rms 5-30 cm, periods 30-600 s). (Smoothing white GNSS noise explicitly
-    with a 0.5-Hz spline left 0.03 m/s^2 rms of 1-s specific-force error from rounding the true
-    accelerations - a reference too poor for any diagnosis, so not generated.) Attitude: truth rotated by a slow error (roll/pitch rms
-    0.005-0.03 deg, yaw 0.02-0.1 deg, periods 30-300 s), as from a forward-backward smoother."""
+    float/PPK solution's multipath: rms 5-30 cm, periods 30-600 s). Attitude: truth rotated by a slow
+    error (roll/pitch rms 0.005-0.03 deg, yaw 0.02-0.1 deg, periods 30-300 s), as from a smoother."""
     enu = np.stack(pymap3d.geodetic2enu(np.degrees(mot.lat), np.degrees(mot.lon), mot.h, *datum), -1)
     sig = rng.uniform(0.05, 0.3) * np.array([1, 1, 2]) * error_scale
     ref = np.stack([np.interp(t_rows, mot.t, enu[:, i]) for i in range(3)], -1)

@@ -41,7 +41,8 @@ GRADES = {
         gyro_white=(0.005 * DEG, 0.015 * DEG), gyro_flicker=(10 * DPH, 50 * DPH), gyro_rrw=(3e-7, 3e-6),
         accel_white=(75 * UG, 400 * UG), accel_flicker=(40 * UG, 300 * UG), accel_rrw=(5e-5, 3e-4),
         gyro_sf=(3e-3, 3e-2), accel_sf=(3e-3, 3e-2), misalign=(2e-3, 2e-2),
-        g_sens=(0.01 * DEG / G0, 0.1 * DEG / G0), gyro_temp=(0.005 * DEG, 0.03 * DEG), accel_temp=(0.1e-3 * G0, 1e-3 * G0),
+        g_sens=(0.01 * DEG / G0, 0.1 * DEG / G0), gyro_temp=(0.005 * DEG, 0.03 * DEG),
+        accel_temp=(0.1e-3 * G0, 1e-3 * G0),
         gyro_bias_rep=(0.5 * DEG, 3 * DEG), accel_bias_rep=(20e-3 * G0, 80e-3 * G0),
         gyro_lsb=(250 / 32768 * DEG, 1000 / 32768 * DEG), accel_lsb=(2 * G0 / 32768, 8 * G0 / 32768)),
 }
