@@ -78,7 +78,7 @@ def test_help_says_what_it_is_for_and_ends_with_an_example(name, capsys):
         check_help(help_of(SCRIPTS[name], [sub], capsys), f"{name} {sub}")
 
 
-@pytest.mark.parametrize("name", ["bp3010_driver", "imu-calib"])
+@pytest.mark.parametrize("name", ["bp3010_driver", "bp3010_emulator"])
 def test_the_installed_executables_print_the_same_help(name, capsys):
     exe = Path(sys.executable).parent / name
     done = subprocess.run([str(exe), "--help"], capture_output=True, text=True, timeout=60,
