@@ -58,7 +58,7 @@ def link_figures(run_dir: Path, cuts: list, epoch_s: float) -> dict:
     offline = summary.get("offline") or {}
     return {"hosts": 2, "link_cuts": [{"at_s": c["at_s"], "for_s": c["for_s"]} for c in cuts],
             "odometry_max_gap_s": round(float(np.max(np.diff(odom))), 3) if len(odom) > 1 else None,
-            "gnss_resumed_after_s": resumed[0] if len(resumed) == 1 else resumed,
+            "gnss_resumed_after_s": resumed[0] if len(resumed) == 1 else (resumed or None),
             "input_stale_max_s": round(max(stale), 3),
             "live_vs_offline_max_m": offline.get("largest difference (m)"),
             "horizontal_rms_m": (summary.get("rms") or {}).get("horizontal position (m)")}
