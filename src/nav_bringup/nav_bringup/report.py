@@ -160,8 +160,8 @@ def compare_with_offline(bag: Path, odom, filter_params: dict, filter_diag: Filt
     bag's start (its subscription matched the player after playing began: the recorder, which
     subscribes once it sees the player, has it): that is counted, and the replay starts where the
     node's input did, so the difference is of the same input. Returns epochs on each side, common
-    epochs, the largest position difference there (m), what the node missed at the start and the
-    stamps going backwards in the live odometry.
+    epochs, the largest position (m) and body-velocity (m/s) difference there, what the node missed at the
+    start and the stamps going backwards in the live odometry.
     """
     from ins_gps_kf import config as kfconfig
     from ins_gps_kf.filter import InsGpsFilter
@@ -175,12 +175,17 @@ def compare_with_offline(bag: Path, odom, filter_params: dict, filter_diag: Filt
     estimates = run(filt, imu, gnss)
     off_t = np.array([e.t for e in estimates])
     off_pos = np.array([e.position_n for e in estimates]).reshape(-1, 3)
+    # the twist as the node builds it (one estimate each), so the live one is checked too
+    off_vel = np.array([filt.odometry(e, prev).velocity_b
+                        for e, prev in zip(estimates, [-np.inf] + [e.t for e in estimates[:-1]])]).reshape(-1, 3)
     live_ns, off_ns = np.round(odom.t * 1e6).astype(np.int64), np.round(off_t * 1e6).astype(np.int64)
     common, i_live, i_off = np.intersect1d(live_ns, off_ns, return_indices=True)
     diff = np.linalg.norm(odom.position[i_live] - off_pos[i_off], axis=1)
+    twist_diff = np.linalg.norm(odom.velocity_body[i_live] - off_vel[i_off], axis=1)
     return {"live epochs": len(odom), "offline epochs": len(off_t), "common epochs": len(common),
             "only live": len(np.setdiff1d(live_ns, off_ns)), "only offline": len(np.setdiff1d(off_ns, live_ns)),
             "largest difference (m)": float(diff.max()) if len(diff) else float("nan"),
+            "largest twist.linear difference (m/s)": float(twist_diff.max()) if len(twist_diff) else float("nan"),
             "live stamps going back": int(np.sum(np.diff(odom.t) <= 0)),
             "imu samples replayed": len(imu), **missed}
 
@@ -389,6 +394,7 @@ def _summary(run_dir, res, odom, gnss, raw, den, diags, codes) -> str:
                          f"{off[BAG_LATE_IMU]:.1f} s of IMU: the recorder subscribed after playing began, so "
                          "the offline replay of the bag cannot give the live answer")
         lines.append(f"    live against offline replay of the bag: largest difference {off['largest difference (m)']:.3g} m "
+                     f"(twist.linear {off['largest twist.linear difference (m/s)']:.3g} m/s) "
                      f"over {off['common epochs']} common epochs (live {off['live epochs']}, offline "
                      f"{off['offline epochs']}; only live {off['only live']}, only offline {off['only offline']})")
     for name, (level, message, values) in sorted(diags.items()):
