@@ -30,6 +30,8 @@ Z95 = 1.959964
 CLIP_ONSET_LOOK_S = 10.0
 LINE_WARMUP_S = 30.0
 LINE_REFERENCE_S = 300.0
+LINE_CONFIRM = 3
+"""Consecutive windows over the line gate, within one bin of each other, that name a vibration."""
 
 
 @dataclass
@@ -92,6 +94,7 @@ class HealthMonitor:
         self.line_last = np.full(6, -np.inf)
         self.clip_last = np.full(6, -np.inf)
         self.line_ref, self.line_n, self.line_now = None, 0, np.zeros(6)
+        self.line_run, self.line_prev_bin = np.zeros(6, int), np.full(6, -10)
         self.bias_base = None
         self.bias_warm = []
         self.bias_pos, self.bias_neg = np.zeros(6), np.zeros(6)
@@ -242,7 +245,12 @@ class HealthMonitor:
             return []
         line, line_bin = stat
         self.line_now = line
-        hit = use & (line > th.line_h)
+        over = use & (line > th.line_h)
+        # a line persists at one frequency; the bumps of rough ground come and go and wander
+        steady = over & (np.abs(line_bin - self.line_prev_bin) <= 1)
+        self.line_run = np.where(steady, self.line_run + 1, np.where(over, 1, 0))
+        self.line_prev_bin = np.where(over, line_bin, -10)
+        hit = self.line_run >= LINE_CONFIRM
         fired = np.flatnonzero(hit & (t1 - self.line_last > self.config.clear_s))
         self.line_last = np.where(hit, t1, self.line_last)
         if len(fired) == 0:
@@ -258,7 +266,7 @@ class HealthMonitor:
         interval = {"frequency_hz": [f_lo, f_hi],
                     "amplitude": {n: [float(a - Z95 * s), float(a + Z95 * s)] for n, a, s in zip(names, amp, sd)}}
         msg = ", ".join(f"{n} {a:.3g}" for n, a in zip(names, amp))
-        return [Event(t1, float(t1 - th.window_s), "vibration", names, "WARN", estimate, interval,
+        return [Event(t1, float(t1 - LINE_CONFIRM * th.window_s), "vibration", names, "WARN", estimate, interval,
                       f"line at {f_hat:.3g} Hz, amplitude {msg}",
                       {"chi2": line[fired].tolist(), "threshold": th.line_h})]
 

@@ -1,0 +1,133 @@
+"""Sensor health on drives it did not make: detection delay, naming, onset error and false events per 10 h.
+
+    .venv/bin/python benchmarks/bench_sensor_health.py [--healthy-hours 20] [--seeds 20] [--quick]
+
+The drives come from ``health_drives`` (motion and true IMU output by ``independent_gen``, no imu_sim code); the
+sensor model is fitted by ``imu-calib allan`` from a 1-h static run of the same unit, as a user would. Faults
+start 300 s into 420-s drives; healthy drives are 1 h each, seeds 9000.. (healthy) and 9500.. (faults).
+Targets (issue 26): deterministic faults <= 1 s, noise x3 <= 5 s, a 3-sigma line <= 10 s, a 10 x bias-sd step
+<= 30 s; the right effect and channel first in >= 95 %; onset within 2 s for steps; <= 1 false event per 10 h.
+"""
+from __future__ import annotations
+
+import argparse
+import subprocess
+import sys
+import tempfile
+import time
+from collections import Counter
+from pathlib import Path
+
+import numpy as np
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+import health_drives as hd  # noqa: E402
+
+from nav_core import sensor_model  # noqa: E402
+from nav_core.recording import ImuRecording, write_imu_csv  # noqa: E402
+from sensor_health.events import CHANNELS  # noqa: E402
+from sensor_health.monitor import HealthMonitor  # noqa: E402
+
+VENV_BIN = Path(sys.executable).parent
+FAULT_CHANNELS = {"stuck_output": range(6), "non_finite": range(6), "white_noise_increase": range(6),
+                  "vibration": range(6), "bias_shift_gyro": (0, 1), "bias_shift_accel": (5,), "saturation": (2,),
+                  "dropout": (0,), "sample_rate_change": (0,)}
+TARGET_S = {"stuck_output": 1, "non_finite": 1, "saturation": 1, "dropout": 1, "sample_rate_change": 1,
+            "white_noise_increase": 5, "vibration": 10, "bias_shift_gyro": 30, "bias_shift_accel": 30}
+ALL_CHANNELS = ("dropout", "sample_rate_change")
+
+
+def fitted_model(folder: Path):
+    """imu-calib allan on a 1-h static run of the unit (the user's way to the model)."""
+    t, x = hd.static_run(5000, 3600.0)
+    write_imu_csv(folder / "static.csv", ImuRecording(t, x[:, :3], x[:, 3:]))
+    subprocess.run([str(VENV_BIN / "imu-calib"), "allan", str(folder / "static.csv"), "--out", str(folder / "calib"),
+                    "--no-progress"], check=True, capture_output=True)
+    return sensor_model.load(folder / "calib" / "sensor_model.yaml")
+
+
+def healthy(model, base, hours: int):
+    """False events over ``hours`` 1-h drives: (hours, Counter of effect)."""
+    count = Counter()
+    for seed in range(9000, 9000 + hours):
+        t, x = hd.drive(seed, 3600.0)
+        mon = HealthMonitor(model, keep_trace=False, thresholds=base.thr)
+        for e in mon.push(t, x[:, :3], x[:, 3:]):
+            count[e.effect] += 1
+    return count
+
+
+def fault_run(model, base, fault, seed):
+    """One fault run: (truth, first event or None, all events)."""
+    rng = np.random.default_rng(seed)
+    chans = FAULT_CHANNELS[fault]
+    ch = int(chans[seed % len(chans)])
+    t, x = hd.drive(seed, 420.0)
+    if fault == "saturation":  # the unit clips below its configured range (the monitor is not told the level)
+        after = t >= 300.0
+        level = 0.8 * np.max(np.abs(x[after, ch]))
+        x[after, ch] = np.clip(x[after, ch], -level, level)
+        onset = float(t[after][np.argmax(np.abs(x[after, ch]) >= level)])
+        truth = {"effect": "saturation", "channel": ch, "onset_s": onset}
+    else:
+        t, x, truth = hd.inject(fault, t, x, 300.0, ch, rng)
+    mon = HealthMonitor(model, keep_trace=False, thresholds=base.thr)
+    events = mon.push(t, x[:, :3], x[:, 3:])
+    return truth, events
+
+
+def named(truth, e) -> bool:
+    """The right effect, and the right channel where the effect has one."""
+    if e.effect != truth["effect"]:
+        return False
+    return truth["effect"] in ALL_CHANNELS or CHANNELS[truth["channel"]] in e.channels
+
+
+def main(argv=None) -> int:
+    p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    p.add_argument("--healthy-hours", type=int, default=20)
+    p.add_argument("--seeds", type=int, default=20)
+    p.add_argument("--quick", action="store_true", help="2 h healthy, 4 seeds per fault")
+    args = p.parse_args(argv)
+    if args.quick:
+        args.healthy_hours, args.seeds = 2, 4
+    start = time.time()
+    with tempfile.TemporaryDirectory() as tmp:
+        model = fitted_model(Path(tmp))
+    base = HealthMonitor(model)
+    print(f"model: imu-calib allan on a 1-h static run; thresholds {time.time() - start:.1f} s; "
+          f"stuck run {base.thr.stuck_run.tolist()} samples, line gate {base.thr.line_h:.1f}, "
+          f"noise h {base.thr.noise_h:.2f}, bias h {np.round(base.thr.bias_h, 2).tolist()}")
+    print(f"{'fault':22s} {'runs':>4s} {'named 1st':>9s} {'delay med/max s':>16s} {'target':>6s} "
+          f"{'onset err med/max s':>20s}")
+    ok_all = True
+    for fault in FAULT_CHANNELS:
+        rows = []
+        for seed in range(9500, 9500 + args.seeds):
+            truth, events = fault_run(model, base, fault, seed)
+            first = next((e for e in events if e.t_s >= truth["onset_s"] - 1.0), None)
+            good = first is not None and named(truth, first)
+            delay = first.t_s - truth["onset_s"] if good else np.inf
+            onset_err = abs(first.onset_s - truth["onset_s"]) if good else np.inf
+            false_before = sum(e.t_s < truth["onset_s"] - 1.0 for e in events)
+            rows.append((good, delay, onset_err, false_before))
+        r = np.array(rows, float)
+        rate = r[:, 0].mean()
+        d = r[r[:, 0] == 1, 1]
+        o = r[r[:, 0] == 1, 2]
+        dm = f"{np.median(d):.2f}/{np.max(d):.2f}" if len(d) else "-"
+        om = f"{np.median(o):.2f}/{np.max(o):.2f}" if len(o) else "-"
+        met = rate >= 0.95 and len(d) and np.max(d) <= TARGET_S[fault]
+        ok_all &= bool(met)
+        print(f"{fault:22s} {len(r):4d} {100 * rate:8.0f}% {dm:>16s} {TARGET_S[fault]:6d} {om:>20s}"
+              f"  {'met' if met else 'NOT met'}  (events before the onset: {int(r[:, 3].sum())})")
+    count = healthy(model, base, args.healthy_hours)
+    total = sum(count.values())
+    print(f"healthy drives: {args.healthy_hours} h, {total} false events = {10 * total / args.healthy_hours:.2f} "
+          f"per 10 h (target <= 1) {dict(count)}")
+    print(f"wall time {time.time() - start:.0f} s")
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
