@@ -239,7 +239,7 @@ def main(argv=None) -> int:
                            filter_params=filter_params(args.params, graph.specs))
     print(summary)
     if two:
-        print(two.finish(run_dir))
+        print(two.finish(run_dir, sim_dir))
     return 0 if all(c == 0 for c in codes.values()) else 1
 
 

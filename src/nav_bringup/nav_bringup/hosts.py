@@ -224,11 +224,11 @@ class HostRun:
         if self.cutter is not None:
             self.cutter.on_clock(sim_t, clock_s)
 
-    def finish(self, run_dir: Path) -> str:
+    def finish(self, run_dir: Path, sim_dir: Path | None = None) -> str:
         """Wait for a cut in progress, remove the namespaces, add the link figures to the report; a summary line."""
         from nav_bringup.link_report import add_to_report
 
         cuts = self.cutter.finish(Path(run_dir) / "link_cuts.json") if self.cutter else []
         self.hosts.close()
-        figures = add_to_report(run_dir, cuts, self.cutter.epoch_s if self.cutter else 0.0)
+        figures = add_to_report(run_dir, cuts, self.cutter.epoch_s if self.cutter else 0.0, sim_dir)
         return "two hosts: " + ", ".join(f"{k} {v}" for k, v in figures.items())

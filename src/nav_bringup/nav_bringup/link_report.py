@@ -6,7 +6,9 @@ drive), ``odometry_max_gap_s`` (the longest time between two odometry messages t
 their log times), ``gnss_resumed_after_s`` (per cut: from the link's return to the first filter status that
 counts a fix fused after it; the status comes once a simulated second, so this is an upper bound within 1 s),
 ``input_stale_max_s`` (the longest input staleness the filter reported through the cuts, its steady-clock s), ``live_vs_offline_max_m`` and
-``horizontal_rms_m`` (the report's: live odometry against the offline replay of this bag, and against the truth).
+``horizontal_rms_m`` (the report's: live odometry against the offline replay of this bag, and against the truth),
+``horizontal_rms_outside_cuts_m`` (against the truth, the epochs stamped inside a cut left out: the INS alone
+bridges those).
 """
 from __future__ import annotations
 
@@ -44,8 +46,25 @@ def _summary(run_dir: Path) -> dict:
     return json.loads(path.read_text()) if path.exists() else {}
 
 
-def link_figures(run_dir: Path, cuts: list, epoch_s: float) -> dict:
-    """The two-host figures of ``run_dir`` (its bag and summary.json); ``epoch_s``: the drive's start, clock s."""
+def rms_outside_cuts(run_dir: Path, cuts: list, epoch_s: float, sim_dir) -> float | None:
+    """Horizontal RMS against the simulation's truth (m) over the epochs stamped outside the cuts (the INS alone
+    bridges the gap inside them); None without a simulation."""
+    if sim_dir is None:
+        return None
+    from nav_bringup.truth import TruthTrack
+    from nav_core import recording
+
+    odom = recording.read_odometry(Path(run_dir) / "bag")
+    err = np.hypot(*(odom.position - TruthTrack.from_sim_dir(sim_dir).at(odom.t))[:, :2].T)
+    out = np.ones(len(odom), bool)
+    for cut in cuts:
+        out &= ~((odom.t >= epoch_s + cut["at_s"]) & (odom.t <= epoch_s + cut["restored_at_s"]))
+    return float(np.sqrt(np.mean(err[out] ** 2))) if out.any() else None
+
+
+def link_figures(run_dir: Path, cuts: list, epoch_s: float, sim_dir=None) -> dict:
+    """The two-host figures of ``run_dir`` (its bag and summary.json); ``epoch_s``: the drive's start, clock s;
+    ``sim_dir``: the simulation (its truth gives the RMS outside the cuts)."""
     odom, diag = _series(Path(run_dir) / "bag")
     resumed, stale = [], [0.0]
     for cut in cuts:
@@ -61,7 +80,8 @@ def link_figures(run_dir: Path, cuts: list, epoch_s: float) -> dict:
             "gnss_resumed_after_s": resumed[0] if len(resumed) == 1 else (resumed or None),
             "input_stale_max_s": round(max(stale), 3),
             "live_vs_offline_max_m": offline.get("largest difference (m)"),
-            "horizontal_rms_m": (summary.get("rms") or {}).get("horizontal position (m)")}
+            "horizontal_rms_m": (summary.get("rms") or {}).get("horizontal position (m)"),
+            "horizontal_rms_outside_cuts_m": rms_outside_cuts(run_dir, cuts, epoch_s, sim_dir) if cuts else None}
 
 
 def plot_link(run_dir: Path, cuts: list, epoch_s: float, path: Path) -> Path:
@@ -94,10 +114,10 @@ def plot_link(run_dir: Path, cuts: list, epoch_s: float, path: Path) -> Path:
     return path
 
 
-def add_to_report(run_dir: Path, cuts: list, epoch_s: float) -> dict:
+def add_to_report(run_dir: Path, cuts: list, epoch_s: float, sim_dir=None) -> dict:
     """Add the two-host figures to ``summary.json`` and the link plot to ``report.html``; return the figures."""
     run_dir = Path(run_dir)
-    figures = link_figures(run_dir, cuts, epoch_s)
+    figures = link_figures(run_dir, cuts, epoch_s, sim_dir)
     summary = _summary(run_dir)
     summary.update(figures)
     (run_dir / "summary.json").write_text(json.dumps(summary, indent=1, default=str))
