@@ -140,6 +140,9 @@ def run_one(tool: str, recording: str, out_dir: str, options: dict) -> dict:
             row.update(spec.figures(out, stdout.getvalue()))
         except (OSError, ValueError, KeyError) as err:
             row.update(status="error", message=f"{recording}: {spec.command} wrote no readable result: {err}")
-    elif not row["message"].startswith(recording) and recording not in row["message"]:
-        row["message"] = f"{recording}: {row['message']}"
+    else:
+        if tool == "replay" and out.is_dir() and not any(out.iterdir()):
+            out.rmdir()  # made for the trajectory that was never written
+        if recording not in row["message"]:
+            row["message"] = f"{recording}: {row['message']}"
     return row
