@@ -22,6 +22,7 @@ from sensor_msgs.msg import Imu
 
 from imu_driver.bp3010_codec import ACCEL_WHITE_NOISE, FIELDS, GYRO_WHITE_NOISE, RATE_SELECT, FrameFormat
 from imu_driver.driver_core import ClockFollower, DriverCore
+from imu_driver.status import driver_status
 from nav_core import sensor_model, units
 from nav_core.imu_cdr import stamps_from_s
 from nav_core.params import ConfigError, Param
@@ -255,24 +256,9 @@ class Bp3010Driver(Node):
         now = time.monotonic()
         rate = (stats.frames - self._frames_at_last_diag) / max(now - self._last_diag_time, 1e-9)
         self._frames_at_last_diag, self._last_diag_time = stats.frames, now
-        values = {"frames_received": stats.frames, "checksum_errors": stats.checksum_errors,
-                  "resyncs": stats.resyncs, "lost_frames": stats.lost_frames,
-                  "bytes_discarded": stats.bytes_discarded, "actual_rate_hz": rate,
-                  "nominal_rate_hz": self.p["rate_hz"], "port": self.p["port"], "port_state": self.port_state,
-                  "counter_jumps": stats.counter_jumps, "duplicates": stats.duplicates, "reconnects": self.reconnects,
-                  "clock_reanchors": clock.reanchors, "clock_gaps_bridged": clock.gaps_bridged,
-                  "stamp_read_delay_s": clock.delay_s, "stamp_ahead_s": clock.ahead_s,
-                  "stamp_slewed_frames": clock.slewed_frames, "stamp_drift_ppm": clock.drift * 1e6,
-                  "sim_clock_rate": self._sim.rate if self._sim else 0.0,
-                  "frames_before_clock": self.frames_before_clock,
-                  "last_error": self.last_error}
-        if self.port_state != "connected":
-            level, msg = "ERROR", f"port {self.port_state}"
-        elif rate < 0.5 * self.p["rate_hz"]:
-            level, msg = "WARN", f"receiving {rate:.1f} Hz of {self.p['rate_hz']} Hz"
-        else:
-            level, msg = "OK", "receiving"
-        self.diag.publish(level, msg, values)
+        st = driver_status(stats, clock, rate, self.p["rate_hz"], self.p["port"], self.port_state, self.reconnects,
+                           self._sim.rate if self._sim else 0.0, self.frames_before_clock, self.last_error)
+        self.diag.publish(st.level, st.message, st.to_values())
 
     def close(self) -> None:
         """Stop the reader thread and close the port."""

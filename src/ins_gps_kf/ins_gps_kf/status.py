@@ -11,6 +11,7 @@ import dataclasses
 import math
 from dataclasses import dataclass, field
 
+from nav_core.status import NodeStatus
 from nav_core.units import DEG
 from ins_gps_kf.input_checks import InputCounters
 from ins_gps_kf.records import ALIGNING, NAVIGATING
@@ -18,12 +19,14 @@ from ins_gps_kf.records import ALIGNING, NAVIGATING
 INPUT_STALE_S = 1.0
 """s of the node's steady clock with no IMU or GPS message after which its status says the input is stale (a link
 down between the sensor and the compute host; the simulated /clock may be stopped with it)."""
-STAMP_FIELDS = ("first_imu_stamp_s", "first_fix_stamp_s")  # printed to 1 us: the report matches bag stamps by them
 
 
 @dataclass
-class FilterStatus:
+class FilterStatus(NodeStatus):
     """What the filter node reports each second: state, GNSS use, the intake's drops, rejected input (SI, s)."""
+
+    PRECISE = ("first_imu_stamp_s", "first_fix_stamp_s")  # the report matches bag stamps by them
+    SUMMARY = ("state", "fixes", "rejected_fixes")
 
     level: str = "STALE"  # OK | WARN | ERROR
     message: str = ""
@@ -64,61 +67,6 @@ class FilterStatus:
     align_roll_deg: float | None = None
     align_pitch_deg: float | None = None
     input_stale_s: float = 0.0  # the node's steady-clock time since its last IMU or GPS message (0 before any)
-
-    def to_values(self) -> dict:
-        """``/diagnostics`` key -> string, the input counters flat among the others."""
-        out = {}
-        for f in dataclasses.fields(self):
-            if f.name in ("level", "message"):
-                continue
-            value = getattr(self, f.name)
-            if f.name == "input":
-                out.update({k: str(v) for k, v in dataclasses.asdict(value).items()})
-            elif value is None:
-                out[f.name] = ""
-            elif f.name in STAMP_FIELDS:
-                out[f.name] = f"{value:.6f}"
-            elif isinstance(value, float):
-                out[f.name] = f"{value:.6g}"
-            else:
-                out[f.name] = str(value)
-        return out
-
-    @classmethod
-    def from_values(cls, values: dict, level: str = "STALE", message: str = "") -> FilterStatus:
-        """The status from ``/diagnostics`` values (strings); a missing or unreadable value is the default."""
-        kwargs = {"level": level, "message": message}
-        for f in dataclasses.fields(cls):
-            if f.name == "input":
-                kwargs["input"] = _parse_fields(InputCounters, values)
-            elif f.name not in ("level", "message") and f.name in values:
-                kwargs[f.name] = _parse(f, values[f.name])
-        return cls(**{k: v for k, v in kwargs.items() if v is not _DEFAULT})
-
-
-_DEFAULT = object()
-
-
-def _parse_fields(cls, values: dict):
-    """A dataclass ``cls`` from the string ``values`` of its fields."""
-    kwargs = {f.name: _parse(f, values[f.name]) for f in dataclasses.fields(cls) if f.name in values}
-    return cls(**{k: v for k, v in kwargs.items() if v is not _DEFAULT})
-
-
-def _parse(f: dataclasses.Field, text):
-    """The value of field ``f`` from its string (the field's type from its default), or _DEFAULT."""
-    default = f.default if f.default is not dataclasses.MISSING else None
-    text = str(text)
-    try:
-        if isinstance(default, bool):
-            return text == "True"
-        if isinstance(default, int):
-            return int(float(text))
-        if isinstance(default, float) or default is None and f.name.endswith(("_s", "_deg")):
-            return None if text == "" and default is None else float(text)
-    except ValueError:
-        return _DEFAULT
-    return text
 
 
 def filter_status(filt, intake, first_imu_t=None, first_fix_t=None, bad_imu_messages=0, nonfinite_estimates=0,

@@ -25,13 +25,17 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 from scipy.spatial.transform import Rotation  # noqa: E402
 
+from imu_driver.status import DriverStatus  # noqa: E402
 from ins_gps_kf.status import FilterStatus  # noqa: E402
 from nav_eval.metrics import rms  # noqa: E402
+from nav_bringup.status import ScenarioStatus  # noqa: E402
 from nav_bringup.truth import TruthTrack  # noqa: E402
 from nav_core import bagio, recording  # noqa: E402
 from nav_core.earth import LocalFrame  # noqa: E402
 from nav_core.frames import euler_from_quat_xyzw, wrap_angle  # noqa: E402
+from nav_core.status import level_name  # noqa: E402
 from nav_core.units import DEG  # noqa: E402
+from wmra_filter.status import WmraStatus  # noqa: E402
 
 
 def last_diagnostics(bag: Path) -> dict:
@@ -198,14 +202,22 @@ BAG_LATE_FIXES = "fixes the filter had before the bag's first (s)"
 BAG_LATE_IMU = "IMU the filter had before the bag's first (s)"
 
 
+STATUS_TYPES = {"bp3010_driver": DriverStatus, "wmra_node": WmraStatus, "ins_gps_kf_node": FilterStatus,
+                "scenario_player": ScenarioStatus}
+"""Node name -> its typed status (:class:`nav_core.status.NodeStatus`), the type the node writes."""
+
+
+def node_status(name: str, level: int, message: str, values: dict):
+    """A ``/diagnostics`` status (``node: name``) parsed through its node's type; None for a node without one."""
+    cls = STATUS_TYPES.get(name.split(":")[0].strip())
+    return None if cls is None else cls.from_values(values, level_name(level), message)
+
+
 def filter_status(diags: dict) -> FilterStatus | None:
     """The filter node's last status, parsed through its type (:class:`ins_gps_kf.status.FilterStatus`); None
     when it published none."""
-    found = next(((lvl, msg, v) for n, (lvl, msg, v) in diags.items() if n.startswith("ins_gps_kf")), None)
-    if found is None:
-        return None
-    level, message, values = found
-    return FilterStatus.from_values(values, ("OK", "WARN", "ERROR", "STALE")[min(level, 3)], message)
+    return next((node_status(n, lvl, msg, v) for n, (lvl, msg, v) in diags.items() if n.startswith("ins_gps_kf")),
+                None)
 
 
 def _from_filter_start(imu, gnss, diag: dict):
@@ -398,12 +410,9 @@ def _summary(run_dir, res, odom, gnss, raw, den, diags, codes) -> str:
                      f"over {off['common epochs']} common epochs (live {off['live epochs']}, offline "
                      f"{off['offline epochs']}; only live {off['only live']}, only offline {off['only offline']})")
     for name, (level, message, values) in sorted(diags.items()):
-        keys = [k for k in ("frames_received", "checksum_errors", "lost_frames", "rejected_fixes", "fixes",
-                            "restarts", "nonfinite_samples", "state")
-                if k in values and (k != "nonfinite_samples" or str(values[k]) != "0")]  # why wmra_node WARNs
-        detail = ", ".join(f"{k} {values[k]}" for k in keys)
-        lines.append(f"    [{('OK', 'WARN', 'ERROR', 'STALE')[min(level, 3)]:5}] {name}: {message}"
-                     + (f" ({detail})" if detail else ""))
+        status = node_status(name, level, message, values)
+        detail = status.summary() if status is not None else ""
+        lines.append(f"    [{level_name(level):5}] {name}: {message}" + (f" ({detail})" if detail else ""))
     if codes:
         lines.append("    exit codes: " + ", ".join(f"{k} {v}" for k, v in codes.items()))
     return "\n".join(lines)
@@ -418,7 +427,7 @@ def _table(rows: dict) -> str:
 
 def _write_html(run_dir, res, odom, gnss, raw, den, diags, figures, codes) -> None:
     diag_rows = "".join(
-        f"<tr><td>{html.escape(n)}</td><td>{('OK', 'WARN', 'ERROR', 'STALE')[min(l, 3)]}</td>"
+        f"<tr><td>{html.escape(n)}</td><td>{level_name(l)}</td>"
         f"<td>{html.escape(m)}</td><td>{html.escape(', '.join(f'{k}={v}' for k, v in vals.items()))}</td></tr>"
         for n, (l, m, vals) in sorted(diags.items()))
     imgs = "".join(f'<h2>{f.replace("_", " ").replace(".png", "")}</h2><img src="{f}" style="max-width:100%">'

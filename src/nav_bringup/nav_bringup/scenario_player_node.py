@@ -27,6 +27,7 @@ from rosgraph_msgs.msg import Clock
 from sensor_msgs.msg import NavSatFix, NavSatStatus
 
 from imu_driver.emulator import Emulator, FaultPlan, PtyPort, counts_from_source
+from nav_bringup.status import ScenarioStatus
 from nav_bringup.truth import TruthTrack
 from nav_core import frames, recording
 from nav_core.params import ConfigError, Param
@@ -206,10 +207,10 @@ class ScenarioPlayer(Node):
 
     def _publish_diagnostics(self) -> None:
         stats = self.emulator.stats
-        self.diag.publish("OK", "done" if self.done else ("playing" if self.start_wall else "waiting for graph"),
-                          {"sim_time_s": self.sim_time(), "duration_s": self.duration_s,
-                           "frames_sent": stats.frames_sent, "fixes_sent": self.fixes_sent,
-                           "disconnects": stats.disconnects, "garbage_bursts": stats.garbage_bursts})
+        st = ScenarioStatus("OK", "done" if self.done else ("playing" if self.start_wall else "waiting for graph"),
+                            float(self.sim_time()), float(self.duration_s), stats.frames_sent, self.fixes_sent,
+                            stats.disconnects, stats.garbage_bursts)
+        self.diag.publish(st.level, st.message, st.to_values())
         if self.done and self.p["exit_when_done"]:
             rclpy.try_shutdown()
 

@@ -26,6 +26,7 @@ from nav_core.ros_node import (SENSOR_QOS, Diagnostics, ImuBatchSubscription, In
 from rclpy.node import Node
 from wmra_filter import levels, thresholds as thr
 from wmra_filter.stream_policy import StreamPolicy
+from wmra_filter.status import WmraStatus
 from wmra_filter.streaming import StreamingWmra
 from wmra_filter.wmra import Calibrator, WmraConfig, WmraConfigError, model_sample_sigma
 
@@ -148,20 +149,14 @@ class WmraNode(Node):
         """Delay, window, thresholds in use and processing time per message on /diagnostics."""
         s, p, cfg = self.stats, self.policy.stats, self.cfg
         lam = self.stream.thresholds
-        values = {"delay_samples": cfg.delay_samples, "delay_s": cfg.delay_s, "window": cfg.window_samples,
-                  "hop": cfg.hop, "level": cfg.level, "wavelet": cfg.wavelet, "threshold_mode": cfg.mode,
-                  "threshold_rule": cfg.rule, "noise_source": cfg.noise,
-                  "thresholds_gyro_rad_s": "pending" if lam is None else _levels_text(lam[:, :3]),
-                  "thresholds_accel_m_s2": "pending" if lam is None else _levels_text(lam[:, 3:]),
-                  "received": p.received, "published": s["published"], "restarts": p.restarts,
-                  "filled_samples": p.filled_samples, "nonfinite_samples": p.nonfinite,
-                  "last_restart": p.last_restart,
-                  "processing_mean_us": 1e6 * s["busy_s"] / max(p.received, 1),
-                  "intake_period_s": self.intake_period_s,
-                  "bad_messages": self.intake.bad_messages,
-                  "processing_max_us": 1e6 * s["busy_max_s"]}
-        level = "WARN" if p.restarts or p.nonfinite else "OK"
-        self.diagnostics.publish(level, "denoising" if p.received else "waiting for imu/data_raw", values)
+        st = WmraStatus(
+            "WARN" if p.restarts or p.nonfinite else "OK", "denoising" if p.received else "waiting for imu/data_raw",
+            cfg.delay_samples, cfg.delay_s, cfg.window_samples, cfg.hop, cfg.level, cfg.wavelet, cfg.mode, cfg.rule,
+            cfg.noise, "pending" if lam is None else _levels_text(lam[:, :3]),
+            "pending" if lam is None else _levels_text(lam[:, 3:]), p.received, s["published"], p.restarts,
+            p.filled_samples, p.nonfinite, p.last_restart, 1e6 * s["busy_s"] / max(p.received, 1),
+            self.intake_period_s, self.intake.bad_messages, 1e6 * s["busy_max_s"])
+        self.diagnostics.publish(st.level, st.message, st.to_values())
 
     def close(self) -> None:
         """Publish the samples still in the window before shutting down."""
