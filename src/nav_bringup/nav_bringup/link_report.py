@@ -91,6 +91,7 @@ def plot_link(run_dir: Path, cuts: list, epoch_s: float, path: Path) -> Path:
     import matplotlib.pyplot as plt
 
     odom, diag = _series(Path(run_dir) / "bag")
+    diag = [d for d in diag if d[0] >= epoch_s - 60.0]  # recorded before the first /clock: log time 0
     fig, (ax1, ax2) = plt.subplots(2, 1, figsize=(9, 5.5), sharex=True)
     if len(odom) > 1:
         ax1.plot(odom[1:] - epoch_s, np.diff(odom), ".", ms=2)
