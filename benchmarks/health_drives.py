@@ -52,12 +52,60 @@ def static_run(seed: int, duration_s: float):
     return t, quantize(x, 1 / RATE_HZ)
 
 
+class RoadDrive(gen.Motion):
+    """Straights and turns at a constant speed, the body rolling out of each turn (roll = K v psi_dot / g)."""
+
+    ROLL_K = 0.05
+    TURN_S = 8.0
+
+    def __init__(self, duration_s: float, rng):
+        super().__init__(duration_s)
+        self.v = rng.uniform(8.0, 25.0)
+        starts, angles, t = [], [], rng.uniform(10, 60)
+        while t < duration_s + self.TURN_S:
+            starts.append(t)
+            angles.append(np.radians(rng.uniform(30, 120)) * rng.choice([-1, 1]))
+            t += self.TURN_S + rng.uniform(15, 90)
+        self.starts, self.angles = np.array(starts), np.array(angles)
+        grid = np.arange(-1.0, duration_s + 2.0, 0.005)
+        yaw = self._yaw(grid)[0]
+        vel = self.v * np.column_stack([np.cos(yaw), np.sin(yaw)])
+        self._grid = grid
+        self._pos = np.vstack([[0.0, 0.0], np.cumsum((vel[1:] + vel[:-1]) / 2 * 0.005, axis=0)])
+
+    def _yaw(self, t):
+        """Heading (rad), its rate and its second derivative (piecewise smoothstep turns)."""
+        yaw, rate, acc = np.zeros_like(t), np.zeros_like(t), np.zeros_like(t)
+        for t0, ang in zip(self.starts, self.angles):
+            u = np.clip((t - t0) / self.TURN_S, 0.0, 1.0)
+            inside = (u > 0) & (u < 1)
+            yaw += ang * (3 * u**2 - 2 * u**3)
+            rate += np.where(inside, ang * (6 * u - 6 * u**2) / self.TURN_S, 0.0)
+            acc += np.where(inside, ang * (6 - 12 * u) / self.TURN_S**2, 0.0)
+        return yaw, rate, acc
+
+    def position(self, t):
+        """Plane position, velocity, acceleration (n, 3)."""
+        yaw, rate, _ = self._yaw(t)
+        z = np.zeros_like(t)
+        p = np.column_stack([np.interp(t, self._grid, self._pos[:, 0]), np.interp(t, self._grid, self._pos[:, 1]), z])
+        v = self.v * np.column_stack([np.cos(yaw), np.sin(yaw), z])
+        a = self.v * rate[:, None] * np.column_stack([-np.sin(yaw), np.cos(yaw), z])
+        return p, v, a
+
+    def attitude(self, t):
+        """Roll from the lateral acceleration, level pitch, heading along the velocity."""
+        yaw, rate, acc = self._yaw(t)
+        k = self.ROLL_K * self.v / gen.G_STANDARD
+        z = np.zeros_like(t)
+        return (k * rate, z, yaw), (k * acc, z.copy(), rate)
+
+
 def drive(seed: int, duration_s: float):
-    """A figure-eight drive of random size and lap time: t (n,), x (n, 6) (rad/s, m/s^2)."""
+    """A road drive (straights and turns with body roll, random speed and turns): t (n,), x (n, 6) (rad/s, m/s^2)."""
     rng = np.random.default_rng(seed)
     site = gen.Site(*SITE)
-    motion = gen.FigureEight(duration_s, period_s=rng.uniform(150, 400), a_m=rng.uniform(300, 900),
-                             b_m=rng.uniform(150, 450))
+    motion = RoadDrive(duration_s, rng)
     t, w, f = site.true_imu(motion, RATE_HZ)
     x = np.hstack([w, f]) + sensor_noise(rng, len(t), 1 / RATE_HZ)
     return t, quantize(x, 1 / RATE_HZ)

@@ -28,10 +28,14 @@ from sensor_health.window_stats import WindowGrid, detrend, window_stats
 
 Z95 = 1.959964
 CLIP_ONSET_LOOK_S = 10.0
+QUIET_HOLD = 2
+"""Windows after a turn before the bias test resumes (the roll settles)."""
 LINE_WARMUP_S = 30.0
 LINE_REFERENCE_S = 300.0
 LINE_CONFIRM = 3
-"""Consecutive windows over the line gate, within one bin of each other, that name a vibration."""
+"""Consecutive windows, the first over the line gate and the next over LINE_CONFIRM_FRACTION of it within one bin
+of the first, that name a vibration."""
+LINE_CONFIRM_FRACTION = 0.3
 
 
 @dataclass
@@ -51,6 +55,8 @@ class HealthConfig:
     rate_tolerance: float = 0.1
     clear_s: float = 10.0
     """An effect on a channel is reported again only after this long without it."""
+    quiet_gz_rad_s: float = 0.02
+    """The bias test runs on windows whose mean yaw rate is below this (and the QUIET_HOLD before them), rad/s."""
     history_s: float = 120.0
     mc_windows: int = 8000
     seed: int = 0
@@ -96,6 +102,7 @@ class HealthMonitor:
         self.line_ref, self.line_n, self.line_now = None, 0, np.zeros(6)
         self.line_run, self.line_prev_bin = np.zeros(6, int), np.full(6, -10)
         self.bias_base = None
+        self.quiet_run = 0
         self.bias_warm = []
         self.bias_pos, self.bias_neg = np.zeros(6), np.zeros(6)
         self.bias_start = np.full((2, 6), np.nan)
@@ -245,11 +252,14 @@ class HealthMonitor:
             return []
         line, line_bin = stat
         self.line_now = line
+        # a line persists at one frequency; the bumps of rough ground come and go and wander. The first window must
+        # pass the gate; the next ones, within one bin of it, a fraction of it (a line between two bins, or
+        # beating with the noise, swings from window to window)
         over = use & (line > th.line_h)
-        # a line persists at one frequency; the bumps of rough ground come and go and wander
-        steady = over & (np.abs(line_bin - self.line_prev_bin) <= 1)
-        self.line_run = np.where(steady, self.line_run + 1, np.where(over, 1, 0))
-        self.line_prev_bin = np.where(over, line_bin, -10)
+        kept = use & (self.line_run > 0) & (line > LINE_CONFIRM_FRACTION * th.line_h) \
+            & (np.abs(line_bin - self.line_prev_bin) <= 1)
+        self.line_run = np.where(kept, self.line_run + 1, np.where(over, 1, 0))
+        self.line_prev_bin = np.where(kept | over, np.where(kept, self.line_prev_bin, line_bin), -10)
         hit = self.line_run >= LINE_CONFIRM
         fired = np.flatnonzero(hit & (t1 - self.line_last > self.config.clear_s))
         self.line_last = np.where(hit, t1, self.line_last)
@@ -303,6 +313,12 @@ class HealthMonitor:
         chans = np.zeros(6, bool)
         chans[list(thr.BIAS_CHANNELS)] = True
         mean = ws.mean[w]
+        # turning, a land vehicle rolls: gx sees the roll rate, gy the yaw rate times the roll, az the lateral
+        # acceleration times it. The bias test holds its state through turns and runs on straights and stops.
+        turning = abs(mean[2]) >= self.config.quiet_gz_rad_s or not np.isfinite(mean[2])
+        self.quiet_run = 0 if turning else self.quiet_run + 1
+        if self.quiet_run <= QUIET_HOLD:
+            return []
         if self.bias_base is None:
             if use[list(thr.BIAS_CHANNELS)].all():
                 self.bias_warm.append(mean)
