@@ -20,6 +20,7 @@ from pathlib import Path
 import numpy as np
 
 from nav_core import datasets, sensor_model
+from nav_eval import rovers
 from nav_core.recording import write_imu_csv
 from sensor_health.monitor import HealthMonitor
 
@@ -42,7 +43,7 @@ def recordings(only):
         nav = DATA / "navego_rover"
         for name in ("canada", "katwijk"):
             p = nav / f"{name}_imu_planetary.mat"
-            out.append((f"navego {name} rover", lambda p=p: datasets.read_navego_imu(p), None))
+            out.append((f"navego {name} rover", lambda p=p: rovers.read_navego_imu(p), None))
     return out
 
 
@@ -50,7 +51,7 @@ def fit(tmp: Path, name, rec, calib_args):
     """imu-calib allan -> (model, what it was fitted on)."""
     out = tmp / name.replace(" ", "_").replace("(", "").replace(")", "")
     if calib_args is None:
-        onset = datasets.motion_onset(rec.t, np.linalg.norm(rec.gyro, axis=1), rec.rate_hz)
+        onset = rovers.motion_onset(rec.t, np.linalg.norm(rec.gyro, axis=1), rec.rate_hz)
         if onset - rec.t[0] >= 120.0:
             part, what = rec.between(rec.t[0], onset - 5.0), f"the stationary start ({onset - rec.t[0]:.0f} s)"
         else:

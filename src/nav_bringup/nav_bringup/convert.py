@@ -20,15 +20,17 @@ import numpy as np
 import yaml
 
 from nav_eval import datasets as kf_datasets
-from nav_core import datasets, recording, sensor_model
+from nav_eval import rovers
+from nav_core import recording, sensor_model
 from nav_core.cli import about, add_common, parse_args, run_cli
 from nav_core.outputs import check_out_dir, staged_dir
 from nav_core.recording import ImuRecording
+from nav_core.workspace import shared_data
 from nav_bringup.graph import PARAMS_FILE, REPO
 
 EPOCH_S = 1_700_000_000.0
 DEFAULT_MODEL = REPO / "config" / "sensor_models" / "bp3010.yaml"
-BALZER_CSV = REPO / ".." / "shared" / "data" / "balzer_car" / "2014-03-26-000-Data.csv"
+BALZER_CSV = shared_data("balzer_car/2014-03-26-000-Data.csv")
 # Filter settings each source needs: the ones the filter's evaluation of that recording uses.
 KF_OVERRIDES = {"katwijk": kf_datasets.KATWIJK_PARAMS, "canada": kf_datasets.CANADA_PARAMS,
                 "balzer": kf_datasets.BALZER_PARAMS}
@@ -38,10 +40,10 @@ def load(name: str, csv: Path | None):
     """(imu, gnss, truth or None, filter parameters) of a source, IMU in body FLU."""
     if name == "katwijk":
         # forward = -x: the axis choice the filter's evaluation picked by GPS NIS (src/ins_gps_kf/README.md)
-        imu, gnss, ref, _ = datasets.load_katwijk("-x_fwd")
+        imu, gnss, ref, _ = rovers.load_katwijk("-x_fwd")
         return imu, gnss, ref, KF_OVERRIDES[name]
     if name == "canada":
-        imu, gnss, truth, info = datasets.load_canada()
+        imu, gnss, truth, info = rovers.load_canada()
         return imu, gnss, truth, dict(KF_OVERRIDES[name], initial_yaw_deg=kf_datasets.canada_initial_yaw(info))
     # the axes and the GPS latency the filter's evaluation found in the data (src/ins_gps_kf/README.md)
     imu, gnss, _ = kf_datasets.load_balzer(csv or BALZER_CSV)
@@ -50,7 +52,7 @@ def load(name: str, csv: Path | None):
 
 def stationary_head_s(imu: ImuRecording) -> float:
     """Seconds of rest at the start (motion onset of the angular rate)."""
-    return float(datasets.motion_onset(imu.t, np.linalg.norm(imu.gyro, axis=1), imu.rate_hz) - imu.t[0])
+    return float(rovers.motion_onset(imu.t, np.linalg.norm(imu.gyro, axis=1), imu.rate_hz) - imu.t[0])
 
 
 def noise_model(imu: ImuRecording, head_s: float) -> sensor_model.SensorModel:

@@ -14,7 +14,7 @@ from tqdm import tqdm
 from imu_calib.characterise import characterise
 from imu_sim.models import bp3010_grade_model
 from imu_sim.simulate import simulate
-from nav_core.datasets import load_katwijk
+from nav_eval.rovers import load_katwijk
 from nav_core.recording import ImuRecording
 from ins_gps_kf import error_model as em
 from ins_gps_kf.filter import NAVIGATING

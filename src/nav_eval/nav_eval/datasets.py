@@ -1,4 +1,4 @@
-"""Evaluations on real recordings (readers in :mod:`nav_core.datasets`): the NaveGo rovers (Katwijk, Canada)
+"""Evaluations on real recordings (readers in :mod:`nav_eval.rovers` and :mod:`nav_core.datasets`): the NaveGo rovers (Katwijk, Canada)
 against their reference, the balzer car against held-out fixes; their filter parameters and loaders."""
 from __future__ import annotations
 
@@ -7,8 +7,7 @@ from pathlib import Path
 import numpy as np
 
 from nav_core import frames
-from nav_core.datasets import (AXIS_CHOICES, NAVEGO, load_canada, load_katwijk, read_balzer_csv, read_balzer_gnss,
-                               read_canada_truth_attitude)
+from nav_core.datasets import read_balzer_csv, read_balzer_gnss
 from nav_core.earth import LocalFrame
 from nav_core.recording import GnssRecording, ImuRecording, RecordingError, Trajectory
 from nav_core.units import DEG, MG
@@ -16,6 +15,7 @@ from ins_gps_kf.error_model import default_mems_model
 from ins_gps_kf.filter import NAVIGATING
 from ins_gps_kf.offline import plot_north_east, to_trajectory
 from nav_eval import metrics
+from nav_eval.rovers import AXIS_CHOICES, NAVEGO, load_canada, load_katwijk, read_canada_truth_attitude
 
 
 def canada_initial_yaw(info: dict, data=NAVEGO) -> float:
