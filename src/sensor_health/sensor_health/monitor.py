@@ -4,7 +4,8 @@ recording at once, the node pushes what each intake brings, and both get the sam
 Sample-level checks (:mod:`sensor_health.sample_checks`) run on every sample. Window statistics
 (:mod:`sensor_health.window_stats`) run on consecutive windows of ``window_s`` s (counted in samples) and feed:
 
-* a CUSUM per channel on the standardised log noise level (``white_noise_increase``);
+* a CUSUM per channel on the standardised log noise level over the run's starting level (the first 30 s,
+  floored at the model's) (``white_noise_increase``);
 * a chi-square gate per channel on the largest whitened line, against the run's own spectrum after a 30-s
   warm-up (``vibration``: a *new* line; the vehicle's own vibration is not a fault);
 * a two-sided CUSUM per channel on the window mean minus a slow baseline (``bias_shift``, gx gy az).
@@ -97,6 +98,7 @@ class HealthMonitor:
         self.noise_start = np.full(6, np.nan)
         self.noise_active = np.zeros(6, bool)
         self.noise_quiet = np.zeros(6, int)
+        self.noise_warm, self.noise_ref = [], np.zeros(6)
         self.line_last = np.full(6, -np.inf)
         self.clip_last = np.full(6, -np.inf)
         self.line_ref, self.line_n, self.line_now = None, 0, np.zeros(6)
@@ -178,9 +180,26 @@ class HealthMonitor:
                 self.trace.bias_cusum.append(np.maximum(self.bias_pos, self.bias_neg))
         return events
 
+    def _noise_reference(self, y, use):
+        """The run's own starting level (standardised log level, floored at the model's 0): a vehicle whose
+        vibration lifts the level from the start has that as its healthy floor. None during the warm-up."""
+        warm = int(round(LINE_WARMUP_S / self.thr.window_s))
+        if len(self.noise_warm) < warm:
+            self.noise_warm.append(np.where(use, y, np.nan))
+            if len(self.noise_warm) < warm:
+                return None
+            with np.errstate(all="ignore"):
+                med = np.nanmedian(np.array(self.noise_warm), axis=0)
+            self.noise_ref = np.maximum(np.nan_to_num(med, nan=0.0), 0.0)
+            return None
+        return self.noise_ref
+
     def _noise(self, w, t0, t1, y, ws, use) -> list:
         th = self.thr
-        s = np.where(use, np.maximum(0.0, self.noise_s + y - th.noise_k), 0.0)
+        ref = self._noise_reference(y, use)
+        if ref is None:
+            return []
+        s = np.where(use, np.maximum(0.0, self.noise_s + y - ref - th.noise_k), 0.0)
         self.noise_start = np.where((self.noise_s == 0) & (s > 0), t0, self.noise_start)
         self.noise_s = s
         self.noise_quiet = np.where(s == 0, self.noise_quiet + 1, 0)
