@@ -105,6 +105,8 @@ class HealthMonitor:
         self.line_run, self.line_prev_bin = np.zeros(6, int), np.full(6, -10)
         self.bias_base = None
         self.quiet_run = 0
+        self.quiet_spans = []
+        """(t0, t1) of the windows the bias test ran on (the change point is looked for in them only)."""
         self.bias_warm = []
         self.bias_pos, self.bias_neg = np.zeros(6), np.zeros(6)
         self.bias_start = np.full((2, 6), np.nan)
@@ -338,6 +340,9 @@ class HealthMonitor:
         self.quiet_run = 0 if turning else self.quiet_run + 1
         if self.quiet_run <= QUIET_HOLD:
             return []
+        self.quiet_spans.append((t0, t1))
+        while self.quiet_spans and self.quiet_spans[0][1] < t1 - self.config.history_s:
+            self.quiet_spans.pop(0)
         if self.bias_base is None:
             if use[list(thr.BIAS_CHANNELS)].all():
                 self.bias_warm.append(mean)
@@ -375,7 +380,7 @@ class HealthMonitor:
         The CUSUM's last zero can fall after the onset (noise pulled it back once), hence the 10 s before; a long
         stretch before the step sharpens the change point of a weak one."""
         lo = min((start if np.isfinite(start) else t1) - max(10.0, 2 * self.thr.window_s), t1 - 60.0)
-        sel = (self._hist_t >= lo) & (self._hist_t <= t1)
+        sel = (self._hist_t >= lo) & (self._hist_t <= t1) & self._in_quiet_spans(self._hist_t)
         x, ts = self._hist_x[sel, c], self._hist_t[sel]
         sigma = self.thr.sample_sigma[c] * np.sqrt(max(level, 1.0))
         if len(x) < 8:
@@ -386,6 +391,14 @@ class HealthMonitor:
         j = int(k[np.argmax(score)])
         step = float(x[j:].mean() - x[:j].mean())
         return float(ts[j]), step, float(sigma * np.sqrt(1 / j + 1 / (len(x) - j)))
+
+    def _in_quiet_spans(self, t: np.ndarray) -> np.ndarray:
+        """Whether each time falls in a window the bias test ran on."""
+        if not self.quiet_spans:
+            return np.zeros(len(t), bool)
+        spans = np.array(self.quiet_spans)
+        i = np.searchsorted(spans[:, 0], t, side="right") - 1
+        return (i >= 0) & (t <= spans[np.maximum(i, 0), 1])
 
     # ------------------------------------------------------------------ status
 
