@@ -13,8 +13,10 @@ every error is *estimate minus truth*; the attitude error ``phi`` is defined by
 
 Modules: :mod:`strapdown` (per-sample mechanization, numba), :mod:`alignment`,
 :mod:`error_model`, :mod:`kalman`, :mod:`measurements`, :mod:`input_checks` (bad input,
-counted in ``InsGpsFilter.input_counters``), :mod:`records`, :mod:`filter` (the epoch logic
-shared by the node and the replay), :mod:`offline` (``run``, ``to_trajectory``, ``load_model``),
+counted in ``InsGpsFilter.input_counters``), :mod:`records`, :mod:`filter` (the life cycle and
+the epoch, shared by the node and the replay) with its policies apart: :mod:`updates` (the update
+models), :mod:`starts`, :mod:`gnss_policy`, :mod:`heading`, :mod:`bridging`; :mod:`odometry` and
+:mod:`status` (what the node publishes), :mod:`offline` (``run``, ``to_trajectory``, ``load_model``),
 :mod:`replay` (the ``ins-gps-kf`` CLI), :mod:`track_check` (do the fixes show the IMU's motion), :mod:`synthetic`
 (closed-form test motions).
 Only :mod:`ins_gps_kf_node` imports rclpy. The evaluations are the ``nav_eval`` package.
