@@ -18,13 +18,14 @@ from nav_core.params import did_you_mean, unknown_keys_error
 from nav_core.recording import RecordingError, read_trajectory_csv
 from nav_core.sensor_model import SensorModelError, validate_physics
 
+from imu_sim import faults as faults_mod
 from imu_sim import trajectory as traj_mod
 from imu_sim.errors import TERMS
 from imu_sim.gnss import GpsConfig
 
 KNOWN_KEYS = {"name", "description", "latitude_deg", "longitude_deg", "height_m", "segments", "trajectory",
               "gnss_track", "static_segments", "yaw0_deg", "duration_s", "rate_hz", "gps", "gps_lever_arm_m",
-              "temperature", "physics", "error_terms", "sensor_model", "seed", "notes"}
+              "temperature", "physics", "error_terms", "sensor_model", "seed", "notes", "faults"}
 SOURCES = ("segments", "trajectory", "gnss_track", "static_segments")
 BUILTIN_TRAJECTORIES = ("paper_drive",)
 SEGMENT_KEYS = {"stand": (), "cruise": (), "stop": (), "accelerate": ("speed_mps",), "turn": ("angle_deg",)}
@@ -62,6 +63,8 @@ class Scenario:
     error_terms: tuple = TERMS
     sensor_model: Path | None = None
     seed: int | None = None
+    faults: tuple = ()
+    """Sensor faults injected into the IMU output (:mod:`imu_sim.faults`)."""
     name: str = "scenario"
     where: str = "<scenario>"
 
@@ -235,6 +238,10 @@ def from_dict(data, where: str = "<scenario>", base_dir: Path = Path(".")) -> Sc
         if not sc.sensor_model.exists():
             raise ScenarioError(f"{where}: sensor_model: file not found: {sc.sensor_model}")
     sc.seed = _seed(data.get("seed"), where)
+    try:
+        sc.faults = faults_mod.parse(data.get("faults"), where)
+    except faults_mod.FaultError as err:
+        raise ScenarioError(str(err)) from None
     return sc
 
 

@@ -26,7 +26,7 @@ from nav_core import recording
 from nav_core.recording import GnssRecording, ImuRecording, Trajectory
 from nav_core.sensor_model import SensorModel, load as load_model
 
-from imu_sim import effects, errors, kinematics
+from imu_sim import effects, errors, faults, kinematics
 from imu_sim.gnss import GpsEffects, simulate_gnss
 from imu_sim.scenario import (MAX_RATE_HZ, MAX_SAMPLES, Scenario, ScenarioError, build_trajectory,
                               load as load_scenario, temperature_profile)
@@ -163,6 +163,9 @@ def _simulate(sc, mdl, traj, seed, rate, terms, with_bytes, temp_c) -> SimResult
     temp = temperature_profile(sc, t) if temp_c is None else _fit_length(np.asarray(temp_c, float), len(t))
     dtheta, dv = imu_measurements(t, dt, dtheta0, dv0, mdl, mdl.physics, temp, seed, terms)
     t_rel = t - traj.t0
+    if sc.faults:  # after the sensor's own errors, as a failing unit adds them
+        rates = faults.apply(sc.faults, t_rel, np.hstack([dtheta, dv]) / dt, np.random.default_rng([seed, 26]))
+        dtheta, dv = rates[:, :3] * dt, rates[:, 3:] * dt
     imu = ImuRecording(t_rel, dtheta / dt, dv / dt, temp, source=f"imu_sim:{sc.name}")
     gnss = None
     if sc.gps.enabled:
