@@ -97,3 +97,12 @@ def test_flicker_noise_has_the_allan_plateau_of_its_bias_instability():
     means = x[: n // m * m].reshape(-1, m).mean(1)
     adev = np.sqrt(0.5 * np.mean(np.diff(means) ** 2))
     assert adev == pytest.approx(0.664 * b, rel=0.3)
+
+
+@pytest.mark.parametrize("seed", range(4))
+def test_no_move_between_static_attitudes_is_near_a_half_turn(seed):
+    rng = np.random.default_rng(seed)
+    for pieces in (cases.fixture_sequence(rng, cases.six_face_order(rng), [(1, 2)] * 6, (1, 2), 1.0)[0],
+                   cases.rate_table_sequence(rng, 1.0)[0]):
+        for move in (p for p in pieces if isinstance(p, motion.Move)):
+            assert cases.move_angle_deg(move.start, move.stop) <= cases.MAX_MOVE_DEG + 2.0

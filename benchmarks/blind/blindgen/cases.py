@@ -83,13 +83,24 @@ FACES = [(0, 0), (180, 0), (0, -90), (0, 90), (90, 0), (-90, 0)]
 OPPOSITE = {0: 1, 1: 0, 2: 3, 3: 2, 4: 5, 5: 4}
 
 
+MAX_MOVE_DEG = 150.0
+"""Largest move between two static attitudes: near 180 deg a move could turn either way, and static
+segments cannot say which (see README), so the generator never asks for one."""
+
+
+def move_angle_deg(a: Rotation, b: Rotation) -> float:
+    """Angle (deg) of the rotation taking attitude ``a`` to ``b``."""
+    return float(np.degrees((a.inv() * b).magnitude()))
+
+
 def six_face_order(rng):
-    """The six faces in a random order with no face followed by its opposite: every move is a 90-deg turn,
-    whose path is unambiguous (a 180-deg flip could turn either way, which static segments cannot say)."""
+    """The six faces in a random order in which every move turns at most MAX_MOVE_DEG (at a common heading:
+    e.g. z down -> x up by pitching is a 180-deg turn, so it is excluded with the opposite faces)."""
     while True:
-        order = list(rng.permutation(6))
-        if all(OPPOSITE[a] != b for a, b in zip(order[:-1], order[1:])):
-            return [FACES[i] for i in order]
+        faces = [FACES[i] for i in rng.permutation(6)]
+        rots = [motion.euler_rot(r, p, 0.0) for r, p in faces]
+        if all(move_angle_deg(a, b) <= MAX_MOVE_DEG for a, b in zip(rots[:-1], rots[1:])):
+            return faces
 
 
 def fixture_sequence(rng, faces, dwells, move, tol_deg):
@@ -130,6 +141,10 @@ def rate_table_sequence(rng, tol_deg):
     for (roll, pitch), axis in mounts:
         tilt = _tilt(rng, tol_deg)
         nom = motion.euler_rot(roll, pitch, yaw)
+        for turn in (90.0, -90.0, 180.0):  # remount at a heading the move can reach unambiguously
+            if prev_true is None or move_angle_deg(prev_true, nom) <= MAX_MOVE_DEG:
+                break
+            nom = motion.euler_rot(roll, pitch, yaw + turn)
         tru = nom * tilt
         if prev_true is not None:
             mv = rng.uniform(4, 8)
