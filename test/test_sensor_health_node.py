@@ -14,6 +14,7 @@ from nav_core import sensor_model
 from nav_core.processes import NodeProcess
 from nav_core.ros_node import SENSOR_QOS, Probe, imu_from_arrays
 from nav_core.sensor_model import SensorModel, TriadModel
+from nav_core.status import level_name
 from sensor_health import noise_sim
 from sensor_health.events import Event
 from sensor_health.monitor import HealthMonitor
@@ -71,10 +72,11 @@ def test_node_names_the_fault_like_the_core_on_a_transient_local_topic_and_in_di
                 time.sleep(0.0005)
             assert probe.spin_until(summary(min(a + 64, len(t))), 20), \
                 f"the node did not take samples {a}..{a + 64}:\n{node.output}"
-        statuses = {st.name.split(": ")[-1]: ChannelStatus.from_values(st.name, st.level, st.message,
-                                                                        {kv.key: kv.value for kv in st.values})
+        statuses = {st.name.split(": ")[-1]: ChannelStatus.from_values({kv.key: kv.value for kv in st.values},
+                                                                        level_name(st.level[0]), st.message)
                     for st in summary(len(t))(probe).status}
-        assert statuses["gz"].effect == "stuck_output" and statuses["gz"].level == bytes([2])
+        assert statuses["gz"].effect == "stuck_output" and statuses["gz"].level == "ERROR"
+        assert abs(statuses["gz"].onset_s - expected[0].onset_s) < 1e-6
         assert statuses["summary"].events == 1 and statuses["gx"].effect == ""
 
         late = rclpy.create_node("late_listener")  # joins after the event was published

@@ -105,14 +105,14 @@ class SensorHealthNode(Node):
         now = self.monitor.checked_s[1] if self.monitor.checked_s[1] is not None else 0.0
         arr = DiagnosticArray()
         arr.header.stamp = self.get_clock().now().to_msg()
-        for s in status.statuses(self.monitor, now, self.counts):
-            values = s.values()
-            if s.name == status.SUMMARY:
+        for name, s in status.statuses(self.monitor, now, self.counts).items():
+            values = s.to_values()
+            if name == status.SUMMARY:
                 values.update({k: str(v) for k, v in self.stats.items()})
                 values["processing_mean_us"] = f"{1e6 * self.stats['busy_s'] / max(self.stats['received'], 1):.1f}"
                 if not self.stats["received"]:
                     s.message = "waiting for imu/data_raw"
-            arr.status.append(DiagnosticStatus(level=DIAG_LEVELS[s.level], name=f"{self.get_name()}: {s.name}",
+            arr.status.append(DiagnosticStatus(level=DIAG_LEVELS[s.level], name=f"{self.get_name()}: {name}",
                                                message=s.message, hardware_id="imu",
                                                values=[KeyValue(key=k, value=v) for k, v in values.items()]))
         self.diag_pub.publish(arr)
