@@ -1,9 +1,11 @@
 """Typed node status (nav_core.status.NodeStatus): every node with /diagnostics writes a dataclass that the report
 reads back through the same type; a key is spelled once, in the dataclass."""
 import dataclasses
+from pathlib import Path
 
 import pytest
 
+from imu_calib.status import AllanStatus
 from imu_driver.status import DriverStatus
 from ins_gps_kf.status import FilterStatus
 from nav_bringup import report
@@ -23,7 +25,7 @@ def _filled(cls):
     return cls(**kwargs)
 
 
-@pytest.mark.parametrize("cls", [DriverStatus, WmraStatus, ScenarioStatus, FilterStatus])
+@pytest.mark.parametrize("cls", [DriverStatus, WmraStatus, ScenarioStatus, FilterStatus, AllanStatus])
 def test_a_status_round_trips_through_its_diagnostics_strings(cls):
     st = _filled(cls)
     values = st.to_values()
@@ -37,6 +39,24 @@ def test_the_report_reads_each_node_s_status_through_its_type():
         st = _filled(cls)
         parsed = report.node_status(f"{node}: x", 1, "m", st.to_values())
         assert type(parsed) is cls and parsed == dataclasses.replace(st, level="WARN")
-    assert report.node_status("allan_node: allan characterisation", 0, "ok", {}) is None
+    assert report.node_status("bag_record: x", 0, "ok", {}) is None
     wmra = report.node_status("wmra_node: wmra", 1, "denoising", WmraStatus(nonfinite_samples=3).to_values())
     assert wmra.summary() == "restarts 0, nonfinite_samples 3"
+
+
+def test_the_allan_node_s_result_fits_its_status(tmp_path):
+    """Every key of the characterisation summary the worker sends has a field (AllanStatus.of refuses others)."""
+    import numpy as np
+
+    from imu_calib import characterise, synthetic
+    from nav_core.sensor_model import load
+
+    model = load(Path(__file__).resolve().parents[1] / "config" / "sensor_models" / "bp3010.yaml")
+    rec = synthetic.static_recording(model, 30.0, np.random.default_rng(0))
+    values = characterise.characterise_to_dir(rec, tmp_path, "imu/data_raw")
+    st = AllanStatus.of("OK", "wrote", values)
+    assert st.sensor_model_path.endswith("sensor_model.yaml") and st.gyro_x_white_noise > 0
+    back = AllanStatus.from_values(st.to_values(), "OK", "wrote")  # floats written to 6 significant digits
+    for f in dataclasses.fields(AllanStatus):
+        a, b = getattr(back, f.name), getattr(st, f.name)
+        assert (np.isclose(a, b, rtol=1e-5) if isinstance(b, float) else a == b), f.name

@@ -28,6 +28,7 @@ from rclpy.node import Node
 from sensor_msgs.msg import Imu
 
 from imu_calib import characterise
+from imu_calib.status import AllanStatus
 from nav_core.recording import IMU_TOPIC, ImuRecording
 from nav_core.params import ConfigError, Param
 from nav_core.ros_node import (SENSOR_QOS_IN, Diagnostics, declare_parameters,
@@ -124,9 +125,9 @@ class AllanNode(Node):
         self.conn = None
         self.proc.join(timeout=5.0)
         if level == "OK":
-            self._finish("OK", f"wrote {payload['sensor_model_path']}", payload)
+            self._finish(AllanStatus.of("OK", f"wrote {payload['sensor_model_path']}", payload))
         else:
-            self._finish("ERROR", payload, {"samples": self.n_collected, "non_finite_samples": self.n_non_finite})
+            self._finish(AllanStatus("ERROR", payload, samples=self.n_collected, non_finite_samples=self.n_non_finite))
 
     def close(self) -> None:
         """Stop a running worker (shutdown before the result)."""
@@ -134,24 +135,27 @@ class AllanNode(Node):
             self.proc.terminate()
             self.proc.join(timeout=5.0)
 
-    def _finish(self, level: str, message: str, values: dict) -> None:
-        self.final = (level, message, values)
-        log = self.get_logger().info if level == "OK" else self.get_logger().error
-        log(f"allan_node: {message}")
-        self.diag.publish(level, message, values)
+    def _finish(self, status: AllanStatus) -> None:
+        self.final = status
+        log = self.get_logger().info if status.level == "OK" else self.get_logger().error
+        log(f"allan_node: {status.message}")
+        self._publish(status)
+
+    def _publish(self, status: AllanStatus) -> None:
+        self.diag.publish(status.level, status.message, status.to_values())
 
     def _on_diag_timer(self) -> None:
         self._poll_worker()
         if self.final is None and self.proc is not None:
-            self.diag.publish("OK", "characterising", {"samples": self.n_collected, "worker_pid": self.proc.pid,
-                                                       "worker_nice": self.values["worker_nice"]})
+            self._publish(AllanStatus("OK", "characterising", samples=self.n_collected, worker_pid=self.proc.pid,
+                                      worker_nice=self.values["worker_nice"]))
             return
         if self.final is None:
             collected = (self.samples[-1][0] - self.samples[0][0]) if len(self.samples) > 1 else 0.0
-            self.diag.publish("OK", "collecting", {"samples": len(self.samples), "collected_s": collected,
-                                                   "non_finite_samples": self.n_non_finite})
+            self._publish(AllanStatus("OK", "collecting", samples=len(self.samples), collected_s=float(collected),
+                                      non_finite_samples=self.n_non_finite))
             return
-        self.diag.publish(*self.final)
+        self._publish(self.final)
         self.ticks_after_done += 1
         if self.values["exit_when_done"] and self.ticks_after_done >= 3:
             rclpy.try_shutdown()

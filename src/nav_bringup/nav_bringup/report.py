@@ -25,6 +25,7 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 from scipy.spatial.transform import Rotation  # noqa: E402
 
+from imu_calib.status import AllanStatus  # noqa: E402
 from imu_driver.status import DriverStatus  # noqa: E402
 from ins_gps_kf.status import FilterStatus  # noqa: E402
 from nav_eval.metrics import rms  # noqa: E402
@@ -203,7 +204,7 @@ BAG_LATE_IMU = "IMU the filter had before the bag's first (s)"
 
 
 STATUS_TYPES = {"bp3010_driver": DriverStatus, "wmra_node": WmraStatus, "ins_gps_kf_node": FilterStatus,
-                "scenario_player": ScenarioStatus}
+                "scenario_player": ScenarioStatus, "allan_node": AllanStatus}
 """Node name -> its typed status (:class:`nav_core.status.NodeStatus`), the type the node writes."""
 
 
