@@ -86,11 +86,12 @@ def test_nav_demo_starts_the_description_s_nodes_with_its_run_folders(tmp_path, 
     run = tmp_path / "run"
     specs = demo.graph_specs(args, run, sim)
     assert [s.executable for s in specs] == ["bp3010_driver", "wmra_node", "ins_gps_kf_node", "allan_node",
-                                             "bag_record", "scenario_player"]
+                                             "sensor_health_node", "bag_record", "scenario_player"]
     by = {s.executable: s.overrides for s in specs}
     assert by["scenario_player"]["link"] == by["bp3010_driver"]["port"] == str(run / "bp3010_port")
     assert by["bag_record"]["output"] == str(run / "bag") and by["allan_node"]["out_dir"] == str(run / "allan")
     assert by["ins_gps_kf_node"]["datum_h_m"] == 0.0
+    assert by["sensor_health_node"]["sensor_model_path"] == by["wmra_node"]["sensor_model_path"]
 
 
 def test_a_scenario_without_height_m_runs_through_demo_truth_and_datum(tmp_path, sim_without_height):

@@ -8,6 +8,7 @@ one params file (``config/navigation.yaml``) under these per-run overrides::
     recording:  bag_play -> wmra_node -> ins_gps_kf_node
     hardware:   bp3010_driver -> wmra_node -> ins_gps_kf_node
     always:     allan_node (stationary head), bag_record (everything)
+    not replaying a recording: sensor_health_node (names sensor faults live; events on sensor_health/events)
 
 Per-scenario overrides live here too: a simulation sets the filter's datum to the scenario's, so
 ``map`` is the frame of ``truth/odometry`` under every entry point.
@@ -61,7 +62,7 @@ class GraphInputs:
 
 PACKAGES = {"scenario_player": "nav_bringup", "bag_play": "imu_driver", "bp3010_driver": "imu_driver",
             "wmra_node": "wmra_filter", "ins_gps_kf_node": "ins_gps_kf", "allan_node": "imu_calib",
-            "bag_record": "imu_driver"}
+            "bag_record": "imu_driver", "sensor_health_node": "sensor_health"}
 
 
 def navigation_graph(inp: GraphInputs) -> list[NodeSpec]:
@@ -80,7 +81,10 @@ def navigation_graph(inp: GraphInputs) -> list[NodeSpec]:
             driver["reconnect_period_s"] = float(inp.reconnect_period_s)
         specs.append(NodeSpec("bp3010_driver", driver))
     specs += [NodeSpec("wmra_node", dict(sim, **model)), NodeSpec("ins_gps_kf_node", kf),
-              NodeSpec("allan_node", allan, ready="collecting"),
+              NodeSpec("allan_node", allan, ready="collecting")]
+    if inp.source != "recording":  # bag_play counts the readers of imu/data_raw: a third would start it early
+        specs.append(NodeSpec("sensor_health_node", dict(sim, **model)))
+    specs += [
               # the report replays the bag: it must hold all the filter received, so the recorder must be
               # subscribed before anything plays (its last subscription: the filter's output)
               NodeSpec("bag_record", dict(sim, output=str(inp.bag_out)), ready="recording /odometry/filtered")]
