@@ -67,6 +67,18 @@ PARAMETERS = (
          "m/s", 0.0, 100.0),
     Param("zupt_max_ins_speed_mps", 0.2, "no ZUPT while the INS speed exceeds this, m/s", 0.0, 100.0),
     Param("zupt_std_mps", 0.02, "zero-velocity measurement std, m/s", 1e-4, 10.0),
+    Param("nhc_enabled", False, "non-holonomic constraints: a land vehicle's lateral and vertical velocity at the "
+         "constraint point is zero (a measurement each filter epoch, skipped at rest, gated)"),
+    Param("nhc_std_mps", 0.1, "non-holonomic constraint std (lateral and vertical velocity), m/s", 1e-3, 10.0),
+    Param("nhc_gate_probability", 0.999, "chi-square gate of the constraint: a skid, a jump or a vehicle it does not "
+         "fit fails it (counted as nhc_rejected)", 0.5, 1.0),
+    Param("mounting_roll_deg", 0.0, "IMU-to-vehicle mounting roll (vehicle = R(mounting) body), deg", -180.0, 180.0),
+    Param("mounting_pitch_deg", 0.0, "IMU-to-vehicle mounting pitch, deg", -90.0, 90.0),
+    Param("mounting_yaw_deg", 0.0, "IMU-to-vehicle mounting yaw, deg", -180.0, 180.0),
+    Param("nhc_lever_arm_x_m", 0.0, "point the constraint holds at (rear axle) in body x (forward) from the IMU, m",
+         -100.0, 100.0),
+    Param("nhc_lever_arm_y_m", 0.0, "constraint point in body y (left), m", -100.0, 100.0),
+    Param("nhc_lever_arm_z_m", 0.0, "constraint point in body z (up), m", -100.0, 100.0),
     Param("estimate_scale_factors", False, "21 states: also estimate gyro and accel scale-factor errors"),
     Param("init_scale_factor_std_pct", 1.0, "initial gyro and accel scale-factor std (with estimate_scale_factors), "
          "%", 0.0, 100.0),
@@ -132,6 +144,11 @@ class FilterConfig:
     zupt_std: float = 0.02
     zupt_max_gps_speed: float = 0.1
     zupt_max_ins_speed: float = 0.2
+    nhc_enabled: bool = False
+    nhc_std: float = 0.1
+    nhc_gate_probability: float = 0.999
+    mounting_rpy: tuple = (0.0, 0.0, 0.0)  # rad
+    nhc_lever_arm_b: tuple = (0.0, 0.0, 0.0)  # m
     estimate_scale_factors: bool = False
     init_scale_factor_std: float = 0.01
     init_gyro_bias_std: float = 100.0 * DEG_PER_H
@@ -196,6 +213,10 @@ def from_params(params: dict) -> FilterConfig:
         zupt_enabled=bool(p["zupt_enabled"]), zupt_std=float(p["zupt_std_mps"]),
         zupt_max_gps_speed=float(p["zupt_max_gps_speed_mps"]),
         zupt_max_ins_speed=float(p["zupt_max_ins_speed_mps"]),
+        nhc_enabled=bool(p["nhc_enabled"]), nhc_std=float(p["nhc_std_mps"]),
+        nhc_gate_probability=float(p["nhc_gate_probability"]),
+        mounting_rpy=tuple(float(p[f"mounting_{a}_deg"]) * DEG for a in ("roll", "pitch", "yaw")),
+        nhc_lever_arm_b=tuple(float(p[f"nhc_lever_arm_{a}_m"]) for a in "xyz"),
         estimate_scale_factors=bool(p["estimate_scale_factors"]),
         init_scale_factor_std=float(p["init_scale_factor_std_pct"]) / 100.0,
         init_gyro_bias_std=p["init_gyro_bias_std_dph"] * DEG_PER_H,

@@ -32,7 +32,7 @@ from ins_gps_kf.gnss_policy import GnssPolicy
 from ins_gps_kf.odometry import Odometry, epoch_span, odometry
 from ins_gps_kf.records import (ALIGNING, HEADING_PENDING, NAVIGATING, STATUS_CODES, WAITING,  # noqa: F401
                                 Counters, Estimate, Fix)
-from ins_gps_kf.updates import Epoch, GnssPosition, ZeroVelocity
+from ins_gps_kf.updates import Epoch, GnssPosition, NonHolonomic, ZeroVelocity
 
 EPOCH_TOL_S = 1e-6  # stamps within this of an epoch belong to it (ns stamp rounding)
 
@@ -53,6 +53,7 @@ class InsGpsFilter:
         self.unknown_fix_std = input_checks.UnknownFixStd(measurements.UNKNOWN_FIX_STD_M, cfg.min_gps_std, self.input)
         self.gnss_model = GnssPosition(self.lever_arm_b)
         self.zupt = ZeroVelocity(cfg)
+        self.nhc = NonHolonomic(cfg)
         self.bridge = GapBridge(cfg)
         self.last_fix_t = -math.inf
         self.last_nis = math.nan
@@ -287,6 +288,8 @@ class InsGpsFilter:
         stationary = self.zupt.stationary(epoch)
         zupt_used = self._update(self.zupt, epoch)
         self.counters.zupts += zupt_used
+        epoch.stationary, epoch.rate_b = stationary, w_mean_b
+        self._update(self.nhc, epoch, self.counters, "nhc_updates", "nhc_rejected")
         strapdown.reset_accumulators(self.mem)
         self._update_earth()
         self.counters.epochs += 1
@@ -298,10 +301,17 @@ class InsGpsFilter:
                         np.concatenate([self.gyro_scale, self.accel_scale])
                         if self.n_states == em.N_STATES_SF else None, w_mean_b, *predicted)
 
-    def _update(self, model, epoch: Epoch) -> bool:
-        """Apply ``model``'s measurement at ``epoch`` if it has one; whether it passed the gate."""
+    def _update(self, model, epoch: Epoch, counters=None, used: str = "", rejected: str = "") -> bool:
+        """Apply ``model``'s measurement at ``epoch`` if it has one (gated at the model's probability, else the
+        filter's); whether it passed the gate. With ``counters``, the ``used`` or ``rejected`` count goes up."""
         measurement = model.measurement(epoch)
-        return measurement is not None and self._apply(measurement).accepted
+        if measurement is None:
+            return False
+        accepted = self._apply(measurement, model.gate_probability).accepted
+        if counters is not None:
+            key = used if accepted else rejected
+            setattr(counters, key, getattr(counters, key) + 1)
+        return accepted
 
     def _gps_update(self, epoch: Epoch):
         """Use the fix :class:`GnssPolicy` gives this epoch: heading from the course while it is pending, a GPS
@@ -331,10 +341,11 @@ class InsGpsFilter:
             return True, corr.nis
         return False, self.last_nis
 
-    def _apply(self, measurement):
+    def _apply(self, measurement, gate_probability: float | None = None):
         """Gate, update and feed back one ``(z, H, R)``; returns the Correction (its dx is None if rejected)."""
         z, h, r = measurement
-        self.cov, corr = kalman.correct(self.cov, z, h, r, self.cfg.gate_probability)
+        probability = self.cfg.gate_probability if gate_probability is None else gate_probability
+        self.cov, corr = kalman.correct(self.cov, z, h, r, probability)
         if corr.accepted:
             dx = corr.dx.copy()
             if self.status == HEADING_PENDING:

@@ -52,6 +52,8 @@ class Counters:
     fixes_rejected: int = 0
     fixes_reused: int = 0
     zupts: int = 0
+    nhc_updates: int = 0   # non-holonomic constraints applied
+    nhc_rejected: int = 0  # constraints the gate refused (a skid, or a vehicle they do not fit)
     resets: int = 0
     gps_resets: int = 0
     gaps_bridged: int = 0

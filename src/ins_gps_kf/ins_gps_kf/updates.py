@@ -12,7 +12,10 @@ from __future__ import annotations
 
 import numpy as np
 
+from nav_core import frames
+from nav_core.frames import skew
 from ins_gps_kf import measurements, strapdown
+from ins_gps_kf.error_model import BG, DV, PHI
 from ins_gps_kf.config import FilterConfig
 from ins_gps_kf.records import Fix
 
@@ -28,6 +31,8 @@ class Epoch:
         self.w_rms, self.w_mean, self.f_mean, self.f_std = motion[1:]  # rad/s, rad/s, m/s^2, m/s^2
         self.gravity = gravity  # m/s^2
         self.gps_speed = 0.0    # m/s, horizontal speed between the last two fixes less 3 sigma of its noise
+        self.rate_b = np.zeros(3)  # rad/s, the epoch's mean bias-corrected body rate
+        self.stationary = False  # the zero-velocity detector's verdict (set once it has judged the epoch)
 
     @property
     def mat_nb(self) -> np.ndarray:
@@ -39,6 +44,7 @@ class UpdateModel:
     """A measurement of the error state at filter epochs; subclasses give ``name`` and :meth:`measurement`."""
 
     name = ""
+    gate_probability: float | None = None  # chi-square gate of this model; None: the filter's (gate_probability)
 
     def measurement(self, epoch: Epoch):
         """``(z, H, R)`` at ``epoch``, or None when the model does not apply now."""
@@ -86,3 +92,36 @@ class ZeroVelocity(UpdateModel):
         if not (self.cfg.zupt_enabled and self.stationary(epoch)):
             return None
         return measurements.zero_velocity(epoch.nav[strapdown.V], self.cfg.zupt_std, epoch.n_states)
+
+
+class NonHolonomic(UpdateModel):
+    """Non-holonomic constraints of a land vehicle: zero lateral and vertical velocity of the vehicle frame at the
+    constraint point (rear axle, ``nhc_lever_arm_*`` from the IMU, body m), the IMU mounted at ``mounting_*``
+    (the body's roll, pitch, yaw in the vehicle frame). Skipped at rest (ZUPT's), gated on its own
+    (``nhc_gate_probability``): a skid, a jump or a vehicle the constraint does not fit fails the gate.
+
+    With ``C_est = (I - [phi x]) C_true`` the vehicle velocity ``v_v = C_vb (C_bn v_n + w_b x l)`` has the error
+    ``C_vb C_bn dv - C_vb C_bn [v_n x] phi + C_vb [l x] dbg`` (the corrected rate is ``w - dbg``).
+    """
+
+    name = "nhc"
+
+    def __init__(self, cfg: FilterConfig):
+        self.enabled = cfg.nhc_enabled
+        self.std = cfg.nhc_std
+        self.gate_probability = cfg.nhc_gate_probability
+        self.mat_vb = frames.mat_nb_from_euler(*cfg.mounting_rpy)
+        self.lever_b = np.asarray(cfg.nhc_lever_arm_b, dtype=float)
+
+    def measurement(self, epoch: Epoch):
+        if not self.enabled or epoch.stationary:
+            return None
+        mat_bn = epoch.mat_nb.T
+        vel_n = epoch.nav[strapdown.V]
+        vel_v = self.mat_vb @ (mat_bn @ vel_n + np.cross(epoch.rate_b, self.lever_b))
+        rows = self.mat_vb[1:] @ mat_bn  # lateral and vertical axes of the vehicle, in ENU
+        h = np.zeros((2, epoch.n_states))
+        h[:, DV] = rows
+        h[:, PHI] = -rows @ skew(vel_n)
+        h[:, BG] = self.mat_vb[1:] @ skew(self.lever_b)
+        return vel_v[1:].copy(), h, np.eye(2) * self.std**2

@@ -145,5 +145,6 @@ def run_case(imu, gnss, model, params: dict):
 def counters(filt: InsGpsFilter) -> dict:
     """The filter's event counts and its rejected-input counts, for a report."""
     c = filt.counters
-    return {"fixes": c.fixes, "rejected": c.fixes_rejected, "zupts": c.zupts, "gps_resets": c.gps_resets,
+    return {"fixes": c.fixes, "rejected": c.fixes_rejected, "zupts": c.zupts, "nhc_updates": c.nhc_updates,
+            "nhc_rejected": c.nhc_rejected, "gps_resets": c.gps_resets,
             "input": {k: v for k, v in filt.input_counters.items() if v}}
