@@ -165,3 +165,23 @@ def test_allan_point_correlation_matches_monte_carlo(terms, coefficients):
         i = np.arange(len(taus) - lag - 2)
         # sd of a correlation estimate from 300 runs is (1 - rho^2) / sqrt(300) < 0.058
         np.testing.assert_allclose(measured[i, i + lag], predicted[i, i + lag], atol=0.15)
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("whittle", [True, False], ids=["pipeline", "allan_fit_alone"])
+def test_random_walk_95_percent_interval_covers_the_truth_on_95_percent_of_axes(whittle):
+    # issue 14's case at 1 Hz (the same information on K as 100 Hz, a hundredth of the cost), 100 seeds x 3 axes:
+    # coverage within 3 binomial sigma of 95 % (was 274/300 with the likelihood, 269/300 with the Allan fit alone:
+    # a dropped K's bound came from the fit where flicker had taken the rise, and a low K's symmetric interval
+    # ended below the truth). Measured 281/300 and 288/300; the exact ML with the true terms covers 285/300.
+    rate, n = 1.0, int(TWO_HOURS_S)
+    covered = []
+    for seed in range(100):
+        rng = np.random.default_rng(seed)
+        for n_coef, k_coef in zip(REPORTED_N, REPORTED_K):
+            x = synthetic.noise(n, rate, synthetic.NoiseTerms(N=n_coef, K=k_coef), rng)
+            lo, hi = fit_noise(overlapping_adev(x, rate), samples=x if whittle else None).intervals["K"]
+            covered.append(lo <= k_coef <= hi)
+    share = float(np.mean(covered))
+    assert share >= 0.95 - 3 * np.sqrt(0.95 * 0.05 / len(covered)), share
+    assert share <= 0.995, share  # not bought with intervals that say nothing

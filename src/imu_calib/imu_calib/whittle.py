@@ -45,6 +45,8 @@ from scipy import fft
 WHITTLE_TERMS = ("Q", "N", "B", "K", "R")
 """Terms the likelihood models: four variance terms and the rate ramp (the differences' mean)."""
 VARIANCE_TERMS = ("Q", "N", "B", "K")
+PROFILE_UPPER_LEVEL = 2.705543454095404
+"""chi-square(1) 90 % point: a profile-likelihood rise this large bounds a coefficient at one-sided 95 %."""
 SINGLE_BINS = 512
 """The lowest sine coefficients enter one by one; above them they are pooled in groups of at most 1 % in frequency."""
 
@@ -196,10 +198,12 @@ class WhittleProblem:
             value += 0.5 * np.log(a)
         return value, zz, mu, a
 
-    def fit(self, terms, theta0, max_iter: int = 100, reml: bool = True) -> WhittleFit:
+    def fit(self, terms, theta0, max_iter: int = 100, reml: bool = True, fixed=None) -> WhittleFit:
         """ML (REML with a ramp) squared coefficients of the variance terms among ``terms`` (subset of
-        WHITTLE_TERMS, at least one variance term), from start ``theta0`` (one value per variance term)."""
+        WHITTLE_TERMS, at least one variance term), from start ``theta0`` (one value per variance term);
+        ``fixed`` (term -> squared coefficient) adds terms held at those values (a profile likelihood)."""
         terms = tuple(terms)
+        s0 = sum((v * self.column(t) for t, v in (fixed or {}).items()), np.zeros(len(self.counts)))
         if any(t not in WHITTLE_TERMS for t in terms) or not any(t in VARIANCE_TERMS for t in terms):
             raise ValueError(f"likelihood terms must be a subset of {WHITTLE_TERMS} with a variance term, got {terms}")
         ramp = "R" in terms
@@ -211,11 +215,11 @@ class WhittleProblem:
             theta0[bad] = 0.1 * np.min((self.zz / self.counts)[:, None] / P[:, bad], axis=0)
         Ps = P * theta0  # scaled so that the start is u = 0 for every term: a well-conditioned problem
         u = np.zeros(len(var_terms))
-        f, zz, mu, a = self._nll(Ps @ np.exp(u), ramp, reml)
+        f, zz, mu, a = self._nll(Ps @ np.exp(u) + s0, ramp, reml)
         converged, it = False, 0
         for it in range(1, max_iter + 1):
             w = np.exp(u)
-            s = Ps @ w
+            s = Ps @ w + s0
             A = Ps * w / s[:, None]
             r = (self.counts - zz / s)
             grad = 0.5 * (A.T @ r)
@@ -227,7 +231,7 @@ class WhittleProblem:
             t = 1.0
             while True:  # backtracking (Armijo) line search on the likelihood
                 u_new = np.clip(u + t * step, -60.0, 60.0)
-                f_new, zz_new, mu_new, a_new = self._nll(Ps @ np.exp(u_new), ramp, reml)
+                f_new, zz_new, mu_new, a_new = self._nll(Ps @ np.exp(u_new) + s0, ramp, reml)
                 if f_new <= f + 1e-4 * t * float(grad @ step) or t < 1e-8:
                     break
                 t *= 0.5
@@ -237,7 +241,7 @@ class WhittleProblem:
                 converged = True
                 break
         theta = theta0 * np.exp(u)
-        s = P @ theta
+        s = P @ theta + s0
         A = P / s[:, None]
         cov = np.linalg.pinv(0.5 * (A * self.counts[:, None]).T @ A)
         nll = self._nll(s, ramp, reml=False)[0]  # models are compared on the profile likelihood
@@ -245,6 +249,37 @@ class WhittleProblem:
         ramp_sd = self.rate_hz / np.sqrt(a) if ramp else 0.0
         ok = converged and bool(np.isfinite(nll)) and bool(np.all(np.isfinite(theta)))
         return WhittleFit(var_terms, theta, cov, ok, self.n_bins, float(nll), float(ramp_value), float(ramp_sd), it)
+
+
+    def profile_upper(self, terms, term: str, theta0, level: float = PROFILE_UPPER_LEVEL, guess: float = 0.0) -> float:
+        """Upper bound of ``term``'s squared coefficient (a variance term among ``terms``) from the profile
+        likelihood: where twice the negative log-likelihood, the other terms re-fitted, rises ``level`` above its
+        minimum (2.706: the one-sided 95 % bound, also at the boundary theta = 0). ``theta0``: start values as
+        for :meth:`fit`, ``guess`` a value near the bound (where the search starts). The Wald interval of a term
+        near zero is not one; this is (Wilks, and Self & Liang)."""
+        terms = tuple(terms)
+        best = self.fit(terms, theta0, reml=False)
+        var_terms = [t for t in terms if t != "R"]
+        i = var_terms.index(term)
+        others = tuple(t for t in terms if t != term)
+        start = [v for t, v in zip(var_terms, best.theta) if t != term]
+
+        def rise(v):
+            return 2.0 * (self.fit(others, start, reml=False, fixed={term: v}).nll - best.nll) - level
+
+        # a bracket from the estimate (the rise is below the level there) up, then bisection in log
+        lo = max(float(best.theta[i]), 1e-12 * float(np.max(self.zz / self.counts / self.column(term))))
+        hi = max(4.0 * lo, guess)
+        for _ in range(60):
+            if rise(hi) > 0:
+                break
+            lo, hi = hi, 4.0 * hi
+        for _ in range(40):
+            mid = np.sqrt(lo * hi)
+            lo, hi = (mid, hi) if rise(mid) < 0 else (lo, mid)
+            if hi / lo < 1.01:
+                break
+        return float(hi)
 
 
 def fit_whittle(x, rate_hz: float, terms, theta0, tau_c: float = 0.0, max_iter: int = 100) -> WhittleFit:
