@@ -13,6 +13,7 @@ recording, its CPU time (user + system of the child process) divided by the reco
 from __future__ import annotations
 
 import argparse
+import csv
 import os
 import resource
 import shutil
@@ -75,10 +76,18 @@ def bench_speed(work: Path, n: int, hours: float) -> None:
     t_batch, cpu_batch = _run([executable("nav-batch"), "allan", *recs, "--out", str(work / "batch"),
                                "--workers", "2", "--no-progress"])
     same = all(_identical(work / "serial" / Path(r).stem, work / "batch" / Path(r).stem) for r in recs)
+    with open(work / "batch" / "results.csv", newline="") as fh:
+        tasks = [(float(r["wall_s"]), float(r["cpu_s"])) for r in csv.DictReader(fh)]
     print(f"  serial loop of imu-calib allan: {t_serial:.1f} s wall, {cpu_serial:.1f} CPU-s")
     print(f"  nav-batch allan --workers 2:    {t_batch:.1f} s wall, {cpu_batch:.1f} CPU-s (workers included)")
     print(f"  speed-up {t_serial / t_batch:.2f}x (target >= 1.6x on 2 cores); outputs byte-identical: {same}; "
           f"load average {os.getloadavg()[0]:.1f} at the end")
+    print(f"  in the workers: {sum(c for _, c in tasks):.1f} CPU-s for {len(tasks)} recordings, each task "
+          f"{np.mean([c / w for w, c in tasks]):.0%} of a core on average (wall {sum(w for w, _ in tasks):.1f} s in all)")
+    autogroup = Path("/proc/sys/kernel/sched_autogroup_enabled")
+    if autogroup.exists() and autogroup.read_text().strip() == "1":
+        print("  (the kernel's autogroup scheduling is on: under load a session's processes share one session's "
+              "part of the CPU, however many they are)")
 
 
 def _drive_bag(folder: Path, hours: float) -> tuple[str, str]:

@@ -83,7 +83,7 @@ def failed_row(recording: str, tool: str, err: BaseException) -> dict:
         why = "the worker running it died each time it was tried (crash or out of memory)"
     else:
         why = f"{type(err).__name__}: {err}"
-    return {"recording": recording, "status": "error", "wall_s": "",
+    return {"recording": recording, "status": "error", "wall_s": "", "cpu_s": "",
             "message": f"{recording}: {TOOLS[tool].command} did not finish: {why}"}
 
 

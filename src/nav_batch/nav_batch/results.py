@@ -8,7 +8,7 @@ from pathlib import Path
 
 from nav_core.outputs import OutputError, atomic_write_text
 
-BASE_COLUMNS = ("recording", "status", "message", "wall_s")
+BASE_COLUMNS = ("recording", "status", "message", "wall_s", "cpu_s")
 RESULTS = "results.csv"
 BATCH = "batch.json"
 
@@ -24,14 +24,15 @@ def write_rows(out_dir: Path, rows: list, columns: tuple) -> Path:
 
 def read_rows(out_dir: Path) -> dict:
     """recording -> row of an earlier run's results.csv ({} when there is none)."""
+    required = BASE_COLUMNS[:4]
     path = Path(out_dir) / RESULTS
     if not path.exists():
         return {}
     with open(path, newline="") as fh:
         reader = csv.DictReader(fh)
-        if reader.fieldnames is None or not set(BASE_COLUMNS) <= set(reader.fieldnames):
+        if reader.fieldnames is None or not set(required) <= set(reader.fieldnames):
             raise OutputError(f"{path}: not a nav-batch results file (columns {reader.fieldnames}); "
-                              f"expected {', '.join(BASE_COLUMNS)}")
+                              f"expected {', '.join(required)}")
         return {row["recording"]: row for row in reader}
 
 

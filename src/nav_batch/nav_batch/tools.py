@@ -125,16 +125,16 @@ def run_one(tool: str, recording: str, out_dir: str, options: dict) -> dict:
     if tool == "replay":
         out.mkdir(parents=True, exist_ok=True)  # replay writes a file into the folder
     with _ONE_AT_A_TIME:
-        start = time.perf_counter()
+        start, cpu = time.perf_counter(), time.process_time()
         stdout, stderr = io.StringIO(), io.StringIO()
         with contextlib.redirect_stdout(stdout), contextlib.redirect_stderr(stderr):
             try:
                 rc = _main_of(tool)(spec.argv(recording, out, options))
             except SystemExit as stop:  # argparse: a bad option value
                 rc = stop.code if isinstance(stop.code, int) else 2
-        wall = time.perf_counter() - start
+        wall, cpu = time.perf_counter() - start, time.process_time() - cpu
     row = {"recording": recording, "status": "ok" if rc == 0 else "error",
-           "message": _message(stderr.getvalue(), rc), "wall_s": round(wall, 3)}
+           "message": _message(stderr.getvalue(), rc), "wall_s": round(wall, 3), "cpu_s": round(cpu, 3)}
     if rc == 0:
         try:
             row.update(spec.figures(out, stdout.getvalue()))
