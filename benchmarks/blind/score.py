@@ -171,7 +171,9 @@ def summarise(rows, sha: str) -> str:
     by_case = defaultdict(list)
     for r in rows:
         by_case[r["case"]].append(r)
-    lines = [f"diagnosis frozen at {sha[:10]}; {len(rows)} runs", "",
+    last = subprocess.run(["git", "-C", str(ROOT), "log", "-1", "--format=%h %cI", sha, "--", "src/imu_sim"],
+                          capture_output=True, text=True).stdout.strip()
+    lines = [f"diagnosis frozen at {sha[:10]} (src/imu_sim last changed in {last}); {len(rows)} runs", "",
              "| case | runs | grades | named first / null clean | interval coverage | median s |",
              "|---|---|---|---|---|---|"]
     eff_hit = eff_n = null_ok = null_n = cov = scored = 0
@@ -215,6 +217,8 @@ def main(argv=None) -> int:
     ap.add_argument("--workers", type=int, default=2)
     ap.add_argument("--timeout-s", type=float, default=1200.0)
     ap.add_argument("--report", default=None)
+    ap.add_argument("--summarise-only", action="store_true",
+                    help="only summarise the rows already in --work (e.g. of a run stopped at a deadline)")
     ap.add_argument("--perfect-reference", action="store_true",
                     help="control run: fixtures at their nominal attitudes, drive truth without its error")
     args = ap.parse_args(argv)
@@ -222,6 +226,15 @@ def main(argv=None) -> int:
     work.mkdir(parents=True, exist_ok=True)
     pkg_root, sha = freeze(args.rev, work)
     names = cases.case_names() if args.cases == "all" else args.cases.split(",")
+    if args.summarise_only:
+        rows = [json.loads(p.read_text()) for p in sorted((work / "cases").glob("*/row.json"))]
+        text = summarise([r for r in rows if r["case"] in names], sha)
+        if args.perfect_reference:
+            text = "CONTROL (perfect reference: no fixture error, no drive-truth error)\n" + text
+        print(text)
+        if args.report:
+            Path(args.report).write_text(text + "\n")
+        return 0
     jobs = [(n, s) for s in parse_seeds(args.seeds) for n in names]
     rows = []
     with ProcessPoolExecutor(args.workers) as pool:
