@@ -36,6 +36,8 @@ from nav_core.earth import LocalFrame  # noqa: E402
 from nav_core.frames import euler_from_quat_xyzw, wrap_angle  # noqa: E402
 from nav_core.status import level_name  # noqa: E402
 from nav_core.units import DEG  # noqa: E402
+from sensor_health.events import Event  # noqa: E402
+from sensor_health.status import ChannelStatus  # noqa: E402
 from wmra_filter.status import WmraStatus  # noqa: E402
 
 
@@ -204,7 +206,8 @@ BAG_LATE_IMU = "IMU the filter had before the bag's first (s)"
 
 
 STATUS_TYPES = {"bp3010_driver": DriverStatus, "wmra_node": WmraStatus, "ins_gps_kf_node": FilterStatus,
-                "scenario_player": ScenarioStatus, "allan_node": AllanStatus}
+                "scenario_player": ScenarioStatus, "allan_node": AllanStatus,
+                "sensor_health_node": ChannelStatus}
 """Node name -> its typed status (:class:`nav_core.status.NodeStatus`), the type the node writes."""
 
 
@@ -284,8 +287,10 @@ def write_report(run_dir: Path, sim_dir: Path | None = None, truth_csv: Path | N
     res["stream"] = _stream_checks(raw, den, diags)
     if sim_dir is not None and raw is not None and len(raw) > 8:
         res["stamps"] = frame_time_errors(raw, sim_dir, truth.epoch_s)
+    res["health_events"] = health_events(bag)
     _write_html(run_dir, res, odom, gnss, raw, den, diags, figures, exit_codes or {})
     summary = {"rms": res["rms"], "offline": offline, "stream": res["stream"], "stamps": res.get("stamps"),
+               "sensor_health_events": [e.to_dict() for e in res["health_events"]],
                "exit_codes": exit_codes or {}}
     (run_dir / "summary.json").write_text(json.dumps(summary, indent=1, default=str))
     return _summary(run_dir, res, odom, gnss, raw, den, diags, exit_codes or {})
@@ -385,6 +390,23 @@ def _counts(odom, gnss, raw, den) -> dict:
     return out
 
 
+HEALTH_EVENTS_TOPIC = "sensor_health/events"
+
+
+def health_events(bag: Path) -> list:
+    """The events sensor_health_node published (one JSON :class:`sensor_health.events.Event` each), in order."""
+    try:
+        return [Event.from_dict(json.loads(msg.data)) for _, _, msg in bagio.iter_messages(bag, [HEALTH_EVENTS_TOPIC])]
+    except (bagio.BagDamage, ValueError, KeyError):
+        return []
+
+
+def _health_lines(events) -> list:
+    lines = [f"    sensor health: {len(events)} events" + (":" if events else " (sensor_health_node named no fault)")]
+    return lines + [f"      t {e.t_s:.3f} s (onset {e.onset_s:.3f} s) {e.level} {e.effect} {','.join(e.channels)}: "
+                    f"{e.message}" for e in events]
+
+
 def _summary(run_dir, res, odom, gnss, raw, den, diags, codes) -> str:
     lines = [f"=== Navigation report: {run_dir / 'report.html'}",
              f"    reference: {res['reference']}; {len(odom)} filter epochs over {odom.t[-1] - odom.t[0]:.0f} s"]
@@ -414,6 +436,7 @@ def _summary(run_dir, res, odom, gnss, raw, den, diags, codes) -> str:
         status = node_status(name, level, message, values)
         detail = status.summary() if status is not None else ""
         lines.append(f"    [{level_name(level):5}] {name}: {message}" + (f" ({detail})" if detail else ""))
+    lines += _health_lines(res.get("health_events", []))
     if codes:
         lines.append("    exit codes: " + ", ".join(f"{k} {v}" for k, v in codes.items()))
     return "\n".join(lines)
@@ -442,6 +465,7 @@ table{{border-collapse:collapse;margin-bottom:1em}}</style></head><body>
 <h2>Messages</h2>{_table(_counts(odom, gnss, raw, den))}
 <h2>Stamps and drops</h2>{_table({**res.get("stream", {}), **(res.get("stamps") or {})})}
 <h2>Live odometry against an offline replay of the bag</h2>{_table(res.get("offline") or no_offline)}
+<h2>Sensor health events</h2><pre>{html.escape(chr(10).join(_health_lines(res.get("health_events", []))))}</pre>
 <h2>Exit codes</h2>{_table(codes)}
 {imgs}
 <h2>Diagnostics (last status of every node)</h2><table>{diag_rows}</table>

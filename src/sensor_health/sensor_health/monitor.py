@@ -408,12 +408,15 @@ class HealthMonitor:
         for c in CHANNELS:
             evs = [e for (eff, ch), e in self.active.items() if ch == c]
             latest = max(evs, key=lambda e: e.t_s) if evs else None
-            live = latest is not None and (self._still_active(latest, c) or now_s - latest.t_s <= self.config.clear_s)
+            live = latest is not None and (self._still_active(latest, c, now_s)
+                                           or now_s - latest.t_s <= self.config.clear_s)
             out[c] = (latest.level if live else "OK", latest)
         return out
 
-    def _still_active(self, e: Event, ch: str) -> bool:
+    def _still_active(self, e: Event, ch: str, now_s: float) -> bool:
         c = CHANNELS.index(ch)
+        if e.effect == "vibration":  # the line still passes the gate
+            return bool(now_s - self.line_last[c] <= self.config.clear_s)
         if e.effect == "white_noise_increase":
             return bool(self.noise_active[c])
         if e.effect == "stuck_output":

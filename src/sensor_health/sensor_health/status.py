@@ -26,7 +26,7 @@ class ChannelStatus(NodeStatus):
     events: int = 0
 
     PRECISE = ("onset_s", "t_s")
-    SUMMARY = ("effect", "onset_s", "events")
+    SUMMARY = ("events",)
 
 
 def statuses(monitor, now_s: float, counts: dict) -> dict:
