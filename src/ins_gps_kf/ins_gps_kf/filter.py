@@ -288,7 +288,7 @@ class InsGpsFilter:
         stationary = self.zupt.stationary(epoch)
         zupt_used = self._update(self.zupt, epoch)
         self.counters.zupts += zupt_used
-        epoch.stationary, epoch.rate_b = stationary, w_mean_b
+        epoch.stationary, epoch.rate_b, epoch.heading_known = stationary, w_mean_b, self.status == NAVIGATING
         self._update(self.nhc, epoch, self.counters, "nhc_updates", "nhc_rejected")
         strapdown.reset_accumulators(self.mem)
         self._update_earth()

@@ -33,6 +33,7 @@ class Epoch:
         self.gps_speed = 0.0    # m/s, horizontal speed between the last two fixes less 3 sigma of its noise
         self.rate_b = np.zeros(3)  # rad/s, the epoch's mean bias-corrected body rate
         self.stationary = False  # the zero-velocity detector's verdict (set once it has judged the epoch)
+        self.heading_known = False  # navigating with a heading (not pending one from the GNSS course)
 
     @property
     def mat_nb(self) -> np.ndarray:
@@ -97,7 +98,9 @@ class ZeroVelocity(UpdateModel):
 class NonHolonomic(UpdateModel):
     """Non-holonomic constraints of a land vehicle: zero lateral and vertical velocity of the vehicle frame at the
     constraint point (rear axle, ``nhc_lever_arm_*`` from the IMU, body m), the IMU mounted at ``mounting_*``
-    (the body's roll, pitch, yaw in the vehicle frame). Skipped at rest (ZUPT's), gated on its own
+    (the body's roll, pitch, yaw in the vehicle frame). Skipped at rest (ZUPT's) and while the heading is
+    pending (the constraint acts along the body axes: with a yaw still unknown it bent the velocity and the tilt,
+    0.56 -> 0.85 m RMS on the Katwijk rover with x forward; 0.54 m skipping), gated on its own
     (``nhc_gate_probability``): a skid, a jump or a vehicle the constraint does not fit fails the gate.
 
     With ``C_est = (I - [phi x]) C_true`` the vehicle velocity ``v_v = C_vb (C_bn v_n + w_b x l)`` has the error
@@ -114,7 +117,7 @@ class NonHolonomic(UpdateModel):
         self.lever_b = np.asarray(cfg.nhc_lever_arm_b, dtype=float)
 
     def measurement(self, epoch: Epoch):
-        if not self.enabled or epoch.stationary:
+        if not self.enabled or epoch.stationary or not epoch.heading_known:
             return None
         mat_bn = epoch.mat_nb.T
         vel_n = epoch.nav[strapdown.V]
