@@ -44,6 +44,7 @@ from scipy import optimize, stats
 from imu_calib.allan import (ALPHA_FLICKER_FM, ALPHA_RW_FM, ALPHA_WHITE_FM, ALPHA_WHITE_PM, AllanDeviation,
                              edf_overlapping)
 from imu_calib.allan_cov import allan_correlation, flicker_avar
+from imu_calib.intervals import Z95, chi2_interval, profile_bound, rival_bounds
 from imu_calib.synthetic import FLICKER_LEVEL, gm_avar
 from imu_calib.whittle import VARIANCE_TERMS, WHITTLE_TERMS, WhittleProblem
 
@@ -54,7 +55,6 @@ SCHEMA_NAMES = {"Q": "quantization", "N": "white_noise", "B": "bias_instability"
 _POWERS = np.array([-2.0, -1.0, 0.0, 1.0, 2.0])
 _FACTORS = np.array([3.0, 1.0, FLICKER_LEVEL, 1.0 / 3.0, 0.5])
 _ALPHAS = np.array([ALPHA_WHITE_PM, ALPHA_WHITE_FM, ALPHA_FLICKER_FM, ALPHA_RW_FM, ALPHA_RW_FM])
-Z95 = 1.959963984540054
 MISFIT_P_VALUE = 1e-3
 """A fit whose generalised chi-square has a p-value below this is far beyond its dof: poor."""
 DROP_CHI2 = 3.841458820694124
@@ -268,7 +268,7 @@ def fit_noise(adev: AllanDeviation, terms=TERMS, min_share: float = 0.1, try_gau
         # the likelihood's choice must still explain the Allan curve within its dof
         kept = _add_what_the_residual_asks_for(prob, terms, kept, upper, tau_c, floor)
     if whittle is None:
-        _rival_bounds(prob, terms, kept, upper, tau_c, floor)
+        rival_bounds(prob, terms, kept, upper, tau_c, floor, DROP_CHI2)
     final = prob.fit(kept, tau_c, floor)
     fit = _make_fit(final.c, final.cov, final.chi2, kept, len(prob.taus))
     for term in TERMS:
@@ -306,28 +306,6 @@ def _select(prob: _Problem, terms, tau_c: float, floor: float, min_share: float)
         upper[kept[i]] = float(np.sqrt(max(full.c[i], 0.0) + Z95 * np.sqrt(max(full.cov[i, i], 0.0))))
         kept.pop(i)
     return kept, upper
-
-
-def _rival_bounds(prob: _Problem, terms, kept, upper, tau_c: float, floor: float) -> None:
-    """Raise the upper bound of a dropped long-cluster-time term (B, K) to cover the term sets the Allan curve does
-    not reject: the kept terms with it, and with it in place of a kept rival (K for B, B for K) where that fit's
-    chi-square is within DROP_CHI2 of the kept terms' (in place).
-
-    Flicker chosen for a rise a random walk made left K's bound from the fit with B in it, below the truth on
-    14 of 300 axes of issue 14's case; the set with K instead explains the curve as well and bounds K honestly.
-    """
-    base = prob.fit(kept, tau_c, floor).chi2
-    for t in LONG_TAU_TERMS:
-        if t not in terms or t in kept:
-            continue
-        sets = [_ordered(terms, kept + [t])]
-        sets += [_ordered(terms, [u for u in kept if u != r] + [t]) for r in LONG_TAU_TERMS if r in kept and r != t]
-        for trial in sets:
-            f = prob.fit(trial, tau_c, floor)
-            if f.chi2 > base + DROP_CHI2:
-                continue
-            i = trial.index(t)
-            upper[t] = max(upper.get(t, 0.0), _chi2_interval(float(f.c[i]), float(np.sqrt(max(f.cov[i, i], 0.0))))[1])
 
 
 def _add_what_the_residual_asks_for(prob: _Problem, terms, kept, upper, tau_c: float, floor: float):
@@ -388,26 +366,10 @@ def _whittle_select(prob: _Problem, whittle: WhittleProblem, terms, kept, upper,
             i = trial.index(t)
             upper[t] = float(np.sqrt(max(f.c[i], 0.0) + Z95 * np.sqrt(max(f.cov[i, i], 0.0))))
             if t in VARIANCE_TERMS:
-                upper[t] = _profile_bound(whittle, terms, rivals, t, start, upper[t])
+                upper[t] = profile_bound(whittle, terms, rivals, t, start, upper[t])
         else:
             upper.pop(t, None)
     return cur
-
-
-def _profile_bound(whittle: WhittleProblem, terms, rivals, term: str, start: dict, allan_bound: float) -> float:
-    """95 % upper bound of a dropped variance ``term``: the largest profile-likelihood bound over the term sets
-    the data do not reject (``rivals``: within DROP_CHI2 of the chosen one's score), each with ``term`` added.
-
-    The bound of the chosen set alone is conditional on the choice: where flicker was chosen for a rise that a
-    random walk made, B took the rise and K's bound fell below the truth (7 of 120 axes in issue 14's case, the
-    Allan fit's bound alike); a set the data cannot tell from the chosen one must be covered as well.
-    """
-    bounds = []
-    for subset in rivals:
-        trial = _ordered(terms, list(subset) + [term])
-        bounds.append(whittle.profile_upper(trial, term, [start[u] for u in trial if u != "R"],
-                                            guess=allan_bound ** 2))
-    return float(np.sqrt(max(bounds)))
 
 
 def _ordered(terms, subset) -> list:
@@ -490,29 +452,13 @@ def _choose_bias_law(prob: _Problem, terms) -> tuple:
     return (float(tau_c) if chosen else 0.0), info
 
 
-def _chi2_interval(c: float, sd: float) -> tuple:
-    """95 % interval of a coefficient whose square ``c`` has standard deviation ``sd``: ``c`` taken as a scaled
-    chi-square of ``2 c^2 / sd^2`` degrees of freedom (Satterthwaite, as for an Allan variance point).
-
-    A variance estimated from few degrees of freedom is skewed: the symmetric ``c +- 1.96 sd`` put the upper
-    end below the truth whenever the draw came out low (a random walk's K from the last few Allan points:
-    the Allan fit's interval covered K on 269 of 300 axes of issue 14's case at 1 Hz, 17 misses with K kept).
-    Many degrees of freedom: the same as the symmetric one.
-    """
-    if not (c > 0 and sd > 0):
-        return 0.0, float(np.sqrt(max(c, 0.0) + Z95 * max(sd, 0.0)))
-    dof = max(2.0 * c * c / (sd * sd), 1.0)  # below one degree of freedom the estimate says next to nothing
-    lo, hi = (c * dof / stats.chi2.ppf(q, dof) for q in (0.975, 0.025))
-    return float(np.sqrt(lo)), float(np.sqrt(hi))
-
-
 def _make_fit(c, cov, chi2, kept, n_points) -> NoiseFit:
     values = {t: 0.0 for t in TERMS}
     intervals = {t: (0.0, 0.0) for t in TERMS}
     sd = np.sqrt(np.maximum(np.diag(cov), 0.0))
     for i, t in enumerate(kept):
         values[t] = float(np.sqrt(c[i]))
-        intervals[t] = _chi2_interval(float(c[i]), float(sd[i]))
+        intervals[t] = chi2_interval(float(c[i]), float(sd[i]))
     dof = max(n_points - len(kept), 1)
     return NoiseFit(values, intervals, tuple(kept), chi2 / dof, n_points)
 
