@@ -107,6 +107,7 @@ class HealthMonitor:
         self.quiet_run = 0
         self.quiet_spans = []
         """(t0, t1) of the windows the bias test ran on (the change point is looked for in them only)."""
+        self.bias_prev = None
         self.bias_warm = []
         self.bias_pos, self.bias_neg = np.zeros(6), np.zeros(6)
         self.bias_start = np.full((2, 6), np.nan)
@@ -330,16 +331,25 @@ class HealthMonitor:
         return events
 
     def _bias(self, w, t0, t1, ws, use) -> list:
+        """The bias test on the window before this one, if neither is in a turn.
+
+        Turning, a land vehicle rolls: gx sees the roll rate, gy the yaw rate times the roll, az the lateral
+        acceleration times it. The test holds its state through turns, the QUIET_HOLD windows after one and the
+        window before one (the roll-in starts before the yaw rate is up), and runs on straights and stops: it
+        judges a window once the next has shown no turn, so it names a step one window later."""
+        mean = ws.mean[w]
+        turning = abs(mean[2]) >= self.config.quiet_gz_rad_s or not np.isfinite(mean[2])
+        self.quiet_run = 0 if turning else self.quiet_run + 1
+        prev, self.bias_prev = self.bias_prev, (t0, t1, mean.copy(), ws.level[w].copy(), use.copy(), self.quiet_run)
+        if prev is None or turning or prev[5] <= QUIET_HOLD:
+            return []
+        return self._bias_test(*prev[:5], t1)
+
+    def _bias_test(self, t0, t1, mean, level, use, t_now) -> list:
+        """One quiet window (t0..t1 s, means, noise levels, usable channels) through the bias CUSUMs."""
         th = self.thr
         chans = np.zeros(6, bool)
         chans[list(thr.BIAS_CHANNELS)] = True
-        mean = ws.mean[w]
-        # turning, a land vehicle rolls: gx sees the roll rate, gy the yaw rate times the roll, az the lateral
-        # acceleration times it. The bias test holds its state through turns and runs on straights and stops.
-        turning = abs(mean[2]) >= self.config.quiet_gz_rad_s or not np.isfinite(mean[2])
-        self.quiet_run = 0 if turning else self.quiet_run + 1
-        if self.quiet_run <= QUIET_HOLD:
-            return []
         self.quiet_spans.append((t0, t1))
         while self.quiet_spans and self.quiet_spans[0][1] < t1 - self.config.history_s:
             self.quiet_spans.pop(0)
@@ -351,7 +361,7 @@ class HealthMonitor:
                 self.bias_base = np.mean(self.bias_warm, axis=0)
             return []
         on = chans & use
-        z = np.where(on, (mean - self.bias_base) / (th.bias_sd * np.sqrt(np.maximum(ws.level[w], 1.0))), 0.0)
+        z = np.where(on, (mean - self.bias_base) / (th.bias_sd * np.sqrt(np.maximum(level, 1.0))), 0.0)
         pos = np.where(on, np.maximum(0.0, self.bias_pos + z - th.bias_k), 0.0)
         neg = np.where(on, np.maximum(0.0, self.bias_neg - z - th.bias_k), 0.0)
         self.bias_start[0] = np.where((self.bias_pos == 0) & (pos > 0), t0, self.bias_start[0])
@@ -363,11 +373,11 @@ class HealthMonitor:
         events = []
         for c in fired:
             start = self.bias_start[0 if pos[c] > neg[c] else 1, c]
-            onset, step, sd = self._mean_onset(c, start, t1, ws.level[w, c])
-            events.append(Event(t1, onset, "bias_shift", [CHANNELS[c]], "WARN", step,
+            onset, step, sd = self._mean_onset(c, start, t1, level[c])
+            events.append(Event(t_now, onset, "bias_shift", [CHANNELS[c]], "WARN", step,
                                 [step - Z95 * sd, step + Z95 * sd],
                                 f"{CHANNELS[c]} mean stepped by {step:.3g} ({abs(step) / sd:.1f} sd)",
-                                {"cusum": float(max(pos[c], neg[c])), "threshold": th.bias_h}))
+                                {"cusum": float(max(pos[c], neg[c])), "threshold": float(th.bias_h[c])}))
             # the new mean is the baseline from here on: one event per step
             after = (self._hist_t >= onset) & (self._hist_t <= t1)
             self.bias_base[c] = float(np.mean(self._hist_x[after, c]))
