@@ -228,13 +228,7 @@ def main(argv=None) -> int:
     names = cases.case_names() if args.cases == "all" else args.cases.split(",")
     if args.summarise_only:
         rows = [json.loads(p.read_text()) for p in sorted((work / "cases").glob("*/row.json"))]
-        text = summarise([r for r in rows if r["case"] in names], sha)
-        if args.perfect_reference:
-            text = "CONTROL (perfect reference: no fixture error, no drive-truth error)\n" + text
-        print(text)
-        if args.report:
-            Path(args.report).write_text(text + "\n")
-        return 0
+        return report([r for r in rows if r["case"] in names], sha, args)
     jobs = [(n, s) for s in parse_seeds(args.seeds) for n in names]
     rows = []
     with ProcessPoolExecutor(args.workers) as pool:
@@ -245,6 +239,11 @@ def main(argv=None) -> int:
             rows.append(row)
             print(f"[{i}/{len(jobs)}] {row['case']} s{row['seed']} ({row['grade']}): "
                   f"{'ok' if miss_class(row) is None else 'MISS'} {row['seconds']:.0f} s", flush=True)
+    return report(rows, sha, args)
+
+
+def report(rows, sha: str, args) -> int:
+    """Print the summary of ``rows`` and write it to ``args.report`` if given."""
     text = summarise(rows, sha)
     if args.perfect_reference:
         text = "CONTROL (perfect reference: no fixture error, no drive-truth error)\n" + text
