@@ -34,3 +34,61 @@ def test_scenario_player_stops_on_ctrl_c_while_playing_without_a_traceback(tmp_p
     assert "playing" in out and proc.returncode == 0, out
     assert "Traceback" not in out and "Exception in thread" not in out, out
     assert not (tmp_path / "port").exists()  # the port link is removed on the way out
+
+
+HANGING_NODE = """
+import time
+import nav_core.ros_node as ros_node
+from rclpy.node import Node
+
+ros_node.SHUTDOWN_DUMP_S = 1.0
+
+class Hangs(Node):
+    def __init__(self):
+        super().__init__("hangs_on_close")
+        print("ready", flush=True)
+
+    def close(self):
+        time.sleep(30.0)  # a shutdown that never ends
+
+raise SystemExit(ros_node.run_node(Hangs))
+"""
+
+
+@pytest.mark.ros
+def test_a_node_whose_shutdown_hangs_leaves_every_threads_stack_in_its_log(ros_env):
+    # the filter node's rare hang at shutdown left nothing to read: the dump was armed in its own close(),
+    # which a main thread held elsewhere never reached; run_node now arms it for every node when the spin ends
+    proc = subprocess.Popen([sys.executable, "-c", HANGING_NODE], env=ros_env, stdout=subprocess.PIPE,
+                            stderr=subprocess.STDOUT, text=True, start_new_session=True)
+    try:
+        assert "ready" in proc.stdout.readline()
+        proc.send_signal(signal.SIGINT)
+        time.sleep(4.0)
+    finally:
+        proc.kill()
+        out = proc.communicate(timeout=10)[0]
+    assert "most recent call first" in out and "in close" in out, out
+
+
+def test_the_intake_loop_says_whether_it_stopped_so_a_busy_one_is_left_alone():
+    import threading
+
+    from nav_core.ros_node import IntakeLoop
+
+    class Ctx:
+        def ok(self):
+            return True
+
+    class FakeNode:
+        context = Ctx()
+
+        def get_name(self):
+            return "fake"
+
+    release = threading.Event()
+    loop = IntakeLoop(FakeNode(), 0.001, lambda: release.wait(5.0), threading.Lock())
+    time.sleep(0.05)  # inside fn, which waits
+    assert loop.stop(timeout_s=0.2) is False  # still busy: the caller must not run the intake too
+    release.set()
+    assert loop.stop(timeout_s=2.0) is True

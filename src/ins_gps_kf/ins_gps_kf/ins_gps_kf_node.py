@@ -26,7 +26,6 @@ import os
 os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")  # 15x15 matrices: BLAS threads only cost time
 
 import dataclasses  # noqa: E402
-import faulthandler  # noqa: E402
 import math  # noqa: E402
 import threading  # noqa: E402
 import time  # noqa: E402
@@ -138,10 +137,16 @@ class InsGpsKfNode(Node):
                                f"model '{self.params['sensor_model_path'] or 'hand-tuned default'}'")
 
     def _locked(self, fn):
-        """``fn`` run holding the intake lock (it reads what the intake thread changes)."""
+        """``fn`` run holding the intake lock (it reads what the intake thread changes); skipped when the intake
+        holds it for over half a second (catching up a backlog): the executor's thread never waits on the intake,
+        so a shutdown is seen at once."""
         def call():
-            with self.lock:
+            if not self.lock.acquire(timeout=0.5):
+                return
+            try:
                 fn()
+            finally:
+                self.lock.release()
         return call
 
     # ------------------------------------------------------------------ input
@@ -213,10 +218,11 @@ class InsGpsKfNode(Node):
 
     def close(self):
         """Run what is still buffered through the filter without publishing (called by run_node on shutdown)."""
-        # a shutdown that hangs is killed after 10 s by the runners: leave the stacks in the log first
-        faulthandler.dump_traceback_later(8.0, exit=False)
-        self.intake_loop.stop()
+        # (a shutdown that hangs leaves its stacks in the log: nav_core.ros_node.run_node arms the dump)
         self.closing = True
+        if not self.intake_loop.stop():  # its thread is still on a batch: a second thread on the intake would race
+            self.get_logger().warn("shutdown: the intake is still busy; what is queued is not run")
+            return
         try:
             self.take_input()
         except Exception:  # noqa: BLE001 - the context may already be shut down on SIGINT; what was queued runs

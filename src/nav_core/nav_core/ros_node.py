@@ -4,6 +4,7 @@ The only module of ``nav_core`` that imports rclpy.
 """
 from __future__ import annotations
 
+import faulthandler
 import sys
 import threading
 import time
@@ -31,6 +32,9 @@ SENSOR_QOS = qos_profile_sensor_data
 SENSOR_QOS_IN = QoSProfile(depth=500, reliability=ReliabilityPolicy.BEST_EFFORT)
 """Subscriptions to sensor topics: best effort like the publishers, but a deep queue, so a node that
 falls behind for a moment (a GC pause, a busy core) catches up instead of dropping samples."""
+
+SHUTDOWN_DUMP_S = 8.0
+"""A node still shutting down this long after its spin ended prints every thread's stack (the runners kill at 10 s)."""
 
 DIAG_LEVELS = {"OK": DiagnosticStatus.OK, "WARN": DiagnosticStatus.WARN,
                "ERROR": DiagnosticStatus.ERROR, "STALE": DiagnosticStatus.STALE}
@@ -61,6 +65,9 @@ def run_node(node_factory, args=None, usage=None) -> int:
     except (KeyboardInterrupt, ExternalShutdownException):
         pass
     finally:
+        # armed for every node as soon as the spin ends, and never cancelled: a hang anywhere in the shutdown (a
+        # node's close, destroy_node, rclpy's shutdown) leaves the stacks in the log before the runners' SIGKILL
+        faulthandler.dump_traceback_later(SHUTDOWN_DUMP_S, exit=False)
         if node is not None:
             close = getattr(node, "close", None)
             if close:
@@ -208,11 +215,13 @@ class IntakeLoop:
             except Exception as err:  # noqa: BLE001 - report and keep taking input
                 self._node.get_logger().error(f"intake: {type(err).__name__}: {err}")
 
-    def stop(self) -> None:
-        """Stop the loop and wait for a call in progress."""
+    def stop(self, timeout_s: float = 5.0) -> bool:
+        """Stop the loop and wait up to ``timeout_s`` for a call in progress; whether the loop has ended (if not,
+        ``fn`` is still running on its thread: what it works on is not the caller's to touch)."""
         self._stop.set()
         if self._thread is not threading.current_thread():
-            self._thread.join(timeout=5.0)
+            self._thread.join(timeout=timeout_s)
+        return not self._thread.is_alive()
 
 
 def _never_called(msg) -> None:
