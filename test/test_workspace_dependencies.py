@@ -18,13 +18,13 @@ PACKAGES = sorted(p.parent.name for p in SRC.glob("*/setup.py"))
 WORKSPACE = {p.parent.name for p in SRC.glob("*/package.xml") if not (p.parent / "COLCON_IGNORE").exists()}
 
 # Python module -> rosdep key. The keys are those of ros/rosdistro rosdep/python.yaml; where it has
-# none (PyWavelets, rosbags, lz4, zstandard, distributed) the key is defined in rosdep/mems_nav.yaml.
+# none (PyWavelets, rosbags, lz4, zstandard, dask, distributed) the key is defined in rosdep/mems_nav.yaml.
 ROSDEP_KEYS = {
     "numpy": "python3-numpy", "scipy": "python3-scipy", "yaml": "python3-yaml",
     "matplotlib": "python3-matplotlib", "tqdm": "python3-tqdm", "serial": "python3-serial",
     "numba": "python3-numba", "filterpy": "python3-filterpy-pip", "pymap3d": "pymap3d-pip",
     "pywt": "python3-pywt", "rosbags": "python3-rosbags-pip", "lz4": "python3-lz4", "zstandard": "python3-zstandard",
-    "distributed": "python3-distributed",
+    "dask": "python3-dask", "distributed": "python3-distributed",
 }
 # ROS 2 packages imported from Python: the key is the package name.
 ROS_PACKAGES = {"rclpy", "rcl_interfaces", "builtin_interfaces", "std_msgs", "sensor_msgs", "nav_msgs",
@@ -79,7 +79,7 @@ def test_package_xml_declares_every_import_and_nothing_else(pkg):
 def test_every_key_resolves_upstream_or_in_the_local_rosdep_file():
     local = yaml.safe_load(LOCAL_ROSDEP.read_text())
     upstream = set(ROSDEP_KEYS.values()) - {"python3-pywt", "python3-rosbags-pip", "python3-lz4", "python3-zstandard",
-                                          "python3-distributed"}
+                                          "python3-dask", "python3-distributed"}
     for pkg in PACKAGES:
         for key in run_dependencies(pkg):
             assert key in WORKSPACE | ROS_PACKAGES | upstream | set(local), f"{pkg}: rosdep key {key!r} resolves nowhere"
