@@ -201,6 +201,10 @@ def summarise(rows, sha: str) -> str:
               "| class of miss | runs |", "|---|---|"]
     misses = Counter(m for m in map(miss_class, rows) if m)
     lines += [f"| {m} | {k} |" for m, k in misses.most_common()]
+    instead = Counter(f"{r['first'] or 'nothing'} ({'null' if r['effect'] is None else 'effect case'})"
+                      for r in rows if miss_class(r) and r["exit"] == 0)
+    lines += ["", "| named first instead (all scenario classes) | runs |", "|---|---|"]
+    lines += [f"| {m} | {k} |" for m, k in instead.most_common()]
     notes = Counter(n for r in rows for n in r["input_notes"])
     if notes:
         lines += ["", "Input findings: " + "; ".join(f"{n} ({k} runs)" for n, k in notes.items())]
