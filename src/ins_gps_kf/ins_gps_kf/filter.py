@@ -289,6 +289,8 @@ class InsGpsFilter:
         zupt_used = self._update(self.zupt, epoch)
         self.counters.zupts += zupt_used
         epoch.stationary, epoch.rate_b, epoch.heading_known = stationary, w_mean_b, self.status == NAVIGATING
+        epoch.gnss_fresh = t_e - self.last_fix_t <= 1.5 / self.cfg.gps_rate_hz
+        epoch.yaw_std = float(np.sqrt(self.cov[em.YAW, em.YAW][0, 0]))
         self._update(self.nhc, epoch, self.counters, "nhc_updates", "nhc_rejected")
         strapdown.reset_accumulators(self.mem)
         self._update_earth()

@@ -171,7 +171,9 @@ def _summary(filt: InsGpsFilter) -> dict:
     """The run's event and rejected-input counts (what the node's diagnostics give)."""
     c = filt.counters
     return {"epochs": c.epochs, "fixes": c.fixes, "fixes_rejected": c.fixes_rejected, "fixes_invalid": c.fixes_invalid,
-            "zupts": c.zupts, "nhc_updates": c.nhc_updates, "nhc_rejected": c.nhc_rejected, "resets": c.resets, "gps_resets": c.gps_resets, "reset_reasons": c.reset_reasons,
+            "zupts": c.zupts, "nhc_updates": c.nhc_updates, "nhc_rejected": c.nhc_rejected,
+            "nhc_mounting_pitch_yaw_deg": filt.nhc.mounting_deg(), "resets": c.resets, "gps_resets": c.gps_resets,
+            "reset_reasons": c.reset_reasons,
             "input": filt.input_counters}
 
 

@@ -41,6 +41,8 @@ class FilterStatus(NodeStatus):
     zupts: int = 0
     nhc_updates: int = 0
     nhc_rejected: int = 0
+    nhc_mounting_pitch_deg: float | None = None  # the IMU's mounting estimated from the drive (None: not yet)
+    nhc_mounting_yaw_deg: float | None = None
     epochs: int = 0
     alignment: str = ""
     filter_resets: int = 0
@@ -80,7 +82,7 @@ def filter_status(filt, intake, first_imu_t=None, first_fix_t=None, bad_imu_mess
     level, message = _level(filt, age, ic.dropped, nonfinite_estimates, processing_errors)
     return FilterStatus(
         level, message, filt.status, filt.last_nis, c.fixes, c.fixes_rejected, c.fixes_invalid, c.fixes_reused,
-        c.gps_resets, age, c.zupts, c.nhc_updates, c.nhc_rejected, c.epochs,
+        c.gps_resets, age, c.zupts, c.nhc_updates, c.nhc_rejected, *filt.nhc.mounting_deg(), c.epochs,
         ("aligned" if filt.alignment is not None else
          f"{filt.aligner.elapsed_s:.1f}/{cfg.alignment_time_s:.0f} s stationary" if filt.status == ALIGNING
          else "waiting for a GPS fix (datum)"),

@@ -11,6 +11,7 @@ GNSS holds its fix, NHC judges the epoch as ZUPT does.
 from __future__ import annotations
 
 import numpy as np
+from scipy.spatial.transform import Rotation
 
 from nav_core import frames
 from nav_core.frames import skew
@@ -34,6 +35,8 @@ class Epoch:
         self.rate_b = np.zeros(3)  # rad/s, the epoch's mean bias-corrected body rate
         self.stationary = False  # the zero-velocity detector's verdict (set once it has judged the epoch)
         self.heading_known = False  # navigating with a heading (not pending one from the GNSS course)
+        self.gnss_fresh = False  # a fix was used within 1.5 GNSS periods (the velocity is GNSS-aided, not drifting)
+        self.yaw_std = float("inf")  # rad, the heading's std from the covariance
 
     @property
     def mat_nb(self) -> np.ndarray:
@@ -113,11 +116,23 @@ class NonHolonomic(UpdateModel):
         self.enabled = cfg.nhc_enabled
         self.std = cfg.nhc_std
         self.gate_probability = cfg.nhc_gate_probability
-        self.mat_vb = frames.mat_nb_from_euler(*cfg.mounting_rpy)
         self.lever_b = np.asarray(cfg.nhc_lever_arm_b, dtype=float)
+        self.mounting = MountingEstimate(cfg.nhc_mounting_epochs) if cfg.nhc_mounting == "estimate" else None
+        self.mat_vb = None if self.mounting else frames.mat_nb_from_euler(*cfg.mounting_rpy)
+
+    def mounting_deg(self) -> tuple:
+        """(pitch, yaw) of the IMU in the vehicle estimated from the drive, deg; (None, None) when not estimated."""
+        m = self.mounting
+        return (m.pitch_deg, m.yaw_deg) if m is not None and self.mat_vb is not None else (None, None)
 
     def measurement(self, epoch: Epoch):
         if not self.enabled or epoch.stationary or not epoch.heading_known:
+            return None
+        if self.mat_vb is None:  # the mounting is being estimated: no constraint before it is known
+            # through an outage the velocity's direction drifts with the INS; before the heading has converged its
+            # error shows as a mounting yaw (10 deg on the paper drive when taken from the first 30 s at speed)
+            if epoch.gnss_fresh and epoch.yaw_std < MOUNTING_MAX_YAW_STD:
+                self.mat_vb = self.mounting.add(epoch.mat_nb.T @ epoch.nav[strapdown.V])
             return None
         mat_bn = epoch.mat_nb.T
         vel_n = epoch.nav[strapdown.V]
@@ -128,3 +143,36 @@ class NonHolonomic(UpdateModel):
         h[:, PHI] = -rows @ skew(vel_n)
         h[:, BG] = self.mat_vb[1:] @ skew(self.lever_b)
         return vel_v[1:].copy(), h, np.eye(2) * self.std**2
+
+
+MOUNTING_MIN_SPEED = 3.0  # m/s: slower, the body velocity's direction is swamped by its error
+MOUNTING_MAX_YAW_STD = np.radians(1.0)  # rad: the heading must have converged for the estimate to use an epoch
+
+
+class MountingEstimate:
+    """The IMU's mounting in the vehicle from the drive: the mean direction (body axes) of the GNSS-aided velocity
+    over ``epochs`` filter epochs faster than ``MOUNTING_MIN_SPEED``, taken as the vehicle's forward axis. Roll about it
+    is not observable this way and does not matter to the constraint (lateral and vertical are both zero)."""
+
+    def __init__(self, epochs: int):
+        self.epochs = epochs
+        self.sum = np.zeros(3)
+        self.n = 0
+        self.pitch_deg = self.yaw_deg = float("nan")  # the IMU's in the vehicle (mounting_*_deg's sense), deg
+
+    def add(self, vel_b) -> np.ndarray | None:
+        """One epoch's body velocity (m/s); the vehicle-from-body rotation (3, 3) once enough came, else None."""
+        speed = float(np.linalg.norm(vel_b))
+        if speed < MOUNTING_MIN_SPEED:
+            return None
+        self.sum += np.asarray(vel_b) / speed
+        self.n += 1
+        if self.n < self.epochs:
+            return None
+        fwd = self.sum / np.linalg.norm(self.sum)
+        left = np.cross([0.0, 0.0, 1.0], fwd)
+        left /= np.linalg.norm(left)
+        mat_vb = np.vstack([fwd, left, np.cross(fwd, left)])  # rows: the vehicle's axes in the body
+        _, pitch, yaw = frames.euler_from_rotation(Rotation.from_matrix(mat_vb))
+        self.pitch_deg, self.yaw_deg = float(np.degrees(pitch)), float(np.degrees(yaw))
+        return mat_vb
