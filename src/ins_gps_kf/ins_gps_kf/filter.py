@@ -57,12 +57,14 @@ class InsGpsFilter:
         self.bridge = GapBridge(cfg)
         self.last_fix_t = -math.inf
         self.last_nis = math.nan
+        self.recorder = None  # a smoother.ForwardStore when a smoothing pass follows (replay --smooth)
         self._start_over()
 
     # ------------------------------------------------------------------ life cycle
 
     def _start_over(self):
         self.status = WAITING if self.frame is None else ALIGNING
+        self._cut_chain()
         self._last_fix_in = None  # (t, lat, lon, h) of the last fix let in, for duplicate and order checks
         self.aligner = starts.make_aligner(self.cfg, self.input)
         self.alignment = None
@@ -77,6 +79,11 @@ class InsGpsFilter:
         self.accel_bias = np.zeros(3)
         self.gyro_scale = np.zeros(3)  # estimated scale-factor errors (unitless), with estimate_scale_factors
         self.accel_scale = np.zeros(3)
+
+    def _cut_chain(self):
+        """Tell the recorder the state was set anew (not by a linear update): no smoothing across this epoch."""
+        if getattr(self, "recorder", None) is not None:
+            self.recorder.cut()
 
     def reset(self, reason: str):
         """Forget the navigation solution and re-align (keeps the datum); counted and remembered."""
@@ -196,6 +203,8 @@ class InsGpsFilter:
             est = self._epoch()
             if self._state_ok(est):
                 out.append(est)
+                if self.recorder is not None:
+                    self.recorder.epoch(est)
             i = j + 1
         return out
 
@@ -278,7 +287,11 @@ class InsGpsFilter:
         if self.n_states == em.N_STATES_SF:
             w_b = self.mem[strapdown.M_WSUM] / max(self.mem[strapdown.M_N], 1.0)
             f_cont, g_cont = em.with_scale_factors(f_cont, g_cont, mat_nb, w_b, mat_nb.T @ f_n)
-        self.cov = kalman.propagate_series(self.cov, f_cont, g_cont, dt)
+        if self.recorder is None:
+            self.cov = kalman.propagate_series(self.cov, f_cont, g_cont, dt)
+        else:
+            phi, self.cov = kalman.propagate_series_phi(self.cov, f_cont, g_cont, dt)
+            self.recorder.predicted(phi, self.cov)
         predicted = self.nav[strapdown.P].copy(), self.nav[strapdown.Q].copy()  # the continuous INS chain
         w_mean_b = self.mem[strapdown.M_WSUM] / max(self.mem[strapdown.M_N], 1.0)
         epoch = Epoch(t_e, self.nav, self.n_states, motion, self.gravity)
@@ -357,6 +370,8 @@ class InsGpsFilter:
 
     def _feed_back(self, dx):
         """Subtract the estimated errors from the nav state and biases (error state returns to zero)."""
+        if self.recorder is not None:
+            self.recorder.corrected(dx)
         self.nav[strapdown.P] -= dx[em.DP]
         self.nav[strapdown.V] -= dx[em.DV]
         strapdown.rotate_attitude(self.nav, dx[em.PHI])
@@ -371,6 +386,7 @@ class InsGpsFilter:
     def _reset_to_fix(self, fix: Fix):
         """After too many rejected fixes in a row the INS has diverged: restart at the fix, heading pending."""
         self.counters.gps_resets += 1
+        self._cut_chain()
         self.gnss.rejected_in_row = 0
         self.gnss.taken_whole(fix)
         self.last_fix_t = fix.t
@@ -384,6 +400,7 @@ class InsGpsFilter:
         if course is None:
             return False
         heading.set_heading(self.nav, self.cov, fix, t_e, course, self.lever_arm_b, self.cfg.heading_std)
+        self._cut_chain()
         self.course.history = []
         self.status = NAVIGATING
         self._update_earth()

@@ -65,6 +65,14 @@ def propagate_series(cov, f_cont, g_cont, dt):
     return 0.5 * (out + out.T)
 
 
+@njit(cache=True)
+def propagate_series_phi(cov, f_cont, g_cont, dt):
+    """(Phi, covariance): :func:`propagate_series` that also gives the transition (what a smoother stores)."""
+    phi, q = van_loan_series(f_cont, g_cont, dt)
+    out = phi @ cov @ phi.T + q
+    return phi, 0.5 * (out + out.T)
+
+
 @lru_cache(maxsize=64)
 def gate_threshold(dof: int, probability: float) -> float:
     """Chi-square quantile for the innovation gate."""

@@ -31,14 +31,23 @@ from nav_core.outputs import check_out_file, staged_file  # noqa: E402
 from ins_gps_kf import config as kfconfig, track_check  # noqa: E402
 from ins_gps_kf.filter import ALIGNING, InsGpsFilter  # noqa: E402
 from ins_gps_kf.offline import load_model, plot_north_east, run, to_trajectory  # noqa: E402
+from ins_gps_kf.smoother import run_smoothed  # noqa: E402
 
 
 GNSS_END_WARN_S = 10.0  # fixes this far apart, or ending this long before the IMU, are said (a cut file or outage)
 
 
+def forward_path(out_path) -> Path:
+    """Where ``--smooth`` writes the forward trajectory beside the smoothed one: ``OUT.forward.csv``."""
+    out = Path(out_path)
+    return out.with_name(f"{out.stem}.forward{out.suffix or '.csv'}")
+
+
 def replay_files(recording_path, gnss_path, model_path, out_path, params: dict | None = None,
-                 imu_topic=None, gps_topic=None, plot=True, progress=True):
-    """Read, run, write: the ``replay`` subcommand as a function; returns (Trajectory, filter)."""
+                 imu_topic=None, gps_topic=None, plot=True, progress=True, smooth=False):
+    """Read, run, write: the ``replay`` subcommand as a function; returns (Trajectory, filter). With ``smooth``
+    the trajectory written to ``out_path`` (and returned) is the smoothed one (:mod:`ins_gps_kf.smoother`), the
+    forward one goes to :func:`forward_path`."""
     p = kfconfig.defaults()
     p.update(params or {})
     recording.refuse_topic_without_bag(recording_path, "--imu-topic", imu_topic)
@@ -52,14 +61,19 @@ def replay_files(recording_path, gnss_path, model_path, out_path, params: dict |
     for warning in check_recordings(imu, gnss, cfg, imu_topic or p["imu_topic"]):
         print(f"ins-gps-kf: warning: {warning}", file=sys.stderr)
     filt = InsGpsFilter(cfg, load_model(model_path))
-    estimates = run(filt, imu, gnss, progress=progress)
+    if smooth:
+        estimates, smoothed = run_smoothed(filt, run, imu, gnss, progress=progress)
+    else:
+        estimates = smoothed = run(filt, imu, gnss, progress=progress)
     if filt.frame is None:
         raise recording.RecordingError(f"{gnss_src}: no valid GPS fix, so no datum for the local frame")
     if not estimates:
         raise recording.RecordingError(f"{imu.source}: no filter epoch, nothing to write: {_why_no_epoch(filt)}")
     check_fixes_against_ins(imu, gnss, estimates, filt)
-    traj = to_trajectory(estimates, filt.frame)
+    traj = to_trajectory(smoothed, filt.frame)
     recording.write_trajectory_csv(out_path, traj)
+    if smooth:
+        recording.write_trajectory_csv(forward_path(out_path), to_trajectory(estimates, filt.frame))
     if plot and len(traj):
         with staged_file(Path(out_path).with_suffix(".png"), force=True) as tmp:  # checked by the caller
             plot_north_east(tmp, traj, gnss, filt.frame, title=f"ins_gps_kf: {Path(out_path).stem}")
@@ -201,6 +215,8 @@ def main(argv=None) -> int:
     rp.add_argument("--gps-topic", help="GNSS topic in a bag (default: the gps_topic parameter)")
     rp.add_argument("--no-plot", action="store_true", help="do not write the PNG next to --out")
     rp.add_argument("--quiet", action="store_true", help="no progress bar")
+    rp.add_argument("--smooth", action="store_true", help="forward-backward (RTS) smoothing: --out gets the smoothed "
+                    "trajectory with its smoothed std, OUT.forward.csv the forward one")
     rp.add_argument("--json", action="store_true", help="print the run's counts (events, rejected input) as JSON")
     _plugins(sub)
     args = parse_args(parser, argv)
@@ -210,16 +226,20 @@ def main(argv=None) -> int:
 def _replay(args) -> int:
     """The ``replay`` subcommand: outputs checked before the run, written whole."""
     check_out_file(args.out, args.force)
+    if args.smooth:
+        check_out_file(forward_path(args.out), args.force)
     if not args.no_plot:
         check_out_file(Path(args.out).with_suffix(".png"), args.force)
     params = kfconfig.load_params_yaml(args.params) if args.params else {}
     params.update(_parse_overrides(args.param))
     traj, filt = replay_files(args.recording, args.gnss, args.model, args.out, params, args.imu_topic,
-                              args.gps_topic, plot=not args.no_plot, progress=not args.quiet)
+                              args.gps_topic, plot=not args.no_plot, progress=not args.quiet, smooth=args.smooth)
     if args.json:
         print(json.dumps(_summary(filt), indent=1))
         return 0
     c, bad = filt.counters, {k: v for k, v in filt.input_counters.items() if v and isinstance(v, int)}
+    if args.smooth:
+        print(f"smoothed: {args.out}, forward: {forward_path(args.out)}")
     print(f"wrote {args.out}: {len(traj)} epochs; fixes {c.fixes} (rejected {c.fixes_rejected}, invalid "
           f"{c.fixes_invalid}), zupts {c.zupts}, resets {c.resets}, gps resets {c.gps_resets}; input flagged: "
           + (", ".join(f"{k} {v}" for k, v in bad.items()) or "none"))

@@ -1,0 +1,185 @@
+"""Fixed-interval Rauch-Tung-Striebel smoother for the closed-loop error-state filter (issue 25).
+
+The forward filter feeds every update back into the nominal state and resets its error state to zero,
+so a textbook RTS pass over its (always zero) error states smooths nothing. Here the smoother
+estimates the error of the *stored forward trajectory itself*. With ``e = estimate - truth`` and
+``x+ = x- (-) dx`` at each epoch (``dx`` the sum of the epoch's fed-back corrections), the error of the
+a-priori nominal at epoch k+1 is ``e-(k+1) = e+(k+1) + dx(k+1)``, and the forward prediction of it from
+epoch k (whose posterior error estimate is zero after the reset) is zero. So, backwards from the last epoch
+(``e_s(N) = 0``, ``P_s(N) = P+(N)``)::
+
+    C_k    = P+(k) Phi(k)' P-(k+1)^-1
+    e_s(k) = C_k (e_s(k+1) + dx(k+1))
+    P_s(k) = P+(k) + C_k (P_s(k+1) - P-(k+1)) C_k'
+
+and the smoothed state is the forward one with ``e_s(k)`` fed back as the filter does. A state set anew
+(heading from the course, GPS reset, re-alignment) is not a linear update: the chain is cut there.
+
+Memory: one row per filter epoch (the covariances, the transition and the correction: ``1 + n + 3 n^2``
+floats, 5.5 kB with 15 states); rows go to a temporary file (read back through ``np.memmap``) once more
+than ``ram_rows`` are held, and the backward pass overwrites the stored P+ with the smoothed P in place.
+"""
+from __future__ import annotations
+
+import dataclasses
+import os
+import tempfile
+
+import numpy as np
+from numba import njit
+
+from ins_gps_kf import error_model as em
+from ins_gps_kf import strapdown
+from ins_gps_kf.records import Estimate
+
+RAM_ROWS = 2048  # rows held in memory before the store spills to its temporary file
+
+
+class ForwardStore:
+    """What the backward pass needs, per filter epoch: P+, P-, Phi, the epoch's fed-back correction dx, and
+    whether the epoch follows its predecessor by a linear update (not a state set anew)."""
+
+    def __init__(self, n_states: int, ram_rows: int = RAM_ROWS, tmp_dir: str | None = None):
+        self.n = n_states
+        self.width = 1 + n_states + 3 * n_states * n_states
+        self.ram_rows = ram_rows
+        self.tmp_dir = tmp_dir
+        self._buf = np.empty((ram_rows, self.width))
+        self._used = 0
+        self._file = None  # the spill file (path) once rows went to disk
+        self._spilled = 0
+        self._phi = self._prior = None
+        self._dx = np.zeros(n_states)
+        self._linked = False
+
+    def __len__(self) -> int:
+        return self._spilled + self._used
+
+    @property
+    def spilled(self) -> bool:
+        """Whether rows went to the temporary file."""
+        return self._file is not None
+
+    def cut(self) -> None:
+        """The state was set anew: the next stored epoch does not follow from the previous one."""
+        self._linked = False
+
+    def predicted(self, phi: np.ndarray, cov_prior: np.ndarray) -> None:
+        """An epoch's propagation: its transition Phi and a-priori covariance P- (before any update)."""
+        self._phi, self._prior = phi, cov_prior.copy()
+        self._dx[:] = 0.0
+
+    def corrected(self, dx: np.ndarray) -> None:
+        """One fed-back correction (error-state estimate, subtracted from the state) within the epoch."""
+        self._dx += dx
+
+    def epoch(self, est: Estimate) -> None:
+        """Store the epoch whose forward estimate (P+ in ``est.cov``) the filter gave out."""
+        n = self.n
+        if self._phi is None:  # no propagation since the start: cannot link
+            self._phi, self._prior, self._linked = np.eye(n), est.cov, False
+        row = self._buf[self._used]
+        row[0] = 1.0 if self._linked else 0.0
+        row[1:1 + n] = self._dx
+        o = 1 + n
+        row[o:o + n * n] = est.cov.ravel()
+        row[o + n * n:o + 2 * n * n] = self._prior.ravel()
+        row[o + 2 * n * n:] = self._phi.ravel()
+        self._used += 1
+        self._linked, self._phi = True, None
+        if self._used == self.ram_rows:
+            self._spill()
+
+    def _spill(self) -> None:
+        if self._file is None:
+            fd, self._file = tempfile.mkstemp(prefix="ins_gps_kf_smoother_", suffix=".f64", dir=self.tmp_dir)
+            os.close(fd)
+        with open(self._file, "ab") as fh:
+            fh.write(self._buf[:self._used].tobytes())
+        self._spilled += self._used
+        self._used = 0
+
+    def rows(self) -> np.ndarray:
+        """All rows (len, width): in memory, or a writable memmap of the spill file."""
+        if self._file is None:
+            return self._buf[:self._used]
+        if self._used:
+            self._spill()
+        return np.memmap(self._file, dtype=np.float64, mode="r+", shape=(self._spilled, self.width))
+
+    def close(self) -> None:
+        """Delete the spill file."""
+        if self._file is not None:
+            os.unlink(self._file)
+            self._file = None
+
+
+@njit(cache=True)
+def _backward(rows, n):
+    """The RTS recursion over ``rows`` (see the module doc); returns e_s (N, n) and writes P_s over P+ in place."""
+    m = rows.shape[0]
+    nn = n * n
+    o = 1 + n
+    e_s = np.zeros((m, n))
+    e_next = np.zeros(n)
+    p_next = rows[m - 1, o:o + nn].copy().reshape(n, n)
+    for k in range(m - 2, -1, -1):
+        p_post = rows[k, o:o + nn].copy().reshape(n, n)
+        if rows[k + 1, 0] > 0.5:
+            prior = rows[k + 1, o + nn:o + 2 * nn].copy().reshape(n, n)
+            phi = rows[k + 1, o + 2 * nn:].copy().reshape(n, n)
+            c_t = np.linalg.solve(prior, phi @ p_post)  # C' (P+ and P- symmetric)
+            c = np.ascontiguousarray(c_t.T)
+            e = c @ (e_next + rows[k + 1, 1:1 + n])
+            p = p_post + c @ (p_next - prior) @ c_t
+            p = 0.5 * (p + p.T)
+        else:
+            e = np.zeros(n)
+            p = p_post
+        e_s[k] = e
+        rows[k, o:o + nn] = p.ravel()
+        e_next, p_next = e, p
+    return e_s
+
+
+def smooth(store: ForwardStore, forward: list[Estimate]) -> list[Estimate]:
+    """The smoothed estimates (state and covariance) of the ``forward`` estimates the filter gave while
+    ``store`` recorded it; the store is spent (its P+ overwritten) and its spill file deleted."""
+    if len(store) != len(forward):
+        raise ValueError(f"the store holds {len(store)} epochs, the forward run {len(forward)}")
+    if not forward:
+        return []
+    n = store.n
+    try:
+        rows = store.rows()
+        e_s = _backward(rows, n)
+        o = 1 + n
+        out = []
+        for k, est in enumerate(forward):
+            out.append(_corrected(est, e_s[k], np.array(rows[k, o:o + n * n]).reshape(n, n)))
+    finally:
+        store.close()
+    return out
+
+
+def _corrected(est: Estimate, e: np.ndarray, cov: np.ndarray) -> Estimate:
+    """``est`` with the error ``e`` (estimate minus truth) removed as the filter's feedback does, covariance ``cov``."""
+    nav = strapdown.new_state(est.quat_xyzw.copy(), est.velocity_n - e[em.DV], est.position_n - e[em.DP])
+    strapdown.rotate_attitude(nav, e[em.PHI])
+    sf = None
+    if est.scale_factors is not None:
+        sf = est.scale_factors - np.concatenate([e[em.SG], e[em.SA]])
+    return dataclasses.replace(est, position_n=nav[strapdown.P].copy(), velocity_n=nav[strapdown.V].copy(),
+                               quat_xyzw=nav[strapdown.Q].copy(), cov=cov, gyro_bias=est.gyro_bias - e[em.BG],
+                               accel_bias=est.accel_bias - e[em.BA], scale_factors=sf)
+
+
+def run_smoothed(filt, run, *args, **kwargs):
+    """(forward estimates, smoothed estimates): ``run(filt, *args, **kwargs)`` recorded, then the backward pass."""
+    filt.recorder = ForwardStore(filt.n_states)
+    try:
+        forward = run(filt, *args, **kwargs)
+        return forward, smooth(filt.recorder, forward)
+    finally:
+        filt.recorder.close()
+        filt.recorder = None
