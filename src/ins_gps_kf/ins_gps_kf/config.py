@@ -84,6 +84,13 @@ PARAMETERS = (
          -100.0, 100.0),
     Param("nhc_lever_arm_y_m", 0.0, "constraint point in body y (left), m", -100.0, 100.0),
     Param("nhc_lever_arm_z_m", 0.0, "constraint point in body z (up), m", -100.0, 100.0),
+    Param("odometer_enabled", False, "wheel odometer: forward speed as a measurement with its scale-factor error as "
+         "a filter state (replay --odometry sets it)"),
+    Param("odometer_std_mps", 0.05, "wheel speed noise std, m/s", 1e-4, 10.0),
+    Param("odometer_scale_std_pct", 2.0, "initial std of the odometer's scale-factor error, %", 0.0, 100.0),
+    Param("odometer_max_age_s", 0.15, "a wheel speed older than this at a filter epoch is not used, s", 0.0, 10.0),
+    Param("odometer_stuck_speed_mps", 2.0, "a wheel speed of exactly 0 while the INS says faster than this is a "
+         "stuck wheel (counted as odometer_stuck, not used), m/s", 0.0, 100.0),
     Param("estimate_scale_factors", False, "21 states: also estimate gyro and accel scale-factor errors"),
     Param("init_scale_factor_std_pct", 1.0, "initial gyro and accel scale-factor std (with estimate_scale_factors), "
          "%", 0.0, 100.0),
@@ -156,6 +163,11 @@ class FilterConfig:
     nhc_mounting: str = "given"
     nhc_mounting_epochs: int = 60
     nhc_lever_arm_b: tuple = (0.0, 0.0, 0.0)  # m
+    odometer_enabled: bool = False
+    odometer_std: float = 0.05
+    odometer_scale_std: float = 0.02
+    odometer_max_age: float = 0.15
+    odometer_stuck_speed: float = 2.0
     estimate_scale_factors: bool = False
     init_scale_factor_std: float = 0.01
     init_gyro_bias_std: float = 100.0 * DEG_PER_H
@@ -225,6 +237,9 @@ def from_params(params: dict) -> FilterConfig:
         mounting_rpy=tuple(float(p[f"mounting_{a}_deg"]) * DEG for a in ("roll", "pitch", "yaw")),
         nhc_mounting=str(p["nhc_mounting"]), nhc_mounting_epochs=int(p["nhc_mounting_epochs"]),
         nhc_lever_arm_b=tuple(float(p[f"nhc_lever_arm_{a}_m"]) for a in "xyz"),
+        odometer_enabled=bool(p["odometer_enabled"]), odometer_std=float(p["odometer_std_mps"]),
+        odometer_scale_std=float(p["odometer_scale_std_pct"]) / 100.0,
+        odometer_max_age=float(p["odometer_max_age_s"]), odometer_stuck_speed=float(p["odometer_stuck_speed_mps"]),
         estimate_scale_factors=bool(p["estimate_scale_factors"]),
         init_scale_factor_std=float(p["init_scale_factor_std_pct"]) / 100.0,
         init_gyro_bias_std=p["init_gyro_bias_std_dph"] * DEG_PER_H,

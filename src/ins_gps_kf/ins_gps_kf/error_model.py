@@ -34,6 +34,22 @@ YAW = slice(PHI.stop - 1, PHI.stop)  # the heading error: the up component of PH
 """Named blocks of the error state: every module outside this one indexes states only through these."""
 
 
+def odometer_scale(n_ins: int) -> slice:
+    """The wheel odometer's scale-factor error (unitless, measured = (1 + s) true), after the ``n_ins`` INS states."""
+    return slice(n_ins, n_ins + 1)
+
+
+def with_odometer_scale(f_cont, g_cont, drive: float):
+    """``F``, ``G`` with the odometer scale state appended: a random walk driven by ``drive`` (1/sqrt(s))."""
+    n, m = g_cont.shape
+    f = np.zeros((n + 1, n + 1))
+    g = np.zeros((n + 1, m + 1))
+    f[:n, :n] = f_cont
+    g[:n, :m] = g_cont
+    g[n, m] = drive
+    return f, g
+
+
 def index(*blocks: slice) -> np.ndarray:
     """Integer state indices of the named ``blocks`` (slices above), in the order given."""
     return np.concatenate([np.arange(b.start, b.stop) for b in blocks])

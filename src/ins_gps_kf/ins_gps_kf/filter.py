@@ -32,7 +32,9 @@ from ins_gps_kf.gnss_policy import GnssPolicy
 from ins_gps_kf.odometry import Odometry, epoch_span, odometry
 from ins_gps_kf.records import (ALIGNING, HEADING_PENDING, NAVIGATING, STATUS_CODES, WAITING,  # noqa: F401
                                 Counters, Estimate, Fix)
-from ins_gps_kf.updates import Epoch, GnssPosition, NonHolonomic, ZeroVelocity
+from ins_gps_kf.updates import Epoch, GnssPosition, NonHolonomic, WheelOdometer, ZeroVelocity
+
+ODOMETER_SCALE_DRIVE = 1e-5  # 1/sqrt(s): the odometer scale drifts slowly (tyre pressure, load, temperature)
 
 EPOCH_TOL_S = 1e-6  # stamps within this of an epoch belong to it (ns stamp rounding)
 
@@ -45,7 +47,8 @@ class InsGpsFilter:
         self.model = model if model is not None else em.default_mems_model()
         self.noise = em.noise_from_sensor_model(self.model, cfg.flicker_correlation_time)
         self.lever_arm_b = np.asarray(cfg.lever_arm_b, dtype=float)
-        self.n_states = em.N_STATES_SF if cfg.estimate_scale_factors else em.N_STATES
+        self.n_ins = em.N_STATES_SF if cfg.estimate_scale_factors else em.N_STATES
+        self.n_states = self.n_ins + (1 if cfg.odometer_enabled else 0)
         self.frame = LocalFrame(*cfg.datum) if cfg.datum is not None else None
         self.counters = Counters()
         self.input = input_checks.InputCounters()
@@ -54,6 +57,7 @@ class InsGpsFilter:
         self.gnss_model = GnssPosition(self.lever_arm_b)
         self.zupt = ZeroVelocity(cfg)
         self.nhc = NonHolonomic(cfg)
+        self.odometer = WheelOdometer(cfg, self.n_ins, self.input.counter("odometer_stuck"))
         self.bridge = GapBridge(cfg)
         self.last_fix_t = -math.inf
         self.last_nis = math.nan
@@ -78,6 +82,7 @@ class InsGpsFilter:
         self.gyro_bias = np.zeros(3)
         self.accel_bias = np.zeros(3)
         self.gyro_scale = np.zeros(3)  # estimated scale-factor errors (unitless), with estimate_scale_factors
+        self.odometer.scale = 0.0
         self.accel_scale = np.zeros(3)
 
     def _cut_chain(self):
@@ -215,8 +220,20 @@ class InsGpsFilter:
         self.reset(f"diverged state at t={est.t:.3f} s")
         return False
 
+    def process_odometry(self, t, speed_mps) -> bool:
+        """Queue one wheel speed (s, m/s, forward); False if it is dropped (NaN, duplicate or earlier stamp: counted)."""
+        t, speed = float(t), float(speed_mps)
+        odo = self.odometer
+        why = ("odometer_nonfinite" if not (math.isfinite(t) and math.isfinite(speed)) else
+               "odometer_duplicate" if t == odo.last_t else "odometer_out_of_order" if t < odo.last_t else None)
+        if why is not None:
+            self.input.counter(why)(f"wheel speed at t={t:.3f} s dropped: {why}")
+            return False
+        odo.last_t, odo.pending = t, (t, speed)
+        return True
+
     def _integrate(self, t, gyro, accel):
-        if self.n_states == em.N_STATES_SF:
+        if self.n_ins == em.N_STATES_SF:
             gyro, accel = gyro * (1.0 - self.gyro_scale), accel * (1.0 - self.accel_scale)
         strapdown.integrate(self.nav, self.mem, t, gyro, accel, self.gyro_bias, self.accel_bias,
                             self.w_ie_n, self.w_en_n, self.g_n)
@@ -241,8 +258,13 @@ class InsGpsFilter:
         known_yaw = not math.isnan(cfg.initial_yaw)
         self.alignment = self.aligner.finish(self.frame.lat0_deg * DEG, cfg.initial_yaw if known_yaw else None)
         new = starts.start(cfg, self.alignment, t0, self.gnss.pending_fix, self.lever_arm_b, self.model,
-                           self.n_states)
+                           self.n_ins)
         self.nav, self.mem, self.cov, self.status = new.nav, new.mem, new.cov, new.status
+        if self.n_states > self.n_ins:
+            cov = np.zeros((self.n_states, self.n_states))
+            cov[:self.n_ins, :self.n_ins] = self.cov
+            cov[self.n_ins, self.n_ins] = cfg.odometer_scale_std**2
+            self.cov = cov
         self.gyro_bias, self.accel_bias = new.gyro_bias, new.accel_bias
         self.epoch_index = math.floor(t0 * cfg.filter_rate_hz + EPOCH_TOL_S) + 1
         self._earth_at = (math.inf, math.inf)
@@ -284,9 +306,11 @@ class InsGpsFilter:
         dt = self.mem[strapdown.M_DT]
         mat_nb = self.mat_nb()
         f_cont, g_cont = em.dynamics(mat_nb, f_n, self.w_ie_n, self.w_en_n, self.noise)
-        if self.n_states == em.N_STATES_SF:
+        if self.n_ins == em.N_STATES_SF:
             w_b = self.mem[strapdown.M_WSUM] / max(self.mem[strapdown.M_N], 1.0)
             f_cont, g_cont = em.with_scale_factors(f_cont, g_cont, mat_nb, w_b, mat_nb.T @ f_n)
+        if self.n_states > self.n_ins:
+            f_cont, g_cont = em.with_odometer_scale(f_cont, g_cont, ODOMETER_SCALE_DRIVE)
         if self.recorder is None:
             self.cov = kalman.propagate_series(self.cov, f_cont, g_cont, dt)
         else:
@@ -305,6 +329,7 @@ class InsGpsFilter:
         epoch.gnss_fresh = t_e - self.last_fix_t <= 1.5 / self.cfg.gps_rate_hz
         epoch.yaw_std = float(np.sqrt(self.cov[em.YAW, em.YAW][0, 0]))
         self._update(self.nhc, epoch, self.counters, "nhc_updates", "nhc_rejected")
+        self._update(self.odometer, epoch, self.counters, "odometer_updates", "odometer_rejected")
         strapdown.reset_accumulators(self.mem)
         self._update_earth()
         self.counters.epochs += 1
@@ -314,7 +339,7 @@ class InsGpsFilter:
                         self.nav[strapdown.Q].copy(), self.cov.copy(), self.gyro_bias.copy(),
                         self.accel_bias.copy(), self.status, gps_used, zupt_used, nis, stationary,
                         np.concatenate([self.gyro_scale, self.accel_scale])
-                        if self.n_states == em.N_STATES_SF else None, w_mean_b, *predicted)
+                        if self.n_ins == em.N_STATES_SF else None, w_mean_b, *predicted)
 
     def _update(self, model, epoch: Epoch, counters=None, used: str = "", rejected: str = "") -> bool:
         """Apply ``model``'s measurement at ``epoch`` if it has one (gated at the model's probability, else the
@@ -377,7 +402,9 @@ class InsGpsFilter:
         strapdown.rotate_attitude(self.nav, dx[em.PHI])
         self.gyro_bias = self.gyro_bias - dx[em.BG]
         self.accel_bias = self.accel_bias - dx[em.BA]
-        if self.n_states == em.N_STATES_SF:
+        if self.n_states > self.n_ins:
+            self.odometer.scale -= float(dx[self.n_ins])
+        if self.n_ins == em.N_STATES_SF:
             self.gyro_scale = self.gyro_scale - dx[em.SG]
             self.accel_scale = self.accel_scale - dx[em.SA]
 

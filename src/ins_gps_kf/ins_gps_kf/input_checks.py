@@ -39,7 +39,11 @@ in ``/diagnostics``, the replay in its summary. Every rejected input is counted 
   outside [0.5 g, 2 g]: no IMU at rest reads that (an accelerometer in g reads 1.0), so it is not taken
   as rest and the alignment waits; ``last_rejection`` says what it read;
 * ``state_resets`` - a non-finite navigation state or covariance, or an INS speed beyond twice
-  ``max_speed_mps``: the filter resets and re-aligns (never publishes it).
+  ``max_speed_mps``: the filter resets and re-aligns (never publishes it);
+* ``odometer_nonfinite``, ``odometer_duplicate``, ``odometer_out_of_order`` - a wheel speed (replay
+  ``--odometry``) whose stamp or speed is NaN or infinite, repeats the previous stamp, or goes back: dropped;
+* ``odometer_stuck`` - a wheel speed of exactly 0 while the INS says the vehicle moves faster than
+  ``odometer_stuck_speed_mps``: a stuck wheel, not used.
 """
 from __future__ import annotations
 
@@ -72,6 +76,10 @@ class InputCounters:
     gps_resets_refused: int = 0
     state_resets: int = 0
     alignment_not_gravity: int = 0
+    odometer_nonfinite: int = 0     # wheel speeds or stamps that are NaN or infinite
+    odometer_duplicate: int = 0     # a wheel speed with the stamp of the previous one
+    odometer_out_of_order: int = 0  # a wheel speed stamped before the previous one
+    odometer_stuck: int = 0         # a wheel speed of 0 while the INS says the vehicle moves
     last_rejection: str = ""
     unknown_fix_std: str = ""
 

@@ -29,11 +29,13 @@ def fix_places(t_fix: np.ndarray, stale_s: float) -> np.ndarray:
     return np.array([arrivals.place_of(float(t))[0] for t in t_fix], dtype=float)
 
 
-def run(filt: InsGpsFilter, imu: ImuRecording, gnss: GnssRecording | None, progress: bool = False) -> list[Estimate]:
+def run(filt: InsGpsFilter, imu: ImuRecording, gnss: GnssRecording | None, progress: bool = False,
+        odometry: tuple | None = None) -> list[Estimate]:
     """Feed ``imu`` and ``gnss`` to ``filt`` as the node's intake would: each fix at its place (:func:`fix_places`),
     fixes of one place in recorded order and before an IMU sample of that stamp; the filter gets each fix's own
     stamp and judges it (a stamp gone back is counted and dropped, or re-stamped after a GNSS clock step). The IMU
-    stamps go through the intake's :class:`~ins_gps_kf.input_checks.ImuClock` (an IMU clock step back re-stamped)."""
+    stamps go through the intake's :class:`~ins_gps_kf.input_checks.ImuClock` (an IMU clock step back re-stamped).
+    ``odometry``: (t (n,) s, forward speed (n,) m/s) wheel speeds, each fed at its stamp after the fixes there."""
     out: list[Estimate] = []
     bar = None
     if progress:
@@ -51,13 +53,48 @@ def run(filt: InsGpsFilter, imu: ImuRecording, gnss: GnssRecording | None, progr
         start = max(start, stop)
 
     places = fix_places(gnss.t, filt.cfg.time_jump) if gnss is not None else np.zeros(0)
-    for k in np.argsort(places, kind="stable"):
-        feed(int(np.searchsorted(t_imu, places[k], side="left")))
-        filt.process_gps(gnss.t[k], gnss.lat[k], gnss.lon[k], gnss.h[k], gnss.std_enu[k], gnss.status[k])
+    odo_t, odo_v = odometry if odometry is not None else (np.zeros(0), np.zeros(0))
+    # each wheel speed arrives after the latest stamp before it (file order kept: a stamp gone back is judged)
+    odo_places = np.maximum.accumulate(np.where(np.isfinite(odo_t), odo_t, -np.inf)) if len(odo_t) else odo_t
+    events = np.concatenate([places, odo_places])
+    for k in np.argsort(events, kind="stable"):
+        feed(int(np.searchsorted(t_imu, events[k], side="left")))
+        if k < len(places):
+            filt.process_gps(gnss.t[k], gnss.lat[k], gnss.lon[k], gnss.h[k], gnss.std_enu[k], gnss.status[k])
+        else:
+            filt.process_odometry(odo_t[k - len(places)], odo_v[k - len(places)])
     feed(len(imu))
     if bar is not None:
         bar.close()
     return out
+
+
+def read_odometry_csv(path) -> tuple:
+    """(t (n,) s, speed (n,) m/s) from a CSV with columns ``t,speed_mps``; a value that is not a number is read as
+    NaN (the filter counts it as ``odometer_nonfinite``) and the first such line is returned as a warning:
+    (t, speed, warning or None). RecordingError naming the file when the columns are missing."""
+    import csv
+
+    from nav_core.recording import RecordingError
+    with open(path, newline="") as fh:
+        reader = csv.reader(fh)
+        header = [h.strip() for h in next(reader, [])]
+        if "t" not in header or "speed_mps" not in header:
+            raise RecordingError(f"{path}: header {header}: expected columns t,speed_mps (s, m/s)")
+        it, iv = header.index("t"), header.index("speed_mps")
+        t, v, warning = [], [], None
+        for line, row in enumerate(reader, start=2):
+            vals = []
+            for i, name in ((it, "t"), (iv, "speed_mps")):
+                try:
+                    vals.append(float(row[i]))
+                except (ValueError, IndexError):
+                    vals.append(np.nan)
+                    warning = warning or f"{path}: line {line}, column {name}: {row[i] if i < len(row) else ''!r} " \
+                                         "is not a number (read as NaN, counted as odometer_nonfinite)"
+            t.append(vals[0])
+            v.append(vals[1])
+    return np.array(t, dtype=float), np.array(v, dtype=float), warning
 
 
 def to_trajectory(estimates: list[Estimate], frame) -> Trajectory:

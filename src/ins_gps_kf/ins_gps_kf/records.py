@@ -54,6 +54,8 @@ class Counters:
     zupts: int = 0
     nhc_updates: int = 0   # non-holonomic constraints applied
     nhc_rejected: int = 0  # constraints the gate refused (a skid, or a vehicle they do not fit)
+    odometer_updates: int = 0   # wheel speeds applied
+    odometer_rejected: int = 0  # wheel speeds the gate refused (a slipping wheel)
     resets: int = 0
     gps_resets: int = 0
     gaps_bridged: int = 0

@@ -30,7 +30,7 @@ from nav_core.params import did_you_mean  # noqa: E402
 from nav_core.outputs import check_out_file, staged_file  # noqa: E402
 from ins_gps_kf import config as kfconfig, track_check  # noqa: E402
 from ins_gps_kf.filter import ALIGNING, InsGpsFilter  # noqa: E402
-from ins_gps_kf.offline import load_model, plot_north_east, run, to_trajectory  # noqa: E402
+from ins_gps_kf.offline import load_model, plot_north_east, read_odometry_csv, run, to_trajectory  # noqa: E402
 from ins_gps_kf.smoother import run_smoothed  # noqa: E402
 
 
@@ -44,10 +44,11 @@ def forward_path(out_path) -> Path:
 
 
 def replay_files(recording_path, gnss_path, model_path, out_path, params: dict | None = None,
-                 imu_topic=None, gps_topic=None, plot=True, progress=True, smooth=False):
+                 imu_topic=None, gps_topic=None, plot=True, progress=True, smooth=False, odometry_path=None):
     """Read, run, write: the ``replay`` subcommand as a function; returns (Trajectory, filter). With ``smooth``
     the trajectory written to ``out_path`` (and returned) is the smoothed one (:mod:`ins_gps_kf.smoother`), the
-    forward one goes to :func:`forward_path`."""
+    forward one goes to :func:`forward_path`. ``odometry_path``: wheel speeds (CSV ``t,speed_mps``), which turn
+    ``odometer_enabled`` on."""
     p = kfconfig.defaults()
     p.update(params or {})
     recording.refuse_topic_without_bag(recording_path, "--imu-topic", imu_topic)
@@ -57,14 +58,21 @@ def replay_files(recording_path, gnss_path, model_path, out_path, params: dict |
     gnss = recording.read_gnss(gnss_src, topic=gps_topic or p["gps_topic"])
     for damage in dict.fromkeys(r.damage for r in (imu, gnss) if r.damage):  # read past it: say what was lost
         print(f"ins-gps-kf: warning: {damage}", file=sys.stderr)
+    odometry = None
+    if odometry_path is not None:
+        t_odo, v_odo, warning = read_odometry_csv(odometry_path)
+        if warning:
+            print(f"ins-gps-kf: warning: {warning}", file=sys.stderr)
+        odometry = (t_odo, v_odo)
+        p["odometer_enabled"] = True
     cfg = kfconfig.from_params(p)
     for warning in check_recordings(imu, gnss, cfg, imu_topic or p["imu_topic"]):
         print(f"ins-gps-kf: warning: {warning}", file=sys.stderr)
     filt = InsGpsFilter(cfg, load_model(model_path))
     if smooth:
-        estimates, smoothed = run_smoothed(filt, run, imu, gnss, progress=progress)
+        estimates, smoothed = run_smoothed(filt, run, imu, gnss, progress=progress, odometry=odometry)
     else:
-        estimates = smoothed = run(filt, imu, gnss, progress=progress)
+        estimates = smoothed = run(filt, imu, gnss, progress=progress, odometry=odometry)
     if filt.frame is None:
         raise recording.RecordingError(f"{gnss_src}: no valid GPS fix, so no datum for the local frame")
     if not estimates:
@@ -186,6 +194,8 @@ def _summary(filt: InsGpsFilter) -> dict:
     c = filt.counters
     return {"epochs": c.epochs, "fixes": c.fixes, "fixes_rejected": c.fixes_rejected, "fixes_invalid": c.fixes_invalid,
             "zupts": c.zupts, "nhc_updates": c.nhc_updates, "nhc_rejected": c.nhc_rejected,
+            "odometer_updates": c.odometer_updates, "odometer_rejected": c.odometer_rejected,
+            "odometer_scale_pct": 100.0 * filt.odometer.scale if filt.cfg.odometer_enabled else None,
             "nhc_mounting_pitch_yaw_deg": filt.nhc.mounting_deg(), "resets": c.resets, "gps_resets": c.gps_resets,
             "reset_reasons": c.reset_reasons,
             "input": filt.input_counters}
@@ -215,6 +225,8 @@ def main(argv=None) -> int:
     rp.add_argument("--gps-topic", help="GNSS topic in a bag (default: the gps_topic parameter)")
     rp.add_argument("--no-plot", action="store_true", help="do not write the PNG next to --out")
     rp.add_argument("--quiet", action="store_true", help="no progress bar")
+    rp.add_argument("--odometry", metavar="ODOM.csv", help="wheel speeds (columns t,speed_mps: s, m/s forward) as "
+                    "updates with the odometer's scale factor as a filter state")
     rp.add_argument("--smooth", action="store_true", help="forward-backward (RTS) smoothing: --out gets the smoothed "
                     "trajectory with its smoothed std, OUT.forward.csv the forward one")
     rp.add_argument("--json", action="store_true", help="print the run's counts (events, rejected input) as JSON")
@@ -233,7 +245,8 @@ def _replay(args) -> int:
     params = kfconfig.load_params_yaml(args.params) if args.params else {}
     params.update(_parse_overrides(args.param))
     traj, filt = replay_files(args.recording, args.gnss, args.model, args.out, params, args.imu_topic,
-                              args.gps_topic, plot=not args.no_plot, progress=not args.quiet, smooth=args.smooth)
+                              args.gps_topic, plot=not args.no_plot, progress=not args.quiet, smooth=args.smooth,
+                              odometry_path=args.odometry)
     if args.json:
         print(json.dumps(_summary(filt), indent=1))
         return 0

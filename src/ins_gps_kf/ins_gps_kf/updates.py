@@ -4,9 +4,9 @@ One interface (:class:`UpdateModel`): ``measurement(epoch)`` returns ``(z, H, R)
 measured, H on the error state, R the noise covariance) or None when the model has nothing to say at
 this epoch. The filter gates, applies and feeds back every measurement the same way
 (:meth:`ins_gps_kf.filter.InsGpsFilter._apply`) and counts per model. Models today: GNSS position
-(:class:`GnssPosition`) and zero velocity at rest (:class:`ZeroVelocity`); vehicle constraints (NHC) and a
-wheel odometer (issue 25) are further models of the same shape: an odometer holds its pending speed as
-GNSS holds its fix, NHC judges the epoch as ZUPT does.
+(:class:`GnssPosition`), zero velocity at rest (:class:`ZeroVelocity`), vehicle constraints
+(:class:`NonHolonomic`, judging the epoch as ZUPT does) and the wheel odometer (:class:`WheelOdometer`, holding
+its pending speed as GNSS holds its fix; its scale factor is a filter state).
 """
 from __future__ import annotations
 
@@ -143,6 +143,49 @@ class NonHolonomic(UpdateModel):
         h[:, PHI] = -rows @ skew(vel_n)
         h[:, BG] = self.mat_vb[1:] @ skew(self.lever_b)
         return vel_v[1:].copy(), h, np.eye(2) * self.std**2
+
+
+class WheelOdometer(UpdateModel):
+    """The wheel odometer: forward speed of the vehicle (m/s, the IMU mounted at ``mounting_*`` in it) measured as
+    ``(1 + s) v_fwd + noise``, ``s`` its scale-factor error, a filter state at ``index``. The latest wheel speed no
+    older than ``odometer_max_age_s`` is used at an epoch (a gap: none); a speed of exactly 0 while the INS says the
+    vehicle moves faster than ``odometer_stuck_speed_mps`` is a stuck wheel, counted and not used.
+
+    With ``C_est = (I - [phi x]) C_true``: ``z = (1 + s) v_fwd - speed`` has ``H[DV] = (1 + s) r``,
+    ``H[PHI] = -(1 + s) r [v_n x]``, ``H[s] = v_fwd`` (``r`` the vehicle's forward axis in ENU).
+    """
+
+    name = "odometer"
+
+    def __init__(self, cfg: FilterConfig, index: int, stuck_counter):
+        self.enabled = cfg.odometer_enabled
+        self.cfg = cfg
+        self.index = index
+        self.scale = 0.0  # estimated scale-factor error, unitless
+        self.pending = None  # (t s, speed m/s): the latest wheel speed
+        self.last_t = -np.inf
+        self.count_stuck = stuck_counter
+        self.mat_vb = frames.mat_nb_from_euler(*cfg.mounting_rpy)
+
+    def measurement(self, epoch: Epoch):
+        if not self.enabled or self.pending is None or not epoch.heading_known:
+            return None  # with the heading pending the forward axis is not known (as for NHC)
+        t, speed = self.pending
+        self.pending = None
+        if abs(epoch.t - t) > self.cfg.odometer_max_age:
+            return None
+        row = self.mat_vb[0] @ epoch.mat_nb.T
+        vel_n = epoch.nav[strapdown.V]
+        v_fwd = float(row @ vel_n)
+        if speed == 0.0 and abs(v_fwd) > self.cfg.odometer_stuck_speed:
+            self.count_stuck(f"wheel speed at t={t:.3f} s is 0 while the INS says {v_fwd:.1f} m/s: stuck, not used")
+            return None
+        gain = 1.0 + self.scale
+        h = np.zeros((1, epoch.n_states))
+        h[0, DV] = gain * row
+        h[0, PHI] = -gain * row @ skew(vel_n)
+        h[0, self.index] = v_fwd
+        return np.array([gain * v_fwd - speed]), h, np.array([[self.cfg.odometer_std**2]])
 
 
 MOUNTING_MIN_SPEED = 3.0  # m/s: slower, the body velocity's direction is swamped by its error
