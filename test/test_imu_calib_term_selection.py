@@ -92,8 +92,17 @@ def test_a_term_the_record_cannot_identify_gets_an_upper_bound_and_is_marked_nev
     fit = _fit(3.5e-4, 2.2e-6, 3, seconds=600.0)
     assert not fit.identifiable("K") and fit.values["K"] == 0.0
     assert fit.upper_bounds["K"] > 0 and fit.reported_value("K") == fit.upper_bounds["K"]
-    assert fit.intervals["K"] == (0.0, fit.upper_bounds["K"])
+    # the interval also covers the term sets the data cannot tell from the chosen one; the value the filter is
+    # tuned with stays the chosen set's bound
+    assert fit.intervals["K"][0] == 0.0 and fit.intervals["K"][1] >= fit.upper_bounds["K"]
     assert fit.summary()["terms"]["K"] == NOT_IDENTIFIABLE
+
+
+def test_an_unidentified_terms_value_is_the_chosen_sets_bound_not_the_wider_covering_one():
+    # the covering bound (every term set the data do not reject) on a short record is far above the chosen
+    # set's: as the model's value it tuned the Katwijk rover's filter 25x worse (0.12 -> 3.1 m RMS)
+    fit = _fit(3.5e-4, 2.2e-6, 3, seconds=600.0)
+    assert fit.intervals["K"][1] > fit.upper_bounds["K"] == fit.reported_value("K")
 
 
 def test_sensor_model_and_kalibr_carry_upper_bounds_with_their_marks(tmp_path):
@@ -105,7 +114,7 @@ def test_sensor_model_and_kalibr_carry_upper_bounds_with_their_marks(tmp_path):
     model = sensor_model.load(paths["sensor_model"])
     k = model.gyro.rate_random_walk
     assert np.all(k > 0) and not np.any(model.gyro.identifiable["rate_random_walk"])
-    np.testing.assert_allclose(k, model.gyro.intervals["rate_random_walk"][:, 1])
+    assert np.all(k <= model.gyro.intervals["rate_random_walk"][:, 1])  # the chosen set's bound within the covering one
     assert set(model.gyro.info["fit_quality"].values()) <= {"good", "poor"}
     text = paths["kalibr"].read_text()
     kalibr = yaml.safe_load(text)
