@@ -12,7 +12,8 @@ def test_truth_is_taken_at_the_rate_in_enu_at_the_scenario_datum(tmp_path):
     from nav_bringup.scenario_player_node import ScenarioPlayer
 
     scenario = tmp_path / "scenario.yaml"
-    scenario.write_text(yaml.safe_dump({"latitude_deg": 21.0, "longitude_deg": 105.0, "height_m": 10.0}))
+    scenario.write_text(yaml.safe_dump({"latitude_deg": 21.0, "longitude_deg": 105.0, "height_m": 10.0,
+                                        "trajectory": "paper_drive"}))  # a valid scenario: its datum is read through imu_sim.scenario.load
     (tmp_path / "sim_info.yaml").write_text(yaml.safe_dump({"scenario": str(scenario), "bag_epoch_s": 1.7e9}))
     t = np.arange(0, 20.0, 1 / 64)
     lat, lon = (21.0 + 1e-6 * t) * DEG, (105.0 + 2e-6 * t) * DEG
