@@ -1,7 +1,7 @@
 """Sensor health on the real recordings of ../shared/data: events per recording (the target is none, unless a
 real fault is found and shown).
 
-    .venv/bin/python benchmarks/bench_sensor_health_real.py [--only adis|balzer|navego]
+    .venv/bin/python benchmarks/bench_sensor_health_real.py [--only adis|balzer|navego] [--quick]
 
 Each recording's model is fitted by ``imu-calib allan`` as a user would: on the recording itself for the static
 ADIS16405 runs (SMAC-Group/imudata, CC BY-NC-SA 4.0); on the stationary start for the drives when there are at
@@ -68,10 +68,12 @@ def fit(tmp: Path, name, rec, calib_args):
 def main(argv=None) -> int:
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     p.add_argument("--only", choices=("adis", "balzer", "navego"))
+    p.add_argument("--quick", action="store_true", help="the first recording present only (the suite's smoke run)")
     args = p.parse_args(argv)
     total_h, total_events = 0.0, 0
+    todo = recordings(args.only)
     with tempfile.TemporaryDirectory() as tmpdir:
-        for name, load, calib_args in recordings(args.only):
+        for name, load, calib_args in todo[:1] if args.quick else todo:
             start = time.time()
             try:
                 rec = load()
