@@ -25,7 +25,8 @@ from imu_sim.gnss import GpsConfig
 
 KNOWN_KEYS = {"name", "description", "latitude_deg", "longitude_deg", "height_m", "segments", "trajectory",
               "gnss_track", "static_segments", "yaw0_deg", "duration_s", "rate_hz", "gps", "gps_lever_arm_m",
-              "temperature", "physics", "error_terms", "sensor_model", "seed", "notes", "faults"}
+              "temperature", "physics", "error_terms", "sensor_model", "seed", "notes", "faults",
+              "attitude_tolerance_deg"}
 SOURCES = ("segments", "trajectory", "gnss_track", "static_segments")
 BUILTIN_TRAJECTORIES = ("paper_drive",)
 SEGMENT_KEYS = {"stand": (), "cruise": (), "stop": (), "accelerate": ("speed_mps",), "turn": ("angle_deg",)}
@@ -67,6 +68,9 @@ class Scenario:
     """Sensor faults injected into the IMU output (:mod:`imu_sim.faults`)."""
     name: str = "scenario"
     where: str = "<scenario>"
+    attitude_tolerance_deg: float = 1.0
+    """How far each static segment's fixture may be from its stated attitude (deg); the diagnosis treats it as a
+    nuisance (:mod:`imu_sim.diagnose.fixture`)."""
 
 
 def _num(data, key, where, default=None, positive=False, low=None, high=None, prefix=""):
@@ -217,6 +221,7 @@ def from_dict(data, where: str = "<scenario>", base_dir: Path = Path(".")) -> Sc
     if source in ("segments", "static_segments") and (sc.latitude_deg is None or sc.longitude_deg is None):
         raise ScenarioError(f"{where}: latitude_deg and longitude_deg are required with {source}")
     sc.yaw0_deg = _num(data, "yaw0_deg", where, 0.0, low=-360.0, high=360.0)
+    sc.attitude_tolerance_deg = _num(data, "attitude_tolerance_deg", where, 1.0, low=0.0, high=90.0)
     sc.duration_s = _num(data, "duration_s", where, None, positive=True, high=MAX_DURATION_S)
     sc.rate_hz = _num(data, "rate_hz", where, 64.0, positive=True, high=MAX_RATE_HZ)
     sc.gps = _gps(data.get("gps"), where)

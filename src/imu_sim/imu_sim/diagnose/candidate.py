@@ -86,6 +86,10 @@ class Candidate:
     """Ranking key when it is not statistic - threshold (e.g. a conditional LR of correlated effects)."""
     caveat: str = ""
     """Added to the finding's explanation (e.g. a rival this record cannot tell it from)."""
+    constant_scale: float | None = None
+    """A known constant's fitted scale on its exact regressor (1 = the constant); None for other effects."""
+    constant_se: float | None = None
+    """Standard error of ``constant_scale``."""
 
     @property
     def significant(self) -> bool:

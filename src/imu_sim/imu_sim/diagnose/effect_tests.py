@@ -121,6 +121,8 @@ def regression(ctx: Context, design, statistic: str = "GLS likelihood ratio", se
         cand.contrib[:, ch] = x @ res.theta
     if design.effect in ("earth_rotation", "gravity_model", "coriolis"):
         cand.params, cand.intervals = regressors.physical_value(design.effect, res.theta, ci, case)
+        cand.constant_scale = float(res.theta[0])
+        cand.constant_se = float(np.sqrt(max(res.cov[0, 0], 0.0)))
     return cand
 
 

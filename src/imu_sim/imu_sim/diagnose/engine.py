@@ -7,7 +7,10 @@ times a factor calibrated by Monte Carlo on null simulations (``calibration.yaml
 ``benchmarks/bench_diagnosis.py --calibrate``, see :mod:`calibrate`). Among significant effects the one with the
 largest excess (statistic - threshold, an information-criterion-like penalty per parameter; for the slow-wander
 effects, their statistic given the strongest rival, see :mod:`ranking`) is fitted, added to the model, and the
-model re-simulated; a finding is kept only if the held-out statistic improves (:mod:`heldout`).
+model re-simulated; a finding is kept only if the held-out statistic improves by MIN_GAIN (:mod:`heldout`).
+Effects with a motion or physics regressor are fitted before stochastic terms; a known constant that matches its
+value is ranked with zero free parameters; a fit outside the sensor grade's bounds is reported as a
+``reference_or_model_error``, never as sensor physics (:mod:`plausibility`).
 """
 from __future__ import annotations
 
@@ -17,7 +20,7 @@ import numpy as np
 
 from nav_core.sensor_model import EFFECTS, SensorModel
 
-from imu_sim.diagnose import gnss_candidates, metrics, reference, share
+from imu_sim.diagnose import fixture, gnss_candidates, metrics, plausibility, reference, share
 from imu_sim.diagnose.candidate import (ALPHA, EXPLAIN, GNSS_EFFECTS, Candidate, Context, add_effect, evidence,
                                         load_calibration, rounded)
 from imu_sim.diagnose.case import CHANNELS, Case, residual
@@ -27,8 +30,9 @@ from imu_sim.diagnose.ranking import rank_low_frequency
 from imu_sim.diagnose.spectral import Whitener
 
 __all__ = ["Candidate", "Diagnosis", "diagnose", "evaluate"]
-GAIN_TOL = 1e-9
-"""Smallest relative held-out gain that counts (below it the metric did not move)."""
+MIN_GAIN = 1e-3
+"""Smallest practically meaningful held-out gain, relative to |metric before| (0.1 %): a fit moving from 0.96580
+to 0.96579 is not a finding."""
 SHARE_SCALE = ("findings ordered by share_of_mismatch: each finding's energy in the residual over the per-sample "
                "noise variance (sum of contrib^2 / sigma^2 over samples and channels; for noise terms their "
                "variance times the samples), over the sum for all findings")
@@ -49,8 +53,65 @@ def evaluate(case: Case, model: SensorModel, resid: np.ndarray, exclude=(), fact
     for cand in out:
         if cand.effect == "coriolis" and cand.identifiable is False and "constant" in cand.reason:
             cand.reason = "the truth has no velocity here (static): Coriolis cannot show"
+        _rank_known_constant(cand)
     rank_low_frequency(ctx, out)
     return out
+
+
+def _rank_known_constant(cand: Candidate) -> None:
+    """A known constant (Earth rate, normal gravity, Coriolis) matching its value within the 95 % interval is ranked
+    with zero free parameters: its evidence is the likelihood ratio of the constant itself, with no penalty."""
+    if cand.constant_scale is None or not cand.constant_se or not cand.significant:
+        return
+    z = (cand.constant_scale - 1.0) / cand.constant_se
+    if abs(z) <= 1.96:
+        cand.rank = float(cand.stat - z * z)
+        cand.caveat = (f"It matches the known constant within its 95 % interval (scale {cand.constant_scale:.4g} "
+                       f"+- {1.96 * cand.constant_se:.2g}): evidence with zero free parameters.")
+
+
+MOTION_EFFECTS = ("earth_rotation", "gravity_model", "coriolis", "scale_factor", "axis_misalignment",
+                  "gyro_g_sensitivity")
+"""Effects with a motion or physics regressor: fitted before any stochastic term."""
+
+
+def _deterministic_first(sig: list) -> Candidate:
+    """The candidate to fit next from the significant ones (best evidence first): a significant effect with a motion
+    or physics regressor goes before any stochastic term, which only takes what remains once it is fitted (a
+    Gauss-Markov bias can mimic the step response of a rate table's scale factor)."""
+    if sig[0].kind == "noise":
+        motion = [c for c in sig if c.effect in MOTION_EFFECTS]
+        if motion:
+            motion[0].caveat = " ".join(filter(None, [motion[0].caveat, (
+                f"Fitted before the stochastic term {sig[0].effect} (which ranked higher alone): deterministic "
+                "effects with a motion regressor come first.")]))
+            return motion[0]
+    return sig[0]
+
+
+def _gain_ok(before: float, after: float) -> bool:
+    """Whether the held-out metric improved by a practically meaningful amount (MIN_GAIN relative)."""
+    return bool(after < before - MIN_GAIN * max(abs(before), 1e-300))
+
+
+def _metric_text(name: str, before: float, after: float) -> str:
+    """The metric's name with its held-out gain stated."""
+    gain = (before - after) / max(abs(before), 1e-300)
+    return f"{name}; held-out gain {100 * gain:.3g} % (a finding needs >= {100 * MIN_GAIN:g} %)"
+
+
+def _model_error(cand: Candidate, broken: list, grade: str, how: str) -> dict:
+    """The ``reference_or_model_error`` entry of a significant fit outside the sensor grade's bounds."""
+    worst = max(broken, key=lambda b: abs(b["value"]) / b["bound"] if isinstance(b["bound"], float) else np.inf)
+    cand.reason = ((cand.reason + "; ") if cand.reason else "") + (
+        f"fit outside the {grade}-grade bounds ({worst['parameter']} = {worst['value']:.4g}, bound "
+        f"{worst['bound']}): reported as reference_or_model_error, not as sensor physics")
+    return {"kind": "reference_or_model_error", "effect_tested": cand.effect, "parameter": worst["parameter"],
+            "value": worst["value"], "bound": worst["bound"], "grade": grade, "grade_source": how,
+            "all_out_of_bounds": broken, "parameters": cand.params, "intervals": cand.intervals,
+            "statistic": {"name": cand.statistic, "value": rounded(cand.stat), "threshold": rounded(cand.threshold)},
+            "explanation": (f"A {cand.effect} fit of this size is not possible for a {grade}-grade sensor: the "
+                            "reference (fixture attitude, trajectory, site) or the model is wrong, not the sensor.")}
 
 
 @dataclass
@@ -72,7 +133,9 @@ def diagnose(case: Case, max_effects: int = 4, seed: int = 0, progress=None, fac
     resid0 = residual(case, model)
     resid = resid0
     findings, details, tested, accepted = [], [], None, set()
-    for _ in range(max_effects + 2):
+    grade, grade_how = plausibility.grade_of(case.model)
+    model_errors, rounds, not_separable = [], 0, {}
+    while rounds < max_effects + 2:
         if len(findings) >= max_effects:
             break
         cands = evaluate(case, model, resid, exclude=accepted, factors=factors)
@@ -83,14 +146,24 @@ def diagnose(case: Case, max_effects: int = 4, seed: int = 0, progress=None, fac
         sig = sorted([c for c in cands if c.significant], key=evidence, reverse=True)
         if not sig or len(findings) >= max_effects:
             break
-        best = sig[0]
+        best = _deterministic_first(sig)
         accepted.add(best.effect)
+        tilt_note = fixture.check(case, best, reference.clean(case, resid))
+        if tilt_note:  # the fixture's own tilt (a nuisance) can stand for it: not ranked
+            not_separable[best.effect] = tilt_note
+            continue
+        broken = plausibility.violations(best, grade, best.constant_scale)
+        if broken:  # not sensor physics: kept out of the model, and it does not use up a round
+            model_errors.append(_model_error(best, broken, grade, grade_how))
+            continue
+        rounds += 1
         new_model = add_effect(model, best)
         name, before, after = fit_metric(case, best, model, new_model, reference.clean(case, resid), seed)
         new_resid = residual(case, new_model)
-        # no held-out gain, or one at the metric's rounding (a format artifact: 0 -> 0), is not a finding
-        if not after < before - GAIN_TOL * max(abs(before), 1e-300):
-            best.reason = f"significant but no held-out improvement ({before:.4g} -> {after:.4g}); not kept"
+        # a held-out gain below MIN_GAIN (or one at the metric's rounding: 0 -> 0) is not a finding
+        if not _gain_ok(before, after):
+            best.reason = (f"significant but no practically meaningful held-out improvement ({before:.6g} -> "
+                           f"{after:.6g}, below {100 * MIN_GAIN:g} %); not kept")
             continue
         if best.kind == "gnss":
             span, band = gnss_candidates.location(case, best, model)
@@ -104,7 +177,9 @@ def diagnose(case: Case, max_effects: int = 4, seed: int = 0, progress=None, fac
             "effect": best.effect, "channels": best.channels or list(CHANNELS),
             "time_span_s": span,
             "band": band, "parameters": best.params, "intervals": best.intervals,
-            "metric": name, "fit_before": before, "fit_after": after,
+            "metric": _metric_text(name, before, after), "fit_before": before, "fit_after": after,
+            "free_parameters": 0 if best.rank is not None and best.constant_scale is not None else len(best.params),
+            "evidence": rounded(evidence(best)),
             "statistic": {"name": best.statistic, "value": rounded(best.stat), "threshold": rounded(best.threshold)},
             "explanation": " ".join(filter(None, [EXPLAIN.get(best.effect, best.effect), best.caveat])),
             "mismatch_energy": rounded(share.energy(case, best, model, reference.clean(case, resid)))})
@@ -113,22 +188,35 @@ def diagnose(case: Case, max_effects: int = 4, seed: int = 0, progress=None, fac
     _rank_by_share(findings, details)
     tested_out = [c.tested_entry() for c in tested]
     for entry in tested_out:
-        if entry["effect"] in accepted and entry["effect"] not in [f["effect"] for f in findings]:
-            entry["note"] = (entry["note"] + "; " if entry["note"] else "") + "not kept (no held-out improvement)"
+        if entry["effect"] in not_separable:
+            entry["note"] = (entry["note"] + "; " if entry["note"] else "") + not_separable[entry["effect"]]
+            continue
+        flagged = [e for e in model_errors if e["effect_tested"] == entry["effect"]]
+        if flagged:
+            entry["note"] = (entry["note"] + "; " if entry["note"] else "") + (
+                f"fit outside the {grade}-grade bounds ({flagged[0]['parameter']} = {flagged[0]['value']:.4g}, "
+                f"bound {flagged[0]['bound']}): reported as reference_or_model_error, not as sensor physics")
+        if entry["effect"] in accepted and entry["effect"] not in [f["effect"] for f in findings] and not flagged:
+            entry["note"] = (entry["note"] + "; " if entry["note"] else "") + (
+                "not kept (no practically meaningful held-out improvement)")
     result = {"mismatch": bool(findings), "findings": findings, "tested": tested_out,
               "channels": list(CHANNELS), "samples": case.n, "rate_hz": 1.0 / case.dt, "notes": case.notes,
               "alpha_familywise": ALPHA,
               "calibration": factors or "uncalibrated (chi-square, Bonferroni)",
               "n_significant_first_pass": int(sum(c.significant for c in tested)),
-              "share_scale": SHARE_SCALE}
+              "share_scale": SHARE_SCALE,
+              "sensor_grade": {"grade": grade, "source": grade_how, "bounds": plausibility.BOUNDS[grade]},
+              "reference_or_model_error": model_errors}
     return Diagnosis(result, model, case, resid0, resid, details)
 
 
 def _rank_by_share(findings: list, details: list) -> None:
-    """Order findings (and their details) by their share of the mismatch, largest first; write the share."""
+    """Order findings (and their details) by their share of the mismatch, largest first, except that a known
+    constant matching its value (zero free parameters, the strongest evidence) comes first; write the share."""
     for f, sh in zip(findings, share.shares([f["mismatch_energy"] or 0.0 for f in findings])):
         f["share_of_mismatch"] = round(sh, 4)
-    order = sorted(range(len(findings)), key=lambda i: -findings[i]["share_of_mismatch"])
+    order = sorted(range(len(findings)), key=lambda i: (findings[i].get("free_parameters") != 0,
+                                                         -findings[i]["share_of_mismatch"]))
     findings[:] = [findings[i] for i in order]
     details[:] = [details[i] for i in order]
 

@@ -1,0 +1,104 @@
+"""Plausibility bounds per sensor grade: a fit no sensor of the class can have is a reference or model error.
+
+The grade is the sensor model's ``provenance.grade`` when it states one (navigation, tactical, industrial,
+consumer), else inferred from its gyro noise: the angle random walk (``white_noise``) and, when present, the bias
+instability, each mapped to a grade and the coarser of the two taken (so a doubtful model gets the wider bounds).
+Bounds are upper limits of |parameter| in SI units, about ten times the top of the typical range of each class
+(Groves, *Principles of GNSS, Inertial, and Multisensor Integrated Navigation Systems*, 2nd ed., 2013, sec. 4.4
+and Tables 4.1-4.2; IEEE Std 952-1997 / 1431-2004 for the terms; see the package README). Known constants
+(Earth rate, normal gravity, Coriolis) have no grade: their fitted scale on the exact regressor must be within
+``CONSTANT_SCALE`` of 1, else the reference (heading, attitude, site) or the model is wrong.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+GRADES = ("navigation", "tactical", "industrial", "consumer")
+"""Finest to coarsest."""
+DEG_PER_H = np.pi / 180.0 / 3600.0
+"""1 deg/h in rad/s."""
+ARW_DEG_PER_SQRT_H = np.pi / 180.0 / 60.0
+"""1 deg/sqrt(h) in rad/sqrt(s)."""
+
+INFER_ARW = {"navigation": 0.01 * ARW_DEG_PER_SQRT_H, "tactical": 0.2 * ARW_DEG_PER_SQRT_H,
+             "industrial": 1.0 * ARW_DEG_PER_SQRT_H}
+"""Largest gyro angle random walk (rad/sqrt(s)) of each grade; above industrial's: consumer."""
+INFER_BIAS_INSTABILITY = {"navigation": 0.05 * DEG_PER_H, "tactical": 5.0 * DEG_PER_H,
+                          "industrial": 50.0 * DEG_PER_H}
+"""Largest gyro bias instability (rad/s) of each grade; above industrial's: consumer."""
+
+BOUNDS = {
+    # |scale factor| (1), |misalignment| (rad), |g-sensitivity| (rad/s per m/s^2), Gauss-Markov gyro sigma (rad/s)
+    "navigation": {"scale_factor": 1e-3, "axis_misalignment": 1e-3, "gyro_g_sensitivity": 5e-6,
+                   "gyro_bias_sigma": 0.1 * DEG_PER_H},
+    "tactical": {"scale_factor": 1e-2, "axis_misalignment": 1e-2, "gyro_g_sensitivity": 5e-5,
+                 "gyro_bias_sigma": 100.0 * DEG_PER_H},
+    "industrial": {"scale_factor": 3e-2, "axis_misalignment": 3e-2, "gyro_g_sensitivity": 2e-4,
+                   "gyro_bias_sigma": 1000.0 * DEG_PER_H},
+    "consumer": {"scale_factor": 0.1, "axis_misalignment": 0.05, "gyro_g_sensitivity": 2e-3,
+                 "gyro_bias_sigma": 5.0 * 3600.0 * DEG_PER_H},
+}
+"""Upper bound of |parameter| per grade (SI)."""
+CONSTANT_SCALE = 0.5
+"""A known constant's fitted scale must lie in [1 - this, 1 + this]."""
+KNOWN_CONSTANTS = ("earth_rotation", "gravity_model", "coriolis")
+
+
+def _by_threshold(value: float, limits: dict) -> str:
+    for grade in GRADES[:-1]:
+        if value <= limits[grade]:
+            return grade
+    return GRADES[-1]
+
+
+def grade_of(model) -> tuple:
+    """(grade, how it was obtained) of a sensor model: its ``provenance.grade`` or inferred from its gyro noise."""
+    stated = str((model.provenance or {}).get("grade", "")).strip().lower()
+    if stated:
+        if stated not in GRADES:
+            raise ValueError(f"sensor model provenance.grade: {stated!r} is not one of {GRADES}")
+        return stated, "stated by the sensor model (provenance.grade)"
+    arw = float(np.max(model.gyro.white_noise))
+    bi = float(np.max(model.gyro.bias_instability))
+    if arw <= 0 and bi <= 0:
+        return "consumer", "inferred: the model states no gyro noise (widest bounds)"
+    found = []
+    if arw > 0:
+        found.append((_by_threshold(arw, INFER_ARW), f"angle random walk {arw / ARW_DEG_PER_SQRT_H:.3g} deg/sqrt(h)"))
+    if bi > 0:
+        found.append((_by_threshold(bi, INFER_BIAS_INSTABILITY), f"bias instability {bi / DEG_PER_H:.3g} deg/h"))
+    grade = max((g for g, _ in found), key=GRADES.index)
+    return grade, "inferred from the gyro " + " and ".join(w for _, w in found)
+
+
+def violations(cand, grade: str, scale: float | None = None) -> list:
+    """Parameters of a candidate outside the grade's bounds: list of {parameter, value, bound, grade}.
+
+    A parameter breaks its bound when its value and its whole 95 % interval (when it has one) lie outside it: a
+    weakly determined fit is not called implausible on its point estimate alone.
+
+    ``scale``: a known constant's fitted scale (1 = the constant); default the candidate's ``constant_scale``.
+    """
+    params = cand.params or {}
+    scale = cand.constant_scale if scale is None else scale
+    out = []
+    if cand.effect in KNOWN_CONSTANTS:
+        half = 1.96 * (cand.constant_se or 0.0)  # implausible with confidence: the whole interval is out
+        if scale is not None and (scale - half > 1.0 + CONSTANT_SCALE or scale + half < 1.0 - CONSTANT_SCALE):
+            name = next(iter(params), f"{cand.effect}_scale")
+            out.append({"parameter": name, "value": float(params.get(name, scale)), "scale_of_constant": scale,
+                        "bound": f"scale of the known constant in [{1 - CONSTANT_SCALE:g}, {1 + CONSTANT_SCALE:g}]",
+                        "grade": "any"})
+        return out
+    bounds = BOUNDS[grade]
+    key = {"scale_factor": "scale_factor", "axis_misalignment": "axis_misalignment",
+           "gyro_g_sensitivity": "gyro_g_sensitivity", "gauss_markov_bias": "gyro_bias_sigma"}.get(cand.effect)
+    if key is None:
+        return out
+    for name, value in params.items():
+        if cand.effect == "gauss_markov_bias" and not name.startswith("gyro") or "time" in name or "tau" in name:
+            continue
+        lo, hi = (cand.intervals or {}).get(name, (value, value))
+        if np.isfinite(value) and abs(value) > bounds[key] and (lo > bounds[key] or hi < -bounds[key]):
+            out.append({"parameter": name, "value": float(value), "bound": bounds[key], "grade": grade})
+    return out
