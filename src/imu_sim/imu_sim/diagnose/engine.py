@@ -89,13 +89,22 @@ def _deterministic_first(sig: list) -> Candidate:
     return sig[0]
 
 
-def _gain_ok(before: float, after: float) -> bool:
-    """Whether the held-out metric improved by a practically meaningful amount (MIN_GAIN relative)."""
-    return bool(after < before - MIN_GAIN * max(abs(before), 1e-300))
+def _is_deviance(name: str) -> bool:
+    """A deviance is a log-likelihood: its origin depends on the units, so its gain is absolute (per block)."""
+    return "deviance" in name
+
+
+def _gain_ok(before: float, after: float, name: str = "") -> bool:
+    """Whether the held-out metric improved by a practically meaningful amount: MIN_GAIN relative, or MIN_GAIN
+    per block for a deviance (a log-likelihood ratio per held-out block)."""
+    scale = 1.0 if _is_deviance(name) else max(abs(before), 1e-300)
+    return bool(after < before - MIN_GAIN * scale)
 
 
 def _metric_text(name: str, before: float, after: float) -> str:
     """The metric's name with its held-out gain stated."""
+    if _is_deviance(name):
+        return f"{name}; held-out gain {before - after:.3g} per block (a finding needs >= {MIN_GAIN:g})"
     gain = (before - after) / max(abs(before), 1e-300)
     return f"{name}; held-out gain {100 * gain:.3g} % (a finding needs >= {100 * MIN_GAIN:g} %)"
 
@@ -161,7 +170,7 @@ def diagnose(case: Case, max_effects: int = 4, seed: int = 0, progress=None, fac
         name, before, after = fit_metric(case, best, model, new_model, reference.clean(case, resid), seed)
         new_resid = residual(case, new_model)
         # a held-out gain below MIN_GAIN (or one at the metric's rounding: 0 -> 0) is not a finding
-        if not _gain_ok(before, after):
+        if not _gain_ok(before, after, name):
             best.reason = (f"significant but no practically meaningful held-out improvement ({before:.6g} -> "
                            f"{after:.6g}, below {100 * MIN_GAIN:g} %); not kept")
             continue
