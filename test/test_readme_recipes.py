@@ -173,13 +173,36 @@ def _run_launch(command: str, ws: Path, env: dict, monkeypatch) -> None:
     assert all(code == 0 for code in codes.values()), codes
 
 
+def independent_groups(recipes: list[Recipe]) -> list[list[Recipe]]:
+    """The recipes in groups that share no ``out/<name>`` path (README order kept within and between groups): a
+    recipe that reads an earlier one's output runs after it in one workspace; unrelated ones run side by side."""
+    groups: list[tuple[set, list]] = []
+    for recipe in recipes:
+        paths = {m for c in recipe.commands for m in re.findall(r"\bout/[\w.-]+", c)}
+        joined = [g for g in groups if g[0] & paths]
+        merged = (set(paths).union(*(g[0] for g in joined)), [r for g in joined for r in g[1]] + [recipe])
+        groups = [g for g in groups if not any(g is j for j in joined)] + [merged]
+    return sorted((sorted(g[1], key=recipes.index) for g in groups), key=lambda g: recipes.index(g[0]))
+
+
+GROUPS = [g for g in independent_groups(RECIPES) if any(r.commands for r in g)]
+
+
+def test_recipes_reading_an_earlier_recipes_output_share_its_group():
+    a = Recipe("make", ["tool --out out/model"])
+    b = Recipe("other", ["tool --out out/fleet"])
+    c = Recipe("use", ["tool --model out/model/sensor_model.yaml --out out/use"])
+    assert independent_groups([a, b, c]) == [[a, c], [b]]
+
+
 @pytest.mark.slow
 @pytest.mark.ros
-def test_the_common_tasks_run_as_written(workspace, ros_env, monkeypatch):
+@pytest.mark.parametrize("group", GROUPS, ids=["-".join(re.findall(r"[a-z]+", g[0].title.lower())[:4]) for g in GROUPS])
+def test_the_common_tasks_run_as_written(group, workspace, ros_env, monkeypatch):
     scripts = console_scripts()
     env = dict(ros_env, OPENBLAS_NUM_THREADS="1")
     needs_root = []
-    for recipe in RECIPES:
+    for recipe in group:
         for command in recipe.commands:
             if command.startswith("sudo "):  # as root the command itself; else it cannot run here
                 if os.geteuid() != 0:
