@@ -115,9 +115,6 @@ def _metric_text(name: str, before: float, after: float) -> str:
 def _model_error(cand: Candidate, broken: list, grade: str, how: str) -> dict:
     """The ``reference_or_model_error`` entry of a significant fit outside the sensor grade's bounds."""
     worst = max(broken, key=lambda b: abs(b["value"]) / b["bound"] if isinstance(b["bound"], float) else np.inf)
-    cand.reason = ((cand.reason + "; ") if cand.reason else "") + (
-        f"fit outside the {grade}-grade bounds ({worst['parameter']} = {worst['value']:.4g}, bound "
-        f"{worst['bound']}): reported as reference_or_model_error, not as sensor physics")
     return {"kind": "reference_or_model_error", "effect_tested": cand.effect, "parameter": worst["parameter"],
             "value": worst["value"], "bound": worst["bound"], "grade": grade, "grade_source": how,
             "all_out_of_bounds": broken, "parameters": cand.params, "intervals": cand.intervals,
