@@ -72,3 +72,19 @@ def rclpy_context(ros_env):
     rclpy.init()
     yield ros_env
     rclpy.try_shutdown()
+
+
+@pytest.fixture(scope="session")
+def outage_drive():
+    """The simulated paper drive's first 420 s (seed 3, BP3010 grade) with 60-s GNSS outages every 3 minutes:
+    ``(sim, windows, gnss without the outages' fixes)``, shared by the NHC, odometer and smoother tests."""
+    from imu_sim.models import bp3010_grade_model
+    from imu_sim.scenario import load
+    from imu_sim.simulate import simulate
+    from nav_eval.metrics import drop_fixes, outage_windows
+
+    sc = load(REPO / "config" / "scenarios" / "paper_drive.yaml")
+    sc.duration_s = 420.0
+    sim = simulate(sc, model=bp3010_grade_model(), seed=3, with_bytes=False)
+    windows = outage_windows(60.0, sim.truth.t[-1], 180.0, 60.0, 120.0)
+    return sim, windows, drop_fixes(sim.gnss, windows)

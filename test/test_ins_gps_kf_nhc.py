@@ -7,20 +7,15 @@ import numpy as np
 import pytest
 
 from imu_sim.models import bp3010_grade_model
-from imu_sim.scenario import load
 from imu_sim.simulate import simulate
 from nav_eval.metrics import drop_fixes, outage_drift, outage_windows, run_case
 
 SCENARIO = Path(__file__).resolve().parents[1] / "config" / "scenarios" / "paper_drive.yaml"
 
 
-@pytest.fixture(scope="module")
-def drive():
-    sc = load(SCENARIO)
-    sc.duration_s = 420.0
-    sim = simulate(sc, model=bp3010_grade_model(), seed=3, with_bytes=False)
-    windows = outage_windows(60.0, sim.truth.t[-1], 180.0, 60.0, 120.0)
-    return sim, windows, drop_fixes(sim.gnss, windows)
+@pytest.fixture
+def drive(outage_drive):
+    return outage_drive
 
 
 def _drift(drive, **params):

@@ -1,7 +1,6 @@
 """The forward-backward (RTS) smoother of the closed-loop filter (issue 25): on a linear system it equals the
 textbook open-loop RTS smoother; on the simulated paper drive with 60-s GNSS outages it shrinks the error and
 the covariance, with NHC on too; ``ins-gps-kf replay --smooth`` writes both trajectories."""
-from pathlib import Path
 from types import SimpleNamespace
 
 import numpy as np
@@ -9,10 +8,8 @@ import pytest
 from scipy.stats import chi2
 
 from imu_sim.models import bp3010_grade_model
-from imu_sim.scenario import load
-from imu_sim.simulate import simulate
 from nav_core import recording
-from nav_eval.metrics import drop_fixes, outage_windows, truth_at
+from nav_eval.metrics import truth_at
 from ins_gps_kf import config
 from ins_gps_kf import synthetic as syn
 from ins_gps_kf.filter import InsGpsFilter
@@ -20,7 +17,6 @@ from ins_gps_kf.offline import run
 from ins_gps_kf.replay import forward_path, main
 from ins_gps_kf.smoother import ForwardStore, _backward, run_smoothed
 
-SCENARIO = Path(__file__).resolve().parents[1] / "config" / "scenarios" / "paper_drive.yaml"
 
 
 def _linear_closed_loop(ram_rows, seed=0, steps=60):
@@ -69,13 +65,9 @@ def test_closed_loop_smoother_equals_textbook_rts_on_a_linear_system(ram_rows):
     np.testing.assert_allclose(cov_closed, cov_rts, atol=1e-9)
 
 
-@pytest.fixture(scope="module")
-def drive():
-    sc = load(SCENARIO)
-    sc.duration_s = 420.0
-    sim = simulate(sc, model=bp3010_grade_model(), seed=3, with_bytes=False)
-    windows = outage_windows(60.0, sim.truth.t[-1], 180.0, 60.0, 120.0)
-    return sim, windows, drop_fixes(sim.gnss, windows)
+@pytest.fixture
+def drive(outage_drive):
+    return outage_drive
 
 
 def _smoothed_run(drive, **params):

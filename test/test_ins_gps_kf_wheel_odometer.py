@@ -2,31 +2,24 @@
 paper drive with 60-s GNSS outages (0.5 % scale error, 0.05 m/s noise, 10 Hz) it cuts the drift left with NHC and
 finds the scale; bad wheel speeds (NaN, duplicates, time going back, a stuck wheel) are named and counted."""
 import json
-from pathlib import Path
 
 import numpy as np
 import pytest
 
 from imu_sim.models import bp3010_grade_model
-from imu_sim.scenario import load
-from imu_sim.simulate import simulate
 from nav_core import recording
-from nav_eval.metrics import drop_fixes, outage_drift, outage_windows, run_case
+from nav_eval.metrics import outage_drift, run_case
 from ins_gps_kf import config
 from ins_gps_kf.filter import InsGpsFilter
 from ins_gps_kf.offline import run
 from ins_gps_kf.replay import main
 
-SCENARIO = Path(__file__).resolve().parents[1] / "config" / "scenarios" / "paper_drive.yaml"
 SCALE = 0.005
 
 
 @pytest.fixture(scope="module")
-def drive():
-    sc = load(SCENARIO)
-    sc.duration_s = 420.0
-    sim = simulate(sc, model=bp3010_grade_model(), seed=3, with_bytes=False)
-    windows = outage_windows(60.0, sim.truth.t[-1], 180.0, 60.0, 120.0)
+def drive(outage_drive):
+    sim, windows, gnss = outage_drive
     tr = sim.truth
     t = np.arange(tr.t[0], tr.t[-1], 0.1)
     yaw, pitch = (np.interp(t, tr.t, np.unwrap(a)) for a in (tr.yaw, tr.pitch))
@@ -34,7 +27,7 @@ def drive():
     forward = np.sum(vel * np.column_stack([np.cos(yaw) * np.cos(pitch), np.sin(yaw) * np.cos(pitch),
                                             np.sin(pitch)]), axis=1)
     speed = (1.0 + SCALE) * forward + np.random.default_rng(1).normal(0.0, 0.05, len(t))
-    return sim, windows, drop_fixes(sim.gnss, windows), (t, speed)
+    return sim, windows, gnss, (t, speed)
 
 
 def _run(drive, odometry, **params):
