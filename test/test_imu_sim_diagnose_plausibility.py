@@ -87,6 +87,16 @@ def test_known_constant_far_from_its_value_is_a_model_error_and_a_match_ranks_wi
     assert off.rank is None
 
 
+def test_an_axis_the_motion_hardly_excites_is_not_called_implausible_by_an_interval_ending_just_past_the_bound():
+    # the independent generator's rate table turns about z: gyro y's scale factor came out -0.63 in [-1.23, -0.034]
+    # against a 3 % bound, and sent the true gyro z scale factor (7e-4 +- 4e-5) to reference_or_model_error
+    table = _cand("scale_factor", {"gyro[y]": -0.63, "gyro[z]": 7.0e-4})
+    table.intervals = {"gyro[y]": [-1.23, -0.034], "gyro[z]": [6.7e-4, 7.4e-4]}
+    assert plausibility.violations(table, "industrial") == []
+    table.intervals["gyro[y]"] = [-0.65, -0.61]  # the same value pinned down by the motion: implausible
+    assert [b["parameter"] for b in plausibility.violations(table, "industrial")] == ["gyro[y]"]
+
+
 def test_negligible_held_out_gain_is_not_a_finding_and_the_gain_is_stated():
     assert not _gain_ok(0.96580, 0.96579)
     assert _gain_ok(0.96580, 0.95)

@@ -74,8 +74,10 @@ def grade_of(model) -> tuple:
 def violations(cand, grade: str, scale: float | None = None) -> list:
     """Parameters of a candidate outside the grade's bounds: list of {parameter, value, bound, grade}.
 
-    A parameter breaks its bound when its value and its whole 95 % interval (when it has one) lie outside it: a
-    weakly determined fit is not called implausible on its point estimate alone.
+    A parameter breaks its bound when its value and its whole 95 % interval (when it has one) lie outside it, and
+    the interval is no wider than the bound on either side: a weakly determined fit is not called implausible on
+    its point estimate alone, nor is an axis the motion hardly excites (a rate table turning about z determines
+    gyro y's scale factor to +-0.6, whose interval can end just past a 3 % bound by chance).
 
     ``scale``: a known constant's fitted scale (1 = the constant); default the candidate's ``constant_scale``.
     """
@@ -99,6 +101,7 @@ def violations(cand, grade: str, scale: float | None = None) -> list:
         if cand.effect == "gauss_markov_bias" and not name.startswith("gyro") or "time" in name or "tau" in name:
             continue
         lo, hi = (cand.intervals or {}).get(name, (value, value))
-        if np.isfinite(value) and abs(value) > bounds[key] and (lo > bounds[key] or hi < -bounds[key]):
+        determined = 0.5 * (hi - lo) <= bounds[key]
+        if np.isfinite(value) and abs(value) > bounds[key] and determined and (lo > bounds[key] or hi < -bounds[key]):
             out.append({"parameter": name, "value": float(value), "bound": bounds[key], "grade": grade})
     return out
