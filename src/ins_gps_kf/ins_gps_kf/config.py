@@ -72,11 +72,11 @@ PARAMETERS = (
     Param("nhc_std_mps", 0.1, "non-holonomic constraint std (lateral and vertical velocity), m/s", 1e-3, 10.0),
     Param("nhc_gate_probability", 0.999, "chi-square gate of the constraint: a skid, a jump or a vehicle it does not "
          "fit fails it (counted as nhc_rejected)", 0.5, 1.0),
-    Param("nhc_mounting", "given", "given: the IMU's mounting in the vehicle from mounting_*_deg; estimate "
-         "(experimental): from the drive itself, the mean direction of the GNSS-aided body velocity over "
-         "nhc_mounting_epochs epochs faster than 3 m/s once the heading std is below 1 deg (the constraints start "
-         "then)", choices=("given", "estimate")),
-    Param("nhc_mounting_epochs", 60, "filter epochs at speed the mounting estimate averages over", 5, 100000),
+    Param("nhc_mounting", "estimate", "estimate: the IMU's pitch and yaw in the vehicle are two filter states "
+         "started at mounting_*_deg with mounting_std_deg (NHC observes them against the GNSS-aided velocity); given: "
+         "held at mounting_*_deg", choices=("given", "estimate")),
+    Param("mounting_std_deg", 5.0, "initial std of the estimated mounting pitch and yaw (nhc_mounting estimate), deg",
+         0.0, 90.0),
     Param("mounting_roll_deg", 0.0, "IMU-to-vehicle mounting roll (vehicle = R(mounting) body), deg", -180.0, 180.0),
     Param("mounting_pitch_deg", 0.0, "IMU-to-vehicle mounting pitch, deg", -90.0, 90.0),
     Param("mounting_yaw_deg", 0.0, "IMU-to-vehicle mounting yaw, deg", -180.0, 180.0),
@@ -160,8 +160,8 @@ class FilterConfig:
     nhc_std: float = 0.1
     nhc_gate_probability: float = 0.999
     mounting_rpy: tuple = (0.0, 0.0, 0.0)  # rad
-    nhc_mounting: str = "given"
-    nhc_mounting_epochs: int = 60
+    nhc_mounting: str = "estimate"
+    mounting_std: float = 5.0 * DEG  # rad
     nhc_lever_arm_b: tuple = (0.0, 0.0, 0.0)  # m
     odometer_enabled: bool = False
     odometer_std: float = 0.05
@@ -235,7 +235,7 @@ def from_params(params: dict) -> FilterConfig:
         nhc_enabled=bool(p["nhc_enabled"]), nhc_std=float(p["nhc_std_mps"]),
         nhc_gate_probability=float(p["nhc_gate_probability"]),
         mounting_rpy=tuple(float(p[f"mounting_{a}_deg"]) * DEG for a in ("roll", "pitch", "yaw")),
-        nhc_mounting=str(p["nhc_mounting"]), nhc_mounting_epochs=int(p["nhc_mounting_epochs"]),
+        nhc_mounting=str(p["nhc_mounting"]), mounting_std=float(p["mounting_std_deg"]) * DEG,
         nhc_lever_arm_b=tuple(float(p[f"nhc_lever_arm_{a}_m"]) for a in "xyz"),
         odometer_enabled=bool(p["odometer_enabled"]), odometer_std=float(p["odometer_std_mps"]),
         odometer_scale_std=float(p["odometer_scale_std_pct"]) / 100.0,

@@ -34,19 +34,16 @@ YAW = slice(PHI.stop - 1, PHI.stop)  # the heading error: the up component of PH
 """Named blocks of the error state: every module outside this one indexes states only through these."""
 
 
-def odometer_scale(n_ins: int) -> slice:
-    """The wheel odometer's scale-factor error (unitless, measured = (1 + s) true), after the ``n_ins`` INS states."""
-    return slice(n_ins, n_ins + 1)
-
-
-def with_odometer_scale(f_cont, g_cont, drive: float):
-    """``F``, ``G`` with the odometer scale state appended: a random walk driven by ``drive`` (1/sqrt(s))."""
+def with_random_walks(f_cont, g_cont, drives):
+    """``F``, ``G`` with one random-walk state appended per entry of ``drives`` (its driving density, state unit
+    per sqrt(s)): the odometer scale, the mounting angles."""
     n, m = g_cont.shape
-    f = np.zeros((n + 1, n + 1))
-    g = np.zeros((n + 1, m + 1))
+    k = len(drives)
+    f = np.zeros((n + k, n + k))
+    g = np.zeros((n + k, m + k))
     f[:n, :n] = f_cont
     g[:n, :m] = g_cont
-    g[n, m] = drive
+    g[n:, m:] = np.diag(drives)
     return f, g
 
 

@@ -32,9 +32,10 @@ from ins_gps_kf.gnss_policy import GnssPolicy
 from ins_gps_kf.odometry import Odometry, epoch_span, odometry
 from ins_gps_kf.records import (ALIGNING, HEADING_PENDING, NAVIGATING, STATUS_CODES, WAITING,  # noqa: F401
                                 Counters, Estimate, Fix)
-from ins_gps_kf.updates import Epoch, GnssPosition, NonHolonomic, WheelOdometer, ZeroVelocity
+from ins_gps_kf.updates import Epoch, GnssPosition, Mounting, NonHolonomic, WheelOdometer, ZeroVelocity
 
 ODOMETER_SCALE_DRIVE = 1e-5  # 1/sqrt(s): the odometer scale drifts slowly (tyre pressure, load, temperature)
+MOUNTING_DRIVE = 1e-5  # rad/sqrt(s): the mounting is fixed; a little drive keeps the estimate from freezing
 
 EPOCH_TOL_S = 1e-6  # stamps within this of an epoch belong to it (ns stamp rounding)
 
@@ -49,6 +50,11 @@ class InsGpsFilter:
         self.lever_arm_b = np.asarray(cfg.lever_arm_b, dtype=float)
         self.n_ins = em.N_STATES_SF if cfg.estimate_scale_factors else em.N_STATES
         self.n_states = self.n_ins + (1 if cfg.odometer_enabled else 0)
+        mount_index = None
+        if cfg.nhc_enabled and cfg.nhc_mounting == "estimate":
+            mount_index = slice(self.n_states, self.n_states + 2)
+            self.n_states += 2
+        self.mounting = Mounting(cfg, mount_index)
         self.frame = LocalFrame(*cfg.datum) if cfg.datum is not None else None
         self.counters = Counters()
         self.input = input_checks.InputCounters()
@@ -56,8 +62,8 @@ class InsGpsFilter:
         self.unknown_fix_std = input_checks.UnknownFixStd(measurements.UNKNOWN_FIX_STD_M, cfg.min_gps_std, self.input)
         self.gnss_model = GnssPosition(self.lever_arm_b)
         self.zupt = ZeroVelocity(cfg)
-        self.nhc = NonHolonomic(cfg)
-        self.odometer = WheelOdometer(cfg, self.n_ins, self.input.counter("odometer_stuck"))
+        self.nhc = NonHolonomic(cfg, self.mounting)
+        self.odometer = WheelOdometer(cfg, self.n_ins, self.input.counter("odometer_stuck"), self.mounting)
         self.bridge = GapBridge(cfg)
         self.last_fix_t = -math.inf
         self.last_nis = math.nan
@@ -263,13 +269,23 @@ class InsGpsFilter:
         if self.n_states > self.n_ins:
             cov = np.zeros((self.n_states, self.n_states))
             cov[:self.n_ins, :self.n_ins] = self.cov
-            cov[self.n_ins, self.n_ins] = cfg.odometer_scale_std**2
+            extra = np.arange(self.n_ins, self.n_states)
+            cov[extra, extra] = [v**2 for v, _ in self._extra_states()]
             self.cov = cov
         self.gyro_bias, self.accel_bias = new.gyro_bias, new.accel_bias
         self.epoch_index = math.floor(t0 * cfg.filter_rate_hz + EPOCH_TOL_S) + 1
         self._earth_at = (math.inf, math.inf)
         self._radii = earth.radii(self.frame.lat0_deg * DEG)
         self._update_earth()
+
+    def _extra_states(self) -> list:
+        """(initial std, driving density) of each state after the INS ones: the odometer scale (unitless), then
+        the mounting's pitch and yaw errors (rad)."""
+        cfg = self.cfg
+        out = [(cfg.odometer_scale_std, ODOMETER_SCALE_DRIVE)] if cfg.odometer_enabled else []
+        if self.mounting.index is not None:
+            out += [(cfg.mounting_std, MOUNTING_DRIVE)] * 2
+        return out
 
     @property
     def next_epoch(self) -> float:
@@ -310,7 +326,7 @@ class InsGpsFilter:
             w_b = self.mem[strapdown.M_WSUM] / max(self.mem[strapdown.M_N], 1.0)
             f_cont, g_cont = em.with_scale_factors(f_cont, g_cont, mat_nb, w_b, mat_nb.T @ f_n)
         if self.n_states > self.n_ins:
-            f_cont, g_cont = em.with_odometer_scale(f_cont, g_cont, ODOMETER_SCALE_DRIVE)
+            f_cont, g_cont = em.with_random_walks(f_cont, g_cont, [d for _, d in self._extra_states()])
         if self.recorder is None:
             self.cov = kalman.propagate_series(self.cov, f_cont, g_cont, dt)
         else:
@@ -402,8 +418,10 @@ class InsGpsFilter:
         strapdown.rotate_attitude(self.nav, dx[em.PHI])
         self.gyro_bias = self.gyro_bias - dx[em.BG]
         self.accel_bias = self.accel_bias - dx[em.BA]
-        if self.n_states > self.n_ins:
+        if self.cfg.odometer_enabled:
             self.odometer.scale -= float(dx[self.n_ins])
+        if self.mounting.index is not None:
+            self.mounting.feed_back(dx[self.mounting.index])
         if self.n_ins == em.N_STATES_SF:
             self.gyro_scale = self.gyro_scale - dx[em.SG]
             self.accel_scale = self.accel_scale - dx[em.SA]

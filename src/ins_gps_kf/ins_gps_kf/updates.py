@@ -100,64 +100,61 @@ class ZeroVelocity(UpdateModel):
 
 class NonHolonomic(UpdateModel):
     """Non-holonomic constraints of a land vehicle: zero lateral and vertical velocity of the vehicle frame at the
-    constraint point (rear axle, ``nhc_lever_arm_*`` from the IMU, body m), the IMU mounted at ``mounting_*``
-    (the body's roll, pitch, yaw in the vehicle frame). Skipped at rest (ZUPT's) and while the heading is
+    constraint point (rear axle, ``nhc_lever_arm_*`` from the IMU, body m), the IMU mounted in the vehicle as
+    ``mounting`` (:class:`Mounting`: given, or filter states). Skipped at rest (ZUPT's) and while the heading is
     pending (the constraint acts along the body axes: with a yaw still unknown it bent the velocity and the tilt,
     0.56 -> 0.85 m RMS on the Katwijk rover with x forward; 0.54 m skipping), gated on its own
     (``nhc_gate_probability``): a skid, a jump or a vehicle the constraint does not fit fails the gate.
 
     With ``C_est = (I - [phi x]) C_true`` the vehicle velocity ``v_v = C_vb (C_bn v_n + w_b x l)`` has the error
-    ``C_vb C_bn dv - C_vb C_bn [v_n x] phi + C_vb [l x] dbg`` (the corrected rate is ``w - dbg``).
+    ``C_vb C_bn dv - C_vb C_bn [v_n x] phi + C_vb [l x] dbg + [v_v x] dm`` (the corrected rate is ``w - dbg``;
+    ``dm`` the mounting error, :class:`Mounting`).
     """
 
     name = "nhc"
 
-    def __init__(self, cfg: FilterConfig):
+    def __init__(self, cfg: FilterConfig, mounting: "Mounting"):
         self.enabled = cfg.nhc_enabled
         self.std = cfg.nhc_std
         self.gate_probability = cfg.nhc_gate_probability
         self.lever_b = np.asarray(cfg.nhc_lever_arm_b, dtype=float)
-        self.mounting = MountingEstimate(cfg.nhc_mounting_epochs) if cfg.nhc_mounting == "estimate" else None
-        self.mat_vb = None if self.mounting else frames.mat_nb_from_euler(*cfg.mounting_rpy)
+        self.mounting = mounting
 
     def mounting_deg(self) -> tuple:
-        """(pitch, yaw) of the IMU in the vehicle estimated from the drive, deg; (None, None) when not estimated."""
-        m = self.mounting
-        return (m.pitch_deg, m.yaw_deg) if m is not None and self.mat_vb is not None else (None, None)
+        """(pitch, yaw) of the IMU in the vehicle estimated from the drive, deg; (None, None) when given."""
+        return self.mounting.pitch_yaw_deg() if self.mounting.index is not None else (None, None)
 
     def measurement(self, epoch: Epoch):
         if not self.enabled or epoch.stationary or not epoch.heading_known:
             return None
-        if self.mat_vb is None:  # the mounting is being estimated: no constraint before it is known
-            # through an outage the velocity's direction drifts with the INS; before the heading has converged its
-            # error shows as a mounting yaw (10 deg on the paper drive when taken from the first 30 s at speed)
-            if epoch.gnss_fresh and epoch.yaw_std < MOUNTING_MAX_YAW_STD:
-                self.mat_vb = self.mounting.add(epoch.mat_nb.T @ epoch.nav[strapdown.V])
-            return None
+        mat_vb = self.mounting.mat_vb
         mat_bn = epoch.mat_nb.T
         vel_n = epoch.nav[strapdown.V]
-        vel_v = self.mat_vb @ (mat_bn @ vel_n + np.cross(epoch.rate_b, self.lever_b))
-        rows = self.mat_vb[1:] @ mat_bn  # lateral and vertical axes of the vehicle, in ENU
+        vel_v = mat_vb @ (mat_bn @ vel_n + np.cross(epoch.rate_b, self.lever_b))
+        rows = mat_vb[1:] @ mat_bn  # lateral and vertical axes of the vehicle, in ENU
         h = np.zeros((2, epoch.n_states))
         h[:, DV] = rows
         h[:, PHI] = -rows @ skew(vel_n)
-        h[:, BG] = self.mat_vb[1:] @ skew(self.lever_b)
+        h[:, BG] = mat_vb[1:] @ skew(self.lever_b)
+        self.mounting.jacobian(h, vel_v, slice(1, 3))
         return vel_v[1:].copy(), h, np.eye(2) * self.std**2
 
 
 class WheelOdometer(UpdateModel):
-    """The wheel odometer: forward speed of the vehicle (m/s, the IMU mounted at ``mounting_*`` in it) measured as
-    ``(1 + s) v_fwd + noise``, ``s`` its scale-factor error, a filter state at ``index``. The latest wheel speed no
-    older than ``odometer_max_age_s`` is used at an epoch (a gap: none); a speed of exactly 0 while the INS says the
-    vehicle moves faster than ``odometer_stuck_speed_mps`` is a stuck wheel, counted and not used.
+    """The wheel odometer: forward speed of the vehicle (m/s) at the constraint point (``nhc_lever_arm_*``), the IMU
+    mounted as ``mounting`` (:class:`Mounting`), measured as ``(1 + s) v_fwd + noise``, ``s`` its scale-factor error,
+    a filter state at ``index``. The latest wheel speed no older than ``odometer_max_age_s`` is used at an epoch (a
+    gap: none); a speed of exactly 0 while the INS says the vehicle moves faster than ``odometer_stuck_speed_mps``
+    is a stuck wheel, counted and not used.
 
     With ``C_est = (I - [phi x]) C_true``: ``z = (1 + s) v_fwd - speed`` has ``H[DV] = (1 + s) r``,
-    ``H[PHI] = -(1 + s) r [v_n x]``, ``H[s] = v_fwd`` (``r`` the vehicle's forward axis in ENU).
+    ``H[PHI] = -(1 + s) r [v_n x]``, ``H[BG] = (1 + s) C_vb[0] [l x]``, ``H[s] = v_fwd`` (``r`` the vehicle's
+    forward axis in ENU) and the mounting's columns (:meth:`Mounting.jacobian`).
     """
 
     name = "odometer"
 
-    def __init__(self, cfg: FilterConfig, index: int, stuck_counter):
+    def __init__(self, cfg: FilterConfig, index: int, stuck_counter, mounting: "Mounting"):
         self.enabled = cfg.odometer_enabled
         self.cfg = cfg
         self.index = index
@@ -165,7 +162,8 @@ class WheelOdometer(UpdateModel):
         self.pending = None  # (t s, speed m/s): the latest wheel speed
         self.last_t = -np.inf
         self.count_stuck = stuck_counter
-        self.mat_vb = frames.mat_nb_from_euler(*cfg.mounting_rpy)
+        self.mounting = mounting
+        self.lever_b = np.asarray(cfg.nhc_lever_arm_b, dtype=float)
 
     def measurement(self, epoch: Epoch):
         if not self.enabled or self.pending is None or not epoch.heading_known:
@@ -174,48 +172,48 @@ class WheelOdometer(UpdateModel):
         self.pending = None
         if abs(epoch.t - t) > self.cfg.odometer_max_age:
             return None
-        row = self.mat_vb[0] @ epoch.mat_nb.T
+        mat_vb = self.mounting.mat_vb
+        mat_bn = epoch.mat_nb.T
         vel_n = epoch.nav[strapdown.V]
-        v_fwd = float(row @ vel_n)
+        vel_v = mat_vb @ (mat_bn @ vel_n + np.cross(epoch.rate_b, self.lever_b))
+        v_fwd = float(vel_v[0])
         if speed == 0.0 and abs(v_fwd) > self.cfg.odometer_stuck_speed:
             self.count_stuck(f"wheel speed at t={t:.3f} s is 0 while the INS says {v_fwd:.1f} m/s: stuck, not used")
             return None
         gain = 1.0 + self.scale
+        row = mat_vb[0] @ mat_bn
         h = np.zeros((1, epoch.n_states))
-        h[0, DV] = gain * row
-        h[0, PHI] = -gain * row @ skew(vel_n)
+        h[0, DV] = row
+        h[0, PHI] = -row @ skew(vel_n)
+        h[0, BG] = mat_vb[0] @ skew(self.lever_b)
+        self.mounting.jacobian(h, vel_v, slice(0, 1))
+        h *= gain
         h[0, self.index] = v_fwd
         return np.array([gain * v_fwd - speed]), h, np.array([[self.cfg.odometer_std**2]])
 
 
-MOUNTING_MIN_SPEED = 3.0  # m/s: slower, the body velocity's direction is swamped by its error
-MOUNTING_MAX_YAW_STD = np.radians(1.0)  # rad: the heading must have converged for the estimate to use an epoch
+class Mounting:
+    """The IMU's mounting in the vehicle: ``mat_vb`` (body to vehicle; ``mounting_*_deg`` are the body's roll, pitch,
+    yaw in the vehicle). Given, it is held; estimated (``index``: two filter states), its errors about the vehicle's
+    lateral and vertical axes ``dm`` (rad, ``C_vb,est = (I - [dm x]) C_vb,true``; pitch and yaw) are states started
+    at the given angles with ``mounting_std_deg``. A vehicle velocity ``v_v = C_vb v_b`` then has the error
+    ``[v_v x] dm``. Roll about the forward axis turns the lateral into the vertical, both zero: not observable and
+    not needed."""
 
+    def __init__(self, cfg: FilterConfig, index: slice | None):
+        self.mat_vb = frames.mat_nb_from_euler(*cfg.mounting_rpy)
+        self.index = index
 
-class MountingEstimate:
-    """The IMU's mounting in the vehicle from the drive: the mean direction (body axes) of the GNSS-aided velocity
-    over ``epochs`` filter epochs faster than ``MOUNTING_MIN_SPEED``, taken as the vehicle's forward axis. Roll about it
-    is not observable this way and does not matter to the constraint (lateral and vertical are both zero)."""
+    def jacobian(self, h: np.ndarray, vel_v: np.ndarray, rows: slice) -> None:
+        """Fill, in place, the mounting columns of ``h`` for the vehicle-velocity components ``rows`` (m/s)."""
+        if self.index is not None:
+            h[:, self.index] = skew(vel_v)[rows, 1:3]
 
-    def __init__(self, epochs: int):
-        self.epochs = epochs
-        self.sum = np.zeros(3)
-        self.n = 0
-        self.pitch_deg = self.yaw_deg = float("nan")  # the IMU's in the vehicle (mounting_*_deg's sense), deg
+    def feed_back(self, dm_pitch_yaw: np.ndarray) -> None:
+        """Remove an estimated mounting error (rad about the vehicle's y and z axes) from ``mat_vb``."""
+        self.mat_vb = Rotation.from_rotvec([0.0, *dm_pitch_yaw]).as_matrix() @ self.mat_vb
 
-    def add(self, vel_b) -> np.ndarray | None:
-        """One epoch's body velocity (m/s); the vehicle-from-body rotation (3, 3) once enough came, else None."""
-        speed = float(np.linalg.norm(vel_b))
-        if speed < MOUNTING_MIN_SPEED:
-            return None
-        self.sum += np.asarray(vel_b) / speed
-        self.n += 1
-        if self.n < self.epochs:
-            return None
-        fwd = self.sum / np.linalg.norm(self.sum)
-        left = np.cross([0.0, 0.0, 1.0], fwd)
-        left /= np.linalg.norm(left)
-        mat_vb = np.vstack([fwd, left, np.cross(fwd, left)])  # rows: the vehicle's axes in the body
-        _, pitch, yaw = frames.euler_from_rotation(Rotation.from_matrix(mat_vb))
-        self.pitch_deg, self.yaw_deg = float(np.degrees(pitch)), float(np.degrees(yaw))
-        return mat_vb
+    def pitch_yaw_deg(self) -> tuple:
+        """(pitch, yaw) of the IMU in the vehicle (``mounting_*_deg``'s sense), deg."""
+        _, pitch, yaw = frames.euler_from_rotation(Rotation.from_matrix(self.mat_vb))
+        return float(np.degrees(pitch)), float(np.degrees(yaw))
