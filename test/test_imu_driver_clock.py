@@ -6,7 +6,8 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from imu_driver.driver_core import ClockFollower, FrameClock, hull_slope
+from imu_driver.bp3010_codec import FrameBatch
+from imu_driver.driver_core import ClockFollower, DriverCore, FrameClock, SimTimeStamper, hull_slope
 
 
 def _run(rate_hz, drift, seed, mean_delay_s, stall_p, stall_s, drop_p, outage_s=0.0, seconds=24.0, calm_tail_s=10.0):
@@ -153,8 +154,9 @@ def test_simulated_time_between_clock_messages_follows_the_clock_not_the_late_de
     assert follower.rate == pytest.approx(rate, rel=0.01)
     follower.update(sim0, wall0 + 10.0)  # a new run: the clock went back
     assert follower.jumps == 1 and follower.now(wall0 + 10.0) is None
-    follower.update(sim0, wall0 + 10.005)  # standing still at its start: that is the time
-    assert follower.now(wall0 + 10.2) == sim0
+    follower.update(sim0, wall0 + 10.005)  # standing still at its start: that is the time up to its last message
+    assert follower.now(wall0 + 10.003) == follower.now(wall0 + 10.005) == sim0
+    assert follower.now(wall0 + 10.2) is None  # after it, the clock may be moving: unknown, not early (issue 29)
 
 
 @pytest.mark.parametrize("rate", [1.0, 8.0])
@@ -171,3 +173,46 @@ def test_a_silent_clock_is_extrapolated_never_held_back_and_gives_no_time_once_g
         assert follower.now(last + silence_s) == pytest.approx(sim0 + (399 * 0.005 + silence_s - 2e-4) * rate,
                                                                abs=1e-5)
     assert follower.now(last + 5.1) is None  # no message for longer than max_extrapolation_s: no time
+
+
+def _play_after_a_pause(rate, silence_s, first_clock_s, seed, seconds=14.0):
+    """The scenario player's start, through the driver's stamping (no ROS): /clock standing at ``sim0`` every
+    50 ms for 2 s, silent ``silence_s``, then moving at ``rate`` x from its first message ``first_clock_s`` of
+    wall time after the frames' zero (its thread starts after the frames'), every 5 ms; 64 Hz frames from that
+    zero, read every 2 ms, deliveries and reads late by ~0.3 ms. Returns (stamp - frame time) of every frame, s."""
+    rng = np.random.default_rng(seed)
+    sim0, wall0, period = 1.7e9, 1000.0, 1.0 / 64
+    start = wall0 + 2.0 + silence_s
+    sent = np.concatenate([wall0 + np.arange(40) * 0.05, start + first_clock_s + np.arange(int(seconds / 0.005)) * 0.005])
+    sims = np.where(sent < start, sim0, sim0 + (sent - start) * rate)
+    received = sent + rng.exponential(3e-4, len(sent))
+    made = start + np.arange(1, int(seconds * rate / period)) * period / rate  # frame k ends at its period's end
+    core = DriverCore(64, max_drift=0.0)
+    follower = ClockFollower()
+    stamper = SimTimeStamper(core, follower)
+    stamps, clock_i, frame_i, read = [], 0, 0, start
+    while frame_i < len(made) and read < start + seconds / rate:
+        read += 0.002 + rng.exponential(3e-4)
+        last = int(np.searchsorted(made, read - 1e-4, "right"))  # written, then read ~0.1 ms later
+        while clock_i < len(sent) and received[clock_i] <= read:  # the driver takes /clock after its read
+            follower.update(sims[clock_i], received[clock_i])
+            clock_i += 1
+        n = max(0, last - frame_i)
+        batch = FrameBatch(np.arange(frame_i, frame_i + n) % 256, np.zeros((n, 3)), np.zeros((n, 3)), np.zeros(n, int))
+        stamps.extend(s.t for s in stamper.stamp(batch, read))
+        frame_i += n
+    assert stamper.frames_before_clock == 0  # none held too long: the k-th stamp is frame k's
+    stamps = np.concatenate(stamps)
+    return stamps - (sim0 + np.arange(1, len(stamps) + 1) * period)
+
+
+@pytest.mark.parametrize("silence_s,first_clock_s,seed", [(3.0, 0.006, 0), (1.0, 0.006, 1), (3.0, 0.0005, 2)])
+def test_frames_read_after_a_clock_pause_are_stamped_on_the_moving_clock_not_its_standing_time(
+        silence_s, first_clock_s, seed):
+    # issue 29: after a paused /clock, the frames the driver read before the first moving /clock reached it took the
+    # paused time, up to 6 ms (x 8 = 48 ms) before theirs, and the frame clock kept the stamps that early for its
+    # whole window (nav-demo --rate 8 with the player's 3-s settle: p1 -57 ms)
+    errors = _play_after_a_pause(8.0, silence_s, first_clock_s, seed)
+    assert len(errors) > 10 * 64  # every frame of 10 s of simulated time after the pause is stamped
+    assert errors.min() > -2e-3, f"{-errors.min() * 1e3:.1f} ms early"
+    assert np.percentile(errors, 50) < 2e-3  # late by the deliveries' delay x rate (0.8 ms)

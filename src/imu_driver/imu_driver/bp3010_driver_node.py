@@ -12,7 +12,6 @@ import math
 import struct
 import threading
 import time
-from collections import deque
 
 import numpy as np
 import serial
@@ -21,12 +20,12 @@ from rosgraph_msgs.msg import Clock
 from sensor_msgs.msg import Imu
 
 from imu_driver.bp3010_codec import ACCEL_WHITE_NOISE, FIELDS, GYRO_WHITE_NOISE, RATE_SELECT, FrameFormat
-from imu_driver.driver_core import ClockFollower, DriverCore
+from imu_driver.driver_core import ClockFollower, DriverCore, SimTimeStamper
 from imu_driver.status import driver_status
 from nav_core import sensor_model, units
 from nav_core.imu_cdr import stamps_from_s
 from nav_core.params import ConfigError, Param
-from nav_core.ros_node import (SENSOR_QOS, Diagnostics, PolledSubscription, declare_parameters, publish_imu_batch,
+from nav_core.ros_node import (Diagnostics, PolledSubscription, declare_parameters, link_publisher, publish_imu_batch,
                                run_node)
 from rclpy.node import Node
 
@@ -88,11 +87,10 @@ class Bp3010Driver(Node):
         max_drift = 0.0 if sim_time else self.p["max_clock_drift_ppm"] * 1e-6
         self.core = DriverCore(self.p["rate_hz"], fmt, max_drift=max_drift, window_s=self.p["stamp_window_s"],
                                slew=self.p["stamp_slew"])
-        self.pub = self.create_publisher(Imu, "imu/data_raw", SENSOR_QOS)
+        self.pub = link_publisher(self, Imu, "imu/data_raw")
         self.diag = Diagnostics(self, "BP3010", hardware_id=self.p["port"])
         self.port_state = "connecting"
         self.reconnects = 0
-        self.frames_before_clock = 0
         self.last_error = ""
         self._serial = None
         self._reopen = threading.Event()
@@ -101,10 +99,10 @@ class Bp3010Driver(Node):
         self._stop = threading.Event()
         self._set_noise()
         # Under simulated time the node's clock stands still between /clock deliveries: read /clock's receive times.
-        self._sim = None
-        self._pending = deque()  # (wall time, frames) read before the simulated clock's rate was known
+        self._sim = self._stamper = None
         if sim_time:
             self._sim = ClockFollower()
+            self._stamper = SimTimeStamper(self.core, self._sim)  # holds reads until their simulated time is known
             self._clock_sub = PolledSubscription(self, Clock, "/clock", None, None)
         self.add_on_set_parameters_callback(self._refuse_fixed)
         self.add_post_set_parameters_callback(self._apply)
@@ -222,17 +220,8 @@ class Bp3010Driver(Node):
         for blob, received_ns in self._clock_sub.take_all():
             sec, nanosec = _CLOCK_CDR.unpack_from(blob, 4)
             self._sim.update(units.s_from_sec_nanosec(sec, nanosec), received_ns * 1e-9)
-        batch = self.core.decoder.feed(data)
-        if len(batch):
-            self._pending.append((wall_s, batch))
-        if self._sim.now(wall_s) is None:
-            # simulated time not known yet: hold the reads (at most 2 s), stamp them once /clock's rate is
-            while self._pending and self._pending[0][0] < wall_s - 2.0:
-                self.frames_before_clock += len(self._pending.popleft()[1])
-            return
-        while self._pending:
-            wall, batch = self._pending.popleft()
-            self._send(self.core.stamp(batch, self._sim.now(wall)))
+        for samples in self._stamper.stamp(self.core.decoder.feed(data), wall_s):
+            self._send(samples)
 
     def _send(self, samples) -> None:
         if len(samples.t):
@@ -257,7 +246,8 @@ class Bp3010Driver(Node):
         rate = (stats.frames - self._frames_at_last_diag) / max(now - self._last_diag_time, 1e-9)
         self._frames_at_last_diag, self._last_diag_time = stats.frames, now
         st = driver_status(stats, clock, rate, self.p["rate_hz"], self.p["port"], self.port_state, self.reconnects,
-                           self._sim.rate if self._sim else 0.0, self.frames_before_clock, self.last_error)
+                           self._sim.rate if self._sim else 0.0,
+                           self._stamper.frames_before_clock if self._stamper else 0, self.last_error)
         self.diag.publish(st.level, st.message, st.to_values())
 
     def close(self) -> None:

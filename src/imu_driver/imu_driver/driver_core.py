@@ -232,20 +232,57 @@ class ClockFollower:
         self._best = float(np.max(sim - self.rate * recv))
 
     def now(self, wall_s: float):
-        """Simulated time at ``wall_s`` (s; also a past one); None before the clock's rate is known or when no
-        message came for ``max_extrapolation_s``."""
+        """Simulated time at ``wall_s`` (s; also a past one); None before the clock's rate is known, after the last
+        message of a standing clock, or when no message came for ``max_extrapolation_s``."""
         if self._best is None:
             return None
         paused = len(self._sim) >= 2 and self._sim[-1] == self._sim[0]
         if not paused and self._recv[-1] - self._recv[0] < self.min_span_s:
             return None  # moving (or not known to stand still) at a rate not yet measured
         wall = wall_s - self._ref[1]
+        if paused and wall > self._recv[-1]:
+            # a standing clock is known to stand only up to its last message: it may have started since (the
+            # scenario player's frames and its first moving /clock start together), and a time held at the
+            # standing value is early, which the driver's frame clock keeps for its whole window (issue 29:
+            # reads made 6 ms of wall time before the first moving /clock came stamped 48 ms early for 10 s at 8x)
+            return None
         if wall > self._recv[-1] + self.max_extrapolation_s:
             # /clock has gone quiet: no time. Up to then the line runs on: held at its end 1 s after the last
             # delivery (as before), a read after a 1.1 s gap in deliveries (RATE=1, CPU busy) was 106 ms early,
             # and one early read sets the driver's stamps for its whole window (10 s).
             return None
         return self._ref[0] + self._best + self.rate * wall  # on or above every message: never behind /clock
+
+
+class SimTimeStamper:
+    """Stamps reads on simulated time (``/clock``, through a :class:`ClockFollower`), never on a time not known.
+
+    A read whose simulated time is not known yet is held, and stamped once it is; one held for longer
+    than ``hold_s`` (s of wall time) is dropped and its frames counted in ``frames_before_clock``.
+    """
+
+    def __init__(self, core: "DriverCore", follower: ClockFollower, hold_s: float = 2.0):
+        self.core, self.follower, self.hold_s = core, follower, hold_s
+        self._pending = deque()  # (wall time s, frames) not stamped yet, oldest first
+        self.frames_before_clock = 0
+
+    def stamp(self, batch, wall_s: float) -> list:
+        """Stamped samples (:class:`ImuSamples`, oldest read first) of ``batch`` read at wall time ``wall_s`` (s)
+        and of the held reads whose time is now known."""
+        if len(batch):
+            self._pending.append((wall_s, batch))
+        out = []
+        while self._pending:
+            wall, held = self._pending[0]
+            sim = self.follower.now(wall)
+            if sim is not None:
+                out.append(self.core.stamp(held, sim))
+            elif wall < wall_s - self.hold_s:
+                self.frames_before_clock += len(held)
+            else:
+                break  # the later reads are no better known (a rate not measured, a standing clock's last message)
+            self._pending.popleft()
+        return out
 
 
 @dataclass
