@@ -42,7 +42,7 @@ from sensor_msgs.msg import Imu, NavSatFix  # noqa: E402
 from nav_core import sensor_model as sm  # noqa: E402
 from nav_core.params import ConfigError, Param  # noqa: E402
 from nav_core.imu_cdr import stamps_from_s  # noqa: E402
-from nav_core.ros_node import (SENSOR_QOS, Diagnostics, ImuBatchSubscription, IntakeLoop,  # noqa: E402
+from nav_core.ros_node import (LINK_QOS, SENSOR_QOS, Diagnostics, ImuBatchSubscription, IntakeLoop,  # noqa: E402
                                PolledSubscription, declare_parameters, publish_imu_batch, run_node, stamp_from_s,
                                stamp_to_s)
 from nav_core.tf_ros import TfBroadcaster  # noqa: E402
@@ -120,7 +120,8 @@ class InsGpsKfNode(Node):
         # would have seen, so a fix is never overtaken by a batch of IMU samples that arrived after it
         qos = QoSProfile(depth=self.params["input_queue_depth"], reliability=ReliabilityPolicy.BEST_EFFORT)
         self.imu_intake = ImuBatchSubscription(self, self.params["imu_topic"], None, None, qos=qos)
-        self.gps_intake = PolledSubscription(self, NavSatFix, self.params["gps_topic"], None, None, qos=qos)
+        self.gps_intake = PolledSubscription(self, NavSatFix, self.params["gps_topic"], None, None, qos=qos,
+                                             qos_overriding_options=LINK_QOS)
         self.lock = threading.Lock()
         self.diag = Diagnostics(self, "ins_gps_kf")
         self.create_timer(1.0, self._locked(self.publish_diagnostics))

@@ -189,7 +189,8 @@ def filter_section(params_file: Path) -> dict:
 def filter_params(params_file: Path, specs) -> dict:
     """The filter node's parameters in this run: the params file's section with the run's overrides."""
     overrides = next((s.overrides for s in specs if s.executable == "ins_gps_kf_node"), {})
-    return {k: v for k, v in {**filter_section(params_file), **overrides}.items() if k != "use_sim_time"}
+    return {k: v for k, v in {**filter_section(params_file), **overrides}.items()
+            if k != "use_sim_time" and not k.startswith("qos_overrides.")}  # node-only: DDS, not the filter
 
 
 def main(argv=None) -> int:
@@ -216,7 +217,8 @@ def main(argv=None) -> int:
     run_dir = args.out / time.strftime("run_%Y%m%d_%H%M%S")
     run_dir.mkdir(parents=True)
     two = hosts.HostRun(cut, args.rate) if args.hosts == 2 else None
-    graph = Graph(graph_specs(args, run_dir, sim_dir), env, args.params, log_dir=run_dir / "logs",
+    specs = graph_specs(args, run_dir, sim_dir)
+    graph = Graph(hosts.link_qos(specs) if two else specs, env, args.params, log_dir=run_dir / "logs",
                   prefix=two.prefix if two else None)
     player = "bag_play" if args.recording else "scenario_player"
     print(f"[demo] starting the graph (ROS_DOMAIN_ID={env['ROS_DOMAIN_ID']}); output in {run_dir}")

@@ -23,6 +23,7 @@ from __future__ import annotations
 import atexit
 import ctypes
 import json
+import math
 import os
 import shutil
 import subprocess
@@ -35,6 +36,34 @@ SENSOR, COMPUTE = "sensor", "compute"
 SENSOR_NODES = ("scenario_player", "bag_play", "bp3010_driver")
 SUBNET = "10.231.0"
 CLONE_NEWNET = 0x40000000
+
+
+STORE_S = 60.0
+"""s of sensor data the sensor host keeps for a compute host it cannot reach (the link's longest bridged cut)."""
+LINK_TOPICS = {  # node -> (topic, its side, messages per second): the sensor data crossing the link
+    "bp3010_driver": ("/imu/data_raw", "publisher", 64.0), "wmra_node": ("/imu/data_raw", "subscription", 64.0),
+    "scenario_player": ("/gps/fix", "publisher", 1.0), "ins_gps_kf_node": ("/gps/fix", "subscription", 1.0)}
+
+
+def link_qos(specs: list, store_s: float = STORE_S, imu_rate_hz: float = 64.0) -> list:
+    """``specs`` with reliable QoS on the sensor data crossing the link: the publishers keep the last ``store_s``
+    of messages (KEEP_LAST depth), which DDS delivers once the link is back, so the compute host's filter runs
+    through a cut on every sample in stamp order instead of bridging a gap it never saw (docs/two_hosts.md)."""
+    import dataclasses
+
+    out = []
+    for spec in specs:
+        topic, side, rate_hz = LINK_TOPICS.get(spec.executable, (None, None, 0.0))
+        if topic is None:
+            out.append(spec)
+            continue
+        rate_hz = imu_rate_hz if "imu" in topic else rate_hz
+        key = f"qos_overrides.{topic}.{side}"
+        extra = {f"{key}.reliability": "reliable"}
+        if side == "publisher":
+            extra.update({f"{key}.history": "keep_last", f"{key}.depth": int(math.ceil(store_s * rate_hz)) + 10})
+        out.append(dataclasses.replace(spec, overrides={**spec.overrides, **extra}))
+    return out
 
 
 DISCOVERY_ENV = {"ROS_AUTOMATIC_DISCOVERY_RANGE": "SUBNET"}

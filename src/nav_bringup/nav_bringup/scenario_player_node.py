@@ -31,7 +31,7 @@ from nav_bringup.status import ScenarioStatus
 from nav_bringup.truth import TruthTrack
 from nav_core import frames, recording
 from nav_core.params import ConfigError, Param
-from nav_core.ros_node import SENSOR_QOS, Diagnostics, declare_parameters, run_node, stamp_from_s
+from nav_core.ros_node import Diagnostics, declare_parameters, link_publisher, run_node, stamp_from_s
 
 PARAMS = (
     Param("sim_dir", "", "output folder of `imu-sim simulate` (bp3010.bin, gnss.csv)"),
@@ -81,7 +81,7 @@ class ScenarioPlayer(Node):
             counts = counts[:int(self.p["duration_s"] * 64)]
         self.duration_s = len(counts) / 64.0
         self.clock_pub = self.create_publisher(Clock, "/clock", QoSProfile(depth=10))
-        self.gps_pub = self.create_publisher(NavSatFix, "gps/fix", SENSOR_QOS)
+        self.gps_pub = link_publisher(self, NavSatFix, "gps/fix")
         self.truth = self._load_truth(sim_dir, self.p["truth_rate_hz"])
         self.truth_pub = self.create_publisher(Odometry, "truth/odometry", 10) if self.truth else None
         self.next_truth = 0

@@ -4,6 +4,7 @@ The only module of ``nav_core`` that imports rclpy.
 """
 from __future__ import annotations
 
+import copy
 import faulthandler
 import sys
 import threading
@@ -17,6 +18,7 @@ from rclpy.clock import Clock, ClockType
 from rclpy.executors import ExternalShutdownException
 from rclpy.node import Node
 from rclpy.qos import QoSProfile, ReliabilityPolicy, qos_profile_sensor_data
+from rclpy.qos_overriding_options import QoSOverridingOptions
 from geometry_msgs.msg import Vector3
 from sensor_msgs.msg import Imu
 
@@ -32,6 +34,17 @@ SENSOR_QOS = qos_profile_sensor_data
 SENSOR_QOS_IN = QoSProfile(depth=500, reliability=ReliabilityPolicy.BEST_EFFORT)
 """Subscriptions to sensor topics: best effort like the publishers, but a deep queue, so a node that
 falls behind for a moment (a GC pause, a busy core) catches up instead of dropping samples."""
+
+LINK_QOS = QoSOverridingOptions.with_default_policies()
+"""Endpoints of a topic that may cross a link between hosts (imu/data_raw, gps/fix): their reliability, history
+and depth can be set per run with ``-p qos_overrides./TOPIC.publisher.reliability:=reliable`` (and ``depth``;
+``subscription`` on the reader's side), the ROS 2 way; nav-demo --hosts 2 sets them (nav_bringup.hosts)."""
+
+
+def link_publisher(node: Node, msg_type, topic: str, qos: QoSProfile = SENSOR_QOS):
+    """A publisher of a topic that may cross a link between hosts: ``qos`` overridable per run (:data:`LINK_QOS`)."""
+    # copied: rclpy writes the overrides into the profile it is given, and SENSOR_QOS is rclpy's shared one
+    return node.create_publisher(msg_type, topic, copy.copy(qos), qos_overriding_options=LINK_QOS)
 
 SHUTDOWN_DUMP_S = 8.0
 """A node still shutting down this long after its spin ended prints every thread's stack (the runners kill at 10 s)."""
@@ -127,11 +140,14 @@ class PolledSubscription:
     """
 
     def __init__(self, node: Node, msg_type, topic: str, on_messages, period_s: float | None, qos=SENSOR_QOS_IN,
-                 max_batch: int = 20000):
-        """``period_s`` None: no timer, the owner calls :meth:`drain` or :meth:`take_all`."""
+                 max_batch: int = 20000, qos_overriding_options: QoSOverridingOptions | None = None):
+        """``period_s`` None: no timer, the owner calls :meth:`drain` or :meth:`take_all`; ``qos_overriding_options``
+        :data:`LINK_QOS` for a topic that may cross a link."""
         self._on_messages, self._max_batch, self._node, self.msg_type = on_messages, max_batch, node, msg_type
+        qos = copy.copy(qos) if qos_overriding_options else qos  # rclpy writes the overrides into it
         self.subscription = node.create_subscription(msg_type, topic, _never_called, qos, raw=True,
-                                                     callback_group=_PolledGroup())
+                                                     callback_group=_PolledGroup(),
+                                                     qos_overriding_options=qos_overriding_options)
         # steady clock: under use_sim_time a paused or slow /clock must not stall the intake
         self.timer = None if period_s is None else node.create_timer(
             period_s, self.drain, clock=Clock(clock_type=ClockType.STEADY_TIME))
@@ -163,8 +179,8 @@ class ImuBatchSubscription(PolledSubscription):
     """
 
     def __init__(self, node: Node, topic: str, on_batch, period_s: float | None, qos=SENSOR_QOS_IN,
-                 max_batch: int = 20000):
-        super().__init__(node, Imu, topic, self._on_messages_taken, period_s, qos, max_batch)
+                 max_batch: int = 20000, qos_overriding_options: QoSOverridingOptions | None = None):
+        super().__init__(node, Imu, topic, self._on_messages_taken, period_s, qos, max_batch, qos_overriding_options)
         self._on_batch = on_batch
         self.bad_messages = 0
 

@@ -21,8 +21,8 @@ from sensor_msgs.msg import Imu
 
 from nav_core import sensor_model
 from nav_core.params import ConfigError, Param
-from nav_core.ros_node import (SENSOR_QOS, Diagnostics, ImuBatchSubscription, IntakeLoop, declare_parameters,
-                               publish_imu_batch, run_node)
+from nav_core.ros_node import (LINK_QOS, SENSOR_QOS, Diagnostics, ImuBatchSubscription, IntakeLoop,
+                               declare_parameters, publish_imu_batch, run_node)
 from rclpy.node import Node
 from wmra_filter import levels, thresholds as thr
 from wmra_filter.stream_policy import StreamPolicy
@@ -104,7 +104,8 @@ class WmraNode(Node):
         self.stats = {"published": 0, "busy_s": 0.0, "busy_max_s": 0.0}
         self.pub = self.create_publisher(Imu, "imu/data_corrected", SENSOR_QOS)
         qos = QoSProfile(depth=values["input_queue_depth"], reliability=ReliabilityPolicy.BEST_EFFORT)
-        self.intake = ImuBatchSubscription(self, "imu/data_raw", self.on_batch, None, qos=qos)
+        self.intake = ImuBatchSubscription(self, "imu/data_raw", self.on_batch, None, qos=qos,
+                                           qos_overriding_options=LINK_QOS)
         self.diagnostics = Diagnostics(self, "wmra", hardware_id=values["sensor_model_path"])
         self.lock = threading.Lock()
         self.create_timer(values["diagnostics_period_s"], self._publish_diagnostics_locked)
