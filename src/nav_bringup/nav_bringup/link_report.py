@@ -5,10 +5,13 @@ Figures (``summary.json``): ``hosts``, ``link_cuts`` (``{at_s, for_s}``, simulat
 drive), ``odometry_max_gap_s`` (the longest time between two odometry messages the compute host received, by
 their log times), ``gnss_resumed_after_s`` (per cut: from the link's return to the first filter status that
 counts a fix fused after it; the status comes once a simulated second, so this is an upper bound within 1 s),
-``input_stale_max_s`` (the longest input staleness the filter reported through the cuts, its steady-clock s), ``live_vs_offline_max_m`` and
-``horizontal_rms_m`` (the report's: live odometry against the offline replay of this bag, and against the truth),
-``horizontal_rms_outside_cuts_m`` (against the truth, the epochs stamped inside a cut left out: the INS alone
-bridges those).
+``input_stale_max_s`` (the longest input staleness the filter reported through the cuts, its steady-clock s),
+``live_vs_offline_max_m`` and ``horizontal_rms_m`` (the report's: live odometry against the offline replay of
+this bag, and against the truth),
+``horizontal_rms_outside_cuts_m`` (against the truth, the epochs stamped inside a cut left out),
+``odometry_stamp_max_gap_s`` (the longest time between two odometry stamps: about the filter epoch when the
+samples of a cut were delivered after it, as the sensor data's reliable QoS does, nav_bringup.hosts.link_qos; the
+cut's length when they were lost) and ``imu_samples_missing`` (in the filter's input, by the IMU's stamps).
 """
 from __future__ import annotations
 
@@ -46,15 +49,13 @@ def _summary(run_dir: Path) -> dict:
     return json.loads(path.read_text()) if path.exists() else {}
 
 
-def rms_outside_cuts(run_dir: Path, cuts: list, epoch_s: float, sim_dir) -> float | None:
-    """Horizontal RMS against the simulation's truth (m) over the epochs stamped outside the cuts (the INS alone
-    bridges the gap inside them); None without a simulation."""
+def rms_outside_cuts(odom, cuts: list, epoch_s: float, sim_dir) -> float | None:
+    """Horizontal RMS of the odometry (a ``nav_core.recording`` OdometryRecording) against the simulation's truth
+    (m) over the epochs stamped outside the cuts; None without a simulation."""
     if sim_dir is None:
         return None
     from nav_bringup.truth import TruthTrack
-    from nav_core import recording
 
-    odom = recording.read_odometry(Path(run_dir) / "bag")
     err = np.hypot(*(odom.position - TruthTrack.from_sim_dir(sim_dir).at(odom.t))[:, :2].T)
     out = np.ones(len(odom), bool)
     for cut in cuts:
@@ -65,7 +66,10 @@ def rms_outside_cuts(run_dir: Path, cuts: list, epoch_s: float, sim_dir) -> floa
 def link_figures(run_dir: Path, cuts: list, epoch_s: float, sim_dir=None) -> dict:
     """The two-host figures of ``run_dir`` (its bag and summary.json); ``epoch_s``: the drive's start, clock s;
     ``sim_dir``: the simulation (its truth gives the RMS outside the cuts)."""
+    from nav_core import recording
+
     odom, diag = _series(Path(run_dir) / "bag")
+    stamped = recording.read_odometry(Path(run_dir) / "bag")
     resumed, stale = [], [0.0]
     for cut in cuts:
         at, back = epoch_s + cut["at_s"], epoch_s + cut["restored_at_s"]
@@ -74,14 +78,16 @@ def link_figures(run_dir: Path, cuts: list, epoch_s: float, sim_dir=None) -> dic
         after = next((t for t, f, _ in diag if t > back and f > before), None)
         resumed.append(None if after is None else round(after - back, 3))
     summary = _summary(run_dir)
-    offline = summary.get("offline") or {}
+    offline, stream = summary.get("offline") or {}, summary.get("stream") or {}
     return {"hosts": 2, "link_cuts": [{"at_s": c["at_s"], "for_s": c["for_s"]} for c in cuts],
             "odometry_max_gap_s": round(float(np.max(np.diff(odom))), 3) if len(odom) > 1 else None,
+            "odometry_stamp_max_gap_s": round(float(np.max(np.diff(stamped.t))), 3) if len(stamped) > 1 else None,
+            "imu_samples_missing": stream.get("IMU samples missing in the filter's input"),
             "gnss_resumed_after_s": resumed[0] if len(resumed) == 1 else (resumed or None),
             "input_stale_max_s": round(max(stale), 3),
             "live_vs_offline_max_m": offline.get("largest difference (m)"),
             "horizontal_rms_m": (summary.get("rms") or {}).get("horizontal position (m)"),
-            "horizontal_rms_outside_cuts_m": rms_outside_cuts(run_dir, cuts, epoch_s, sim_dir) if cuts else None}
+            "horizontal_rms_outside_cuts_m": rms_outside_cuts(stamped, cuts, epoch_s, sim_dir) if cuts else None}
 
 
 def plot_link(run_dir: Path, cuts: list, epoch_s: float, path: Path) -> Path:
