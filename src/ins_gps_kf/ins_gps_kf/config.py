@@ -120,7 +120,7 @@ PARAMETERS = (
 )
 SPEC_BY_NAME = {s.name: s for s in PARAMETERS}
 NODE_ONLY = frozenset({"use_sim_time", "intake_period_s", "input_queue_depth", "publish_tf", "odom_frame_id",
-                       "imu_frame_id", "gps_frame_id"})
+                       "imu_frame_id", "gps_frame_id", "qos_overrides"})
 """Parameters of the node's ROS side (declared in ins_gps_kf_node) that the shared params file may hold:
 the core and the offline replay skip them."""
 

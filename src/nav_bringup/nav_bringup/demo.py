@@ -190,7 +190,7 @@ def filter_params(params_file: Path, specs) -> dict:
     """The filter node's parameters in this run: the params file's section with the run's overrides."""
     overrides = next((s.overrides for s in specs if s.executable == "ins_gps_kf_node"), {})
     return {k: v for k, v in {**filter_section(params_file), **overrides}.items()
-            if k != "use_sim_time" and not k.startswith("qos_overrides.")}  # node-only: DDS, not the filter
+            if k != "use_sim_time" and not k.startswith("qos_overrides")}  # node-only: DDS, not the filter
 
 
 def main(argv=None) -> int:
