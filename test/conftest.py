@@ -88,3 +88,27 @@ def outage_drive():
     sim = simulate(sc, model=bp3010_grade_model(), seed=3, with_bytes=False)
     windows = outage_windows(60.0, sim.truth.t[-1], 180.0, 60.0, 120.0)
     return sim, windows, drop_fixes(sim.gnss, windows)
+
+
+@pytest.fixture(scope="session")
+def wheel_drive():
+    """A 55-s synthetic drive at 32 Hz (20 s at rest, then 5 m/s round a bend) with 1-Hz fixes and a 10-Hz wheel
+    odometer (0.5 % scale error, 0.05 m/s noise) carrying one of each bad input: a NaN speed, a repeated stamp, a
+    stamp gone back, and a stuck wheel (four zeros at speed): ``(imu, gnss, wheel)``, for the odometer's node, bag
+    and intake tests."""
+    import numpy as np
+
+    from ins_gps_kf import synthetic as syn
+    from nav_core.recording import WheelSpeedRecording
+
+    motion = syn.circle(still_s=20.0, accel_s=5.0, straight_s=10.0, turn_s=20.0)
+    rng = np.random.default_rng(9)
+    imu = syn.add_imu_errors(syn.ideal_imu(motion, 32.0), rng, 1e-4, 0.01, 1e-3, 1e-3)
+    gnss = syn.gnss(motion, 32.0, 1.0, rng)
+    t = np.round(np.arange(0.05, imu.t[-1], 0.1), 6)
+    speed = 1.005 * motion.speed_yaw(t)[0] + rng.normal(0.0, 0.05, len(t))
+    speed[300] = np.nan
+    t[350] = t[349]  # a repeated stamp
+    t[400] = t[398]  # a stamp gone back
+    speed[450:462] = 0.0  # a stuck wheel at 5 m/s for 1.2 s
+    return imu, gnss, WheelSpeedRecording(t, speed, "synthetic")

@@ -23,6 +23,8 @@ class FilterConfigError(ValueError):
 PARAMETERS = (
     Param("imu_topic", "imu/data_corrected", "IMU input topic (remap to imu/data_raw for raw data)"),
     Param("gps_topic", "gps/fix", "NavSatFix input topic"),
+    Param("odometer_topic", "odom/wheel", "wheel odometer topic (nav_msgs/Odometry or geometry_msgs/TwistStamped: the "
+          "forward speed in twist.linear.x), used with odometer_enabled; in a bag, what the replay reads"),
     Param("sensor_model_path", "", "sensor-model YAML (nav_core.sensor_model); empty = hand-tuned MEMS default"),
     Param("apply_sensor_model_calibration", False, "subtract the model's bias/scale/misalignment from the IMU"),
     Param("imu_rate_hz", 64.0, "nominal IMU rate, Hz (stamps give the real dt)", 1.0, 5000.0),
@@ -120,7 +122,7 @@ PARAMETERS = (
 )
 SPEC_BY_NAME = {s.name: s for s in PARAMETERS}
 NODE_ONLY = frozenset({"use_sim_time", "intake_period_s", "input_queue_depth", "publish_tf", "odom_frame_id",
-                       "imu_frame_id", "gps_frame_id", "qos_overrides"})
+                       "imu_frame_id", "gps_frame_id", "odometer_msg_type", "qos_overrides"})
 """Parameters of the node's ROS side (declared in ins_gps_kf_node) that the shared params file may hold:
 the core and the offline replay skip them."""
 

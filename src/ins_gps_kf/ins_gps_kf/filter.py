@@ -89,6 +89,7 @@ class InsGpsFilter:
         self.accel_bias = np.zeros(3)
         self.gyro_scale = np.zeros(3)  # estimated scale-factor errors (unitless), with estimate_scale_factors
         self.odometer.scale = 0.0
+        self.odometer.pending, self.odometer.last_t = None, -math.inf  # a restarted clock: wheel stamps start anew
         self.accel_scale = np.zeros(3)
 
     def _cut_chain(self):

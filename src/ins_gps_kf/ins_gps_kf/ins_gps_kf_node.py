@@ -18,6 +18,10 @@ clock check sees the step as in the replay); this module is wiring. The subscrip
 numba kernel is compiled before the node says ready (a first-epoch compile once held a
 fresh install's node up for 30 s on a busy machine while DDS dropped its input).
 Only finite estimates are published: a non-finite one is counted and the filter reset.
+With ``odometer_enabled`` the wheel odometer's forward speed comes from ``odometer_topic`` (``odom/wheel``,
+sensor-data QoS): ``nav_msgs/Odometry`` (``twist.twist.linear.x``) or ``geometry_msgs/TwistStamped``
+(``twist.linear.x``), as ``odometer_msg_type`` says or, with ``auto``, as the graph's first publisher offers it;
+its stamps go through the same intake as the fixes (:meth:`ins_gps_kf.intake.StampOrderIntake.add_odometry`).
 """
 from __future__ import annotations
 
@@ -31,6 +35,7 @@ import threading  # noqa: E402
 import time  # noqa: E402
 
 import numpy as np  # noqa: E402
+from geometry_msgs.msg import TwistStamped  # noqa: E402
 from nav_msgs.msg import Odometry  # noqa: E402
 from rclpy.clock import Clock, ClockType  # noqa: E402
 from rclpy.exceptions import InvalidParameterTypeException, InvalidParameterValueException  # noqa: E402
@@ -55,7 +60,8 @@ from ins_gps_kf.intake import StampOrderIntake, warm_up  # noqa: E402
 from ins_gps_kf.offline import load_model  # noqa: E402
 from ins_gps_kf.status import INPUT_STALE_S, filter_status, mark_stale  # noqa: E402
 
-GPS, IMU = 0, 1  # arrival-merge order of a fix and an IMU message received at the same instant
+GPS, WHEEL, IMU = 0, 1, 2  # arrival-merge order of a fix, a wheel speed and an IMU message received at one instant
+WHEEL_TYPES = {"nav_msgs/msg/Odometry": Odometry, "geometry_msgs/msg/TwistStamped": TwistStamped}
 
 INTAKE = Param("intake_period_s", 0.01, "IMU and GPS messages are taken in batches at this period, s (adds up "
                "to this much latency; an executor callback per message costs more than the filter at 1 kHz)",
@@ -70,7 +76,10 @@ TF_PARAMS = (  # REP-105 frames; the pose frame (map) and base_link are the core
     Param("imu_frame_id", "imu_link", "IMU frame: identity transform from base_link (the IMU axes are the body axes)"),
     Param("gps_frame_id", "gps_link", "GPS antenna frame: transform from base_link at the lever arm"),
 )
-NODE_PARAMS = (INTAKE, QUEUE, *TF_PARAMS)
+WHEEL_TYPE = Param("odometer_msg_type", "auto", "message type on odometer_topic: auto = the type its first publisher "
+                   "in the graph offers (the subscription is made once one is seen)",
+                   choices=("auto", *WHEEL_TYPES))
+NODE_PARAMS = (INTAKE, QUEUE, WHEEL_TYPE, *TF_PARAMS)
 ERROR_LOG_PERIOD_S = 10.0  # a repeating processing error is logged at most this often
 
 
@@ -120,6 +129,9 @@ class InsGpsKfNode(Node):
         # would have seen, so a fix is never overtaken by a batch of IMU samples that arrived after it
         qos = QoSProfile(depth=self.params["input_queue_depth"], reliability=ReliabilityPolicy.BEST_EFFORT)
         self.imu_intake = ImuBatchSubscription(self, self.params["imu_topic"], None, None, qos=qos)
+        self.wheel_intake: PolledSubscription | None = None  # made once the type is known (odometer_enabled)
+        self.bad_wheel_messages = 0
+        self._wheel_qos = qos
         self.gps_intake = PolledSubscription(self, NavSatFix, self.params["gps_topic"], None, None, qos=qos,
                                              qos_overriding_options=LINK_QOS)
         self.lock = threading.Lock()
@@ -133,9 +145,35 @@ class InsGpsKfNode(Node):
         strapdown.warm_up()
         warm_up(cfg, model)  # every numba kernel compiled (or loaded from cache) now, not at the first epoch
         self.get_logger().info(f"kernels ready in {time.monotonic() - start:.1f} s")
+        self._wheel_wait = None
+        if cfg.odometer_enabled:
+            self._subscribe_wheel()
+            if self.wheel_intake is None:  # auto: look for a publisher's type each half second until one comes
+                self._wheel_wait = self.create_timer(0.5, self._subscribe_wheel,
+                                                     clock=Clock(clock_type=ClockType.STEADY_TIME))
         self.intake_loop = IntakeLoop(self, self.params["intake_period_s"], self.take_input, self.lock)
-        self.get_logger().info(f"ready: imu '{self.params['imu_topic']}', gps '{self.params['gps_topic']}', "
+        wheel = f"wheel '{self.params['odometer_topic']}', " if cfg.odometer_enabled else ""
+        self.get_logger().info(f"ready: imu '{self.params['imu_topic']}', gps '{self.params['gps_topic']}', {wheel}"
                                f"model '{self.params['sensor_model_path'] or 'hand-tuned default'}'")
+
+    def _subscribe_wheel(self):
+        """Subscribe ``odometer_topic`` with the type ``odometer_msg_type`` names, or (auto) the type a publisher
+        in the graph offers; until one is seen, nothing (called again by the waiting timer)."""
+        topic, msg_type = self.params["odometer_topic"], self.params["odometer_msg_type"]
+        if msg_type == "auto":
+            name = self.resolve_topic_name(topic)
+            offered = [t for n, types in self.get_topic_names_and_types() if n == name for t in types]
+            msg_type = next((t for t in offered if t in WHEEL_TYPES), None)
+            if msg_type is None:
+                if offered:
+                    self.get_logger().warn(f"{name} offers {offered}: not a wheel speed type ({list(WHEEL_TYPES)}); "
+                                           "set odometer_msg_type", once=True)
+                return
+        with self.lock:
+            self.wheel_intake = PolledSubscription(self, WHEEL_TYPES[msg_type], topic, None, None, qos=self._wheel_qos)
+        if self._wheel_wait is not None:
+            self._wheel_wait.cancel()
+        self.get_logger().info(f"wheel odometer: {topic} as {msg_type}")
 
     def _locked(self, fn):
         """``fn`` run holding the intake lock (it reads what the intake thread changes); skipped when the intake
@@ -155,7 +193,8 @@ class InsGpsKfNode(Node):
     def take_input(self):
         """Queue what arrived since the last call, IMU samples and fixes in arrival order; run what is due."""
         imu, fixes = self.imu_intake.take_all(), self.gps_intake.take_all()
-        if not imu and not fixes:
+        wheel = self.wheel_intake.take_all() if self.wheel_intake is not None else []
+        if not imu and not fixes and not wheel:
             return
         self._last_input_wall = time.monotonic()
         batch = self.imu_intake.decode([blob for blob, _ in imu])
@@ -164,7 +203,8 @@ class InsGpsKfNode(Node):
         # merged by receive time: the order per-message callbacks would have seen, so a fix is never
         # overtaken by a batch of IMU samples that arrived after it
         arrivals = sorted([(received, IMU, i) for i, (_, received) in enumerate(imu)]
-                          + [(received, GPS, i) for i, (_, received) in enumerate(fixes)])
+                          + [(received, GPS, i) for i, (_, received) in enumerate(fixes)]
+                          + [(received, WHEEL, i) for i, (_, received) in enumerate(wheel)])
         t_s = batch.t_s.tolist()
         if self.first_imu_t is None and t_s:
             self.first_imu_t = t_s[0]
@@ -172,6 +212,8 @@ class InsGpsKfNode(Node):
         for _, kind, i in arrivals:
             if kind == IMU:
                 self.intake.add_imu(t_s[i], batch.gyro[i], batch.accel[i])
+            elif kind == WHEEL:
+                self.on_wheel_speed(wheel[i][0])
             else:
                 self.on_gps(deserialize_message(fixes[i][0], NavSatFix))
         self._guarded(self.intake.release)
@@ -190,6 +232,17 @@ class InsGpsKfNode(Node):
             self.first_fix_t = stamp_to_s(msg.header.stamp)
         self.intake.add_fix(stamp_to_s(msg.header.stamp), msg.latitude * DEG, msg.longitude * DEG, msg.altitude,
                             std, msg.status.status)
+
+    def on_wheel_speed(self, blob: bytes):
+        """Queue one wheel speed (the filter judges NaN, repeated and back-going stamps and a stuck wheel); a message
+        that does not decode is counted (``bad_odometer_messages``)."""
+        try:
+            msg = deserialize_message(blob, self.wheel_intake.msg_type)
+        except Exception:  # noqa: BLE001 - rclpy raises several kinds on bad CDR
+            self.bad_wheel_messages += 1
+            return
+        twist = msg.twist.twist if isinstance(msg, Odometry) else msg.twist
+        self.intake.add_odometry(stamp_to_s(msg.header.stamp), float(twist.linear.x))
 
     def _guarded(self, fn):
         """``fn()``; an error of the filter is counted, logged now and then, and resets it (input goes on)."""
@@ -289,7 +342,8 @@ class InsGpsKfNode(Node):
     def publish_diagnostics(self):
         """The typed status (:class:`ins_gps_kf.status.FilterStatus`) on /diagnostics."""
         st = filter_status(self.filter, self.intake, self.first_imu_t, self.first_fix_t, self.imu_intake.bad_messages,
-                           self.nonfinite_estimates, self.processing_errors, self.last_processing_error)
+                           self.nonfinite_estimates, self.processing_errors, self.last_processing_error,
+                           self.bad_wheel_messages)
         mark_stale(st, 0.0 if self._last_input_wall is None else time.monotonic() - self._last_input_wall)
         self.diag.publish(st.level, st.message, st.to_values())
 

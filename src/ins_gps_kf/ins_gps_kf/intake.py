@@ -26,6 +26,11 @@ what is too late, what is a restart, and what is counted. The rules (the offline
   (:class:`ins_gps_kf.input_checks.ImuClock`, as the offline replay does), not dropped as late for the rest of the run;
 * a non-finite stamp is rejected and counted (it has no place in the order); what the samples
   carry is the filter's to judge;
+* a wheel speed goes at its stamp, or after the latest wheel stamp before it when its stamp went back or is not
+  finite (the offline replay's rule), so the filter judges it there (``odometer_out_of_order``,
+  ``odometer_nonfinite``, and whenever it comes: a stamp not after the latest wheel stamp processed); at one
+  stamp the fixes come first, then the wheel speeds, then the IMU sample; one with a newer stamp whose place was
+  already processed is dropped as ``late_odometer``;
 * consecutive IMU samples go to the filter as one chunk (the same numbers as one by one).
 """
 from __future__ import annotations
@@ -40,7 +45,7 @@ import numpy as np
 
 from ins_gps_kf.input_checks import FixArrivals, ImuClock, InputCounters
 
-GPS, IMU = 0, 1  # a fix sorts before an IMU sample of the same stamp (as in the replay)
+GPS, ODOMETER, IMU = 0, 1, 2  # at one stamp: fixes, then wheel speeds, then the IMU sample (as in the replay)
 
 
 @dataclass
@@ -56,13 +61,15 @@ class IntakeCounters:
     fixes_stamped_back: int = 0   # fixes stamped before the fix before: placed where they arrived
     fixes_stamped_ahead: int = 0  # fixes found stamped ahead of the fix after them (see FixArrivals)
     imu_missing: int = 0       # IMU samples missing in forward gaps of the released stream (estimate)
+    wheel_speeds: int = 0      # wheel speeds handed in
+    late_odometer: int = 0     # wheel speeds older than the last processed message: dropped
     last_restart: str = ""
     reasons: list = field(default_factory=list)
 
     @property
     def dropped(self) -> int:
         """Messages the intake dropped (late or unstamped)."""
-        return self.late_imu + self.late_fixes + self.bad_stamps
+        return self.late_imu + self.late_fixes + self.late_odometer + self.bad_stamps
 
 
 class StampOrderIntake:
@@ -85,6 +92,8 @@ class StampOrderIntake:
         self.last_t: float | None = None  # newest IMU stamp released to the filter, s
         self._done = (-math.inf, GPS)  # (stamp, kind) of the last message released: the order's front
         self.fix_places = FixArrivals(time_jump_s)
+        self.wheel_place = -math.inf  # the latest finite wheel-speed stamp handed in since the last restart, s
+        self.wheel_done = -math.inf   # the latest finite wheel-speed stamp released to the filter, s
         # an IMU clock stepping back by less than time_jump_s is re-stamped here, before the stamp order
         self.imu_clock = ImuClock(time_jump_s, getattr(filt, "input", None) or InputCounters())
 
@@ -116,6 +125,13 @@ class StampOrderIntake:
         self.counters.fixes_stamped_back += place != t_s
         heapq.heappush(self._heap, (place, GPS, next(self._seq), (t_s, lat_rad, lon_rad, h_m, std_enu, status)))
 
+    def add_odometry(self, t_s: float, speed_mps: float) -> None:
+        """Queue one wheel speed (stamp s, forward m/s) at its place (see the module doc); the filter judges it."""
+        self.counters.wheel_speeds += 1
+        if math.isfinite(t_s):
+            self.wheel_place = max(self.wheel_place, t_s)
+        heapq.heappush(self._heap, (self.wheel_place, ODOMETER, next(self._seq), (t_s, speed_mps)))
+
     def release(self) -> None:
         """Run everything ``window_s`` older than the newest IMU stamp through the filter, in stamp order."""
         self._drain(self.newest_t - self.window_s)
@@ -135,8 +151,13 @@ class StampOrderIntake:
         self.newest_t = max((item[0] for item in self._heap), default=-math.inf)
         self.last_t, self._done = None, (-math.inf, GPS)
         self.fix_places.restart()
-        for _, _, seq, payload in sorted((item for item in new_run if item[1] == GPS), key=lambda item: item[2]):
-            self._heap.append((self.fix_places.place_of(payload[0])[0], GPS, seq, payload))  # the new run's stream
+        self.wheel_place = self.wheel_done = -math.inf
+        for _, kind, seq, payload in sorted((item for item in new_run if item[1] != IMU), key=lambda item: item[2]):
+            if kind == GPS:  # the new run's stream
+                self._heap.append((self.fix_places.place_of(payload[0])[0], GPS, seq, payload))
+            else:
+                self.wheel_place = max(self.wheel_place, payload[0]) if math.isfinite(payload[0]) else self.wheel_place
+                self._heap.append((self.wheel_place, ODOMETER, seq, payload))
         heapq.heapify(self._heap)
         self.counters.restarts += 1
         self.counters.last_restart = reason
@@ -144,7 +165,7 @@ class StampOrderIntake:
 
     def _new_run(self, item, t_new: float) -> bool:
         """Whether a queued message belongs to the run restarting at ``t_new`` s: an IMU sample older than what was
-        processed (it would be late), a fix whose stamp is nearer ``t_new`` than the processed stamps."""
+        processed (it would be late), a fix or wheel speed whose stamp is nearer ``t_new`` than the processed stamps."""
         if item[1] == IMU:
             return item[:2] < self._done
         return abs(item[3][0] - t_new) < abs(item[3][0] - self._done[0])
@@ -156,6 +177,10 @@ class StampOrderIntake:
             if (t, kind) < self._done:  # its place in the stamp order was processed already
                 if kind == GPS:
                     self.counters.late_fixes += 1
+                elif kind == ODOMETER and not self._judged_anyway(payload[0]):
+                    self.counters.late_odometer += 1
+                elif kind == ODOMETER:  # dropped by the filter wherever it goes: counted under its own name
+                    self.filter.process_odometry(*payload)
                 else:
                     self.counters.late_imu += 1
                 continue
@@ -165,11 +190,23 @@ class StampOrderIntake:
                 run = []
                 self.filter.process_gps(*payload)  # its own stamp: the filter judges a stamp out of place
                 continue
+            if kind == ODOMETER:
+                self._run_imu(run)
+                run = []
+                self.filter.process_odometry(*payload)
+                self.wheel_done = max(self.wheel_done, payload[0]) if math.isfinite(payload[0]) else self.wheel_done
+                continue
             if self.last_t is not None and t - self.last_t > 1.5 * self.imu_period_s:
                 self.counters.imu_missing += int(round((t - self.last_t) / self.imu_period_s)) - 1
             self.last_t = t
             run.append((t, payload))
         self._run_imu(run)
+
+    def _judged_anyway(self, t_s: float) -> bool:
+        """Whether a wheel speed stamped ``t_s`` s is one the filter drops wherever it goes (a stamp not finite, or
+        not after the latest wheel stamp released): it is handed over however late, so it is counted as the
+        replay counts it."""
+        return not math.isfinite(t_s) or t_s <= self.wheel_done
 
     def _run_imu(self, run) -> None:
         if not run:

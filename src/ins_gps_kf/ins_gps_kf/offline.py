@@ -69,34 +69,6 @@ def run(filt: InsGpsFilter, imu: ImuRecording, gnss: GnssRecording | None, progr
     return out
 
 
-def read_odometry_csv(path) -> tuple:
-    """(t (n,) s, speed (n,) m/s) from a CSV with columns ``t,speed_mps``; a value that is not a number is read as
-    NaN (the filter counts it as ``odometer_nonfinite``) and the first such line is returned as a warning:
-    (t, speed, warning or None). RecordingError naming the file when the columns are missing."""
-    import csv
-
-    from nav_core.recording import RecordingError
-    with open(path, newline="") as fh:
-        reader = csv.reader(fh)
-        header = [h.strip() for h in next(reader, [])]
-        if "t" not in header or "speed_mps" not in header:
-            raise RecordingError(f"{path}: header {header}: expected columns t,speed_mps (s, m/s)")
-        it, iv = header.index("t"), header.index("speed_mps")
-        t, v, warning = [], [], None
-        for line, row in enumerate(reader, start=2):
-            vals = []
-            for i, name in ((it, "t"), (iv, "speed_mps")):
-                try:
-                    vals.append(float(row[i]))
-                except (ValueError, IndexError):
-                    vals.append(np.nan)
-                    warning = warning or f"{path}: line {line}, column {name}: {row[i] if i < len(row) else ''!r} " \
-                                         "is not a number (read as NaN, counted as odometer_nonfinite)"
-            t.append(vals[0])
-            v.append(vals[1])
-    return np.array(t, dtype=float), np.array(v, dtype=float), warning
-
-
 def to_trajectory(estimates: list[Estimate], frame) -> Trajectory:
     """Estimates as a :class:`Trajectory` (geodetic via ``frame``) with ENU, std, NIS and status columns."""
     if not estimates:

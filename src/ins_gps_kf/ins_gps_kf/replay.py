@@ -30,7 +30,7 @@ from nav_core.params import did_you_mean  # noqa: E402
 from nav_core.outputs import check_out_file, staged_file  # noqa: E402
 from ins_gps_kf import config as kfconfig, track_check  # noqa: E402
 from ins_gps_kf.filter import ALIGNING, InsGpsFilter  # noqa: E402
-from ins_gps_kf.offline import load_model, plot_north_east, read_odometry_csv, run, to_trajectory  # noqa: E402
+from ins_gps_kf.offline import load_model, plot_north_east, run, to_trajectory  # noqa: E402
 from ins_gps_kf.smoother import run_smoothed  # noqa: E402
 
 
@@ -47,8 +47,7 @@ def replay_files(recording_path, gnss_path, model_path, out_path, params: dict |
                  imu_topic=None, gps_topic=None, plot=True, progress=True, smooth=False, odometry_path=None):
     """Read, run, write: the ``replay`` subcommand as a function; returns (Trajectory, filter). With ``smooth``
     the trajectory written to ``out_path`` (and returned) is the smoothed one (:mod:`ins_gps_kf.smoother`), the
-    forward one goes to :func:`forward_path`. ``odometry_path``: wheel speeds (CSV ``t,speed_mps``), which turn
-    ``odometer_enabled`` on."""
+    forward one goes to :func:`forward_path`. Wheel speeds (:func:`wheel_speeds`) turn ``odometer_enabled`` on."""
     p = kfconfig.defaults()
     p.update(params or {})
     recording.refuse_topic_without_bag(recording_path, "--imu-topic", imu_topic)
@@ -56,15 +55,11 @@ def replay_files(recording_path, gnss_path, model_path, out_path, params: dict |
     imu = recording.read_imu(recording_path, topic=imu_topic or p["imu_topic"])
     gnss_src = gnss_path or recording_path
     gnss = recording.read_gnss(gnss_src, topic=gps_topic or p["gps_topic"])
-    for damage in dict.fromkeys(r.damage for r in (imu, gnss) if r.damage):  # read past it: say what was lost
-        print(f"ins-gps-kf: warning: {damage}", file=sys.stderr)
-    odometry = None
-    if odometry_path is not None:
-        t_odo, v_odo, warning = read_odometry_csv(odometry_path)
-        if warning:
-            print(f"ins-gps-kf: warning: {warning}", file=sys.stderr)
-        odometry = (t_odo, v_odo)
-        p["odometer_enabled"] = True
+    wheel = wheel_speeds(recording_path, odometry_path, p)
+    for damage in dict.fromkeys(r.damage for r in (imu, gnss, wheel) if r is not None and r.damage):
+        print(f"ins-gps-kf: warning: {damage}", file=sys.stderr)  # read past it: say what was lost
+    odometry = None if wheel is None else (wheel.t, wheel.speed_mps)
+    p["odometer_enabled"] = wheel is not None
     cfg = kfconfig.from_params(p)
     for warning in check_recordings(imu, gnss, cfg, imu_topic or p["imu_topic"]):
         print(f"ins-gps-kf: warning: {warning}", file=sys.stderr)
@@ -86,6 +81,29 @@ def replay_files(recording_path, gnss_path, model_path, out_path, params: dict |
         with staged_file(Path(out_path).with_suffix(".png"), force=True) as tmp:  # checked by the caller
             plot_north_east(tmp, traj, gnss, filt.frame, title=f"ins_gps_kf: {Path(out_path).stem}")
     return traj, filt
+
+
+def wheel_speeds(recording_path, odometry_path, params: dict):
+    """The wheel odometer's speeds the replay uses (:class:`nav_core.recording.WheelSpeedRecording`), or None:
+    ``odometry_path`` (CSV ``t,speed_mps``, or a bag's ``odometer_topic``) when given; else, with
+    ``odometer_enabled``, the recording bag's ``odometer_topic`` (as the node subscribes to it); else none (a
+    warning when the bag has that topic). RecordingError naming the file and topic when asked-for speeds are
+    missing."""
+    topic = params["odometer_topic"]
+    if odometry_path is not None:
+        return recording.read_wheel_speed(odometry_path, topic=topic)
+    from nav_core import bagio
+
+    in_bag = bagio.is_bag(recording_path) and bagio.norm_topic(topic) in bagio.topics(recording_path)
+    if params["odometer_enabled"]:
+        if not bagio.is_bag(recording_path):
+            raise recording.RecordingError(f"{recording_path}: odometer_enabled but no wheel speeds: give "
+                                           "--odometry ODOM.csv (t,speed_mps) or a bag with the odometer_topic")
+        return recording.read_wheel_speed(recording_path, topic=topic)
+    if in_bag:
+        print(f"ins-gps-kf: warning: {recording_path} has wheel speeds on {topic}, not used: --param "
+              "odometer_enabled=true uses them", file=sys.stderr)
+    return None
 
 
 def check_recordings(imu, gnss, cfg, imu_topic: str) -> list[str]:
@@ -225,8 +243,10 @@ def main(argv=None) -> int:
     rp.add_argument("--gps-topic", help="GNSS topic in a bag (default: the gps_topic parameter)")
     rp.add_argument("--no-plot", action="store_true", help="do not write the PNG next to --out")
     rp.add_argument("--quiet", action="store_true", help="no progress bar")
-    rp.add_argument("--odometry", metavar="ODOM.csv", help="wheel speeds (columns t,speed_mps: s, m/s forward) as "
-                    "updates with the odometer's scale factor as a filter state")
+    rp.add_argument("--odometry", metavar="ODOM.csv", help="wheel speeds (CSV with columns t,speed_mps: s, m/s "
+                    "forward; or a bag's odometer_topic) as updates with the odometer's scale factor as a filter "
+                    "state; with --param odometer_enabled=true and no --odometry, the recording bag's "
+                    "odometer_topic (odom/wheel) is used")
     rp.add_argument("--smooth", action="store_true", help="forward-backward (RTS) smoothing: --out gets the smoothed "
                     "trajectory with its smoothed std, OUT.forward.csv the forward one")
     rp.add_argument("--json", action="store_true", help="print the run's counts (events, rejected input) as JSON")

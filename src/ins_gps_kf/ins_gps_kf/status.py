@@ -71,12 +71,32 @@ class FilterStatus(NodeStatus):
     align_roll_deg: float | None = None
     align_pitch_deg: float | None = None
     input_stale_s: float = 0.0  # the node's steady-clock time since its last IMU or GPS message (0 before any)
+    # the wheel odometer (odometer_enabled): speeds received, used and gated out at epochs, dropped by the intake
+    # as late, messages that did not decode; its estimated scale-factor error, % (None: odometer off)
+    wheel_speeds_received: int = 0
+    odometer_updates: int = 0
+    odometer_rejected: int = 0
+    late_odometer: int = 0
+    bad_odometer_messages: int = 0
+    odometer_scale_pct: float | None = None
 
 
 def filter_status(filt, intake, first_imu_t=None, first_fix_t=None, bad_imu_messages=0, nonfinite_estimates=0,
-                  processing_errors=0, last_processing_error="") -> FilterStatus:
+                  processing_errors=0, last_processing_error="", bad_odometer_messages=0) -> FilterStatus:
     """The status of ``filt`` (:class:`ins_gps_kf.filter.InsGpsFilter`) behind ``intake``
     (:class:`ins_gps_kf.intake.StampOrderIntake`), with the node's own counts; level and message included."""
+    st = _status(filt, intake, first_imu_t, first_fix_t, bad_imu_messages, nonfinite_estimates, processing_errors,
+                 last_processing_error)
+    c, ic = filt.counters, intake.counters
+    st.wheel_speeds_received, st.late_odometer, st.bad_odometer_messages = (ic.wheel_speeds, ic.late_odometer,
+                                                                            bad_odometer_messages)
+    st.odometer_updates, st.odometer_rejected = c.odometer_updates, c.odometer_rejected
+    st.odometer_scale_pct = 100.0 * filt.odometer.scale if filt.cfg.odometer_enabled else None
+    return st
+
+
+def _status(filt, intake, first_imu_t, first_fix_t, bad_imu_messages, nonfinite_estimates, processing_errors,
+            last_processing_error) -> FilterStatus:
     c, ic, cfg = filt.counters, intake.counters, filt.cfg
     age = (intake.last_t - filt.last_fix_t) if intake.last_t is not None else math.inf
     level, message = _level(filt, age, ic.dropped, nonfinite_estimates, processing_errors)

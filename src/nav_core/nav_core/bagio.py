@@ -318,14 +318,56 @@ def temperature_message(t_s: float, temp_c: float, frame_id: str = "imu_link"):
     return types[TEMPERATURE_TYPE](header=header, temperature=float(temp_c), variance=0.0)
 
 
-def default_qos(topic: str, msgtype: str) -> list:
+ODOMETRY_TYPE = "nav_msgs/msg/Odometry"
+TWIST_STAMPED_TYPE = "geometry_msgs/msg/TwistStamped"
+WHEEL_TYPES = (ODOMETRY_TYPE, TWIST_STAMPED_TYPE)  # what a wheel odometer publishes its forward speed in
+
+
+class NotWheelSpeed(ValueError):
+    """A message that carries no forward speed (not one of :data:`WHEEL_TYPES`)."""
+
+
+def wheel_speed_message(t_s: float, speed_mps: float, msgtype: str = ODOMETRY_TYPE, frame_id: str = "base_link"):
+    """A rosbags wheel-odometer message: forward speed (m/s) in ``twist.twist.linear.x`` of an Odometry or
+    ``twist.linear.x`` of a TwistStamped (``msgtype``, one of :data:`WHEEL_TYPES`)."""
+    types = TYPESTORE.types
+    header = types["std_msgs/msg/Header"](stamp=s_to_stamp(t_s), frame_id=frame_id)
+    vec = types["geometry_msgs/msg/Vector3"]
+    twist = types["geometry_msgs/msg/Twist"](linear=vec(x=float(speed_mps), y=0.0, z=0.0), angular=vec(x=0.0, y=0.0,
+                                                                                                        z=0.0))
+    if msgtype == TWIST_STAMPED_TYPE:
+        return types[TWIST_STAMPED_TYPE](header=header, twist=twist)
+    if msgtype != ODOMETRY_TYPE:
+        raise NotWheelSpeed(f"{msgtype}: a wheel speed is one of {list(WHEEL_TYPES)}")
+    pose = types["geometry_msgs/msg/Pose"](position=types["geometry_msgs/msg/Point"](x=0.0, y=0.0, z=0.0),
+                                           orientation=types["geometry_msgs/msg/Quaternion"](x=0.0, y=0.0, z=0.0,
+                                                                                             w=1.0))
+    return types[ODOMETRY_TYPE](
+        header=header, child_frame_id=frame_id,
+        pose=types["geometry_msgs/msg/PoseWithCovariance"](pose=pose, covariance=np.zeros(36)),
+        twist=types["geometry_msgs/msg/TwistWithCovariance"](twist=twist, covariance=np.zeros(36)))
+
+
+def forward_speed(msg) -> float:
+    """The forward speed (m/s) a wheel-odometer message carries (see :func:`wheel_speed_message`)."""
+    twist = getattr(msg, "twist", None)
+    inner = getattr(twist, "twist", twist)  # Odometry: twist.twist; TwistStamped: twist
+    linear = getattr(inner, "linear", None)
+    if linear is None:
+        raise NotWheelSpeed(f"{getattr(msg, '__msgtype__', type(msg).__name__)} carries no forward speed: expected "
+                            f"one of {list(WHEEL_TYPES)}")
+    return float(linear.x)
+
+
+def default_qos(topic: str, msgtype: str, sensor: bool | None = None) -> list:
     """The QoS (rosbags ``Qos`` list, as ``offered_qos_profiles``) our publishers offer on ``topic``: sensor messages
     the sensor-data QoS (best effort, keep last 5), ``/tf_static`` reliable and transient local (latched), the rest
-    reliable, keep last 10 (rclpy's default). What a bag written without a live publisher records."""
+    reliable, keep last 10 (rclpy's default). What a bag written without a live publisher records. ``sensor``:
+    whether the topic is a sensor's (None: by ``msgtype``; a wheel odometer's Odometry is, the filter's is not)."""
     from rosbags.interfaces import Qos, QosDurability, QosHistory, QosLiveliness, QosReliability, QosTime
 
     zero = QosTime(0, 0)  # rclpy's default deadline, lifespan and lease: none
-    sensor = msgtype in SENSOR_TYPES
+    sensor = msgtype in SENSOR_TYPES if sensor is None else sensor
     latched = norm_topic(topic) == "tf_static"
     return [Qos(QosHistory.KEEP_LAST, 5 if sensor else 1 if latched else 10,
                 QosReliability.BEST_EFFORT if sensor else QosReliability.RELIABLE,

@@ -36,6 +36,8 @@ LOG = logging.getLogger(__name__)
 IMU_TOPIC = "imu/data_raw"
 GNSS_TOPIC = "gps/fix"
 TEMP_TOPIC = "imu/temperature"
+WHEEL_TOPIC = "odom/wheel"
+WHEEL_CSV_COLUMNS = ("t", "speed_mps")
 IMU_CSV_COLUMNS = ("t", "gx", "gy", "gz", "ax", "ay", "az")
 GNSS_CSV_COLUMNS = ("t", "lat_deg", "lon_deg", "h_m", "std_e", "std_n", "std_u")
 TRUTH_CSV_COLUMNS = ("t", "lat_deg", "lon_deg", "h_m", "roll_deg", "pitch_deg", "yaw_deg")
@@ -410,30 +412,110 @@ def read_gnss_bag(path, topic: str = GNSS_TOPIC, strict: bool = False) -> GnssRe
 
 def write_bag(path, imu: ImuRecording | None = None, gnss: GnssRecording | None = None, storage: str = "sqlite3",
               imu_topic: str = IMU_TOPIC, gnss_topic: str = GNSS_TOPIC, temp_topic: str = TEMP_TOPIC,
-              gyro_std: float = 0.0, accel_std: float = 0.0) -> Path:
-    """Write IMU (and temperature) and GNSS recordings to a new rosbag2 bag, messages in time order."""
+              gyro_std: float = 0.0, accel_std: float = 0.0, wheel: WheelSpeedRecording | None = None,
+              wheel_topic: str = WHEEL_TOPIC, wheel_type: str = "nav_msgs/msg/Odometry") -> Path:
+    """Write IMU (and temperature), GNSS and wheel-speed recordings to a new rosbag2 bag, messages in time order
+    (stamps that are not finite or go back stay where they are in their stream); ``wheel_type`` is
+    ``nav_msgs/msg/Odometry`` or ``geometry_msgs/msg/TwistStamped`` (the speed in ``twist.linear.x``)."""
     from nav_core import bagio
 
+    streams = [(imu, 0), (gnss, 1), (wheel, 2)]
     events = []
-    if imu is not None:
-        for i in range(len(imu)):
-            events.append((imu.t[i], 0, i))
-    if gnss is not None:
-        for i in range(len(gnss)):
-            events.append((gnss.t[i], 1, i))
+    for rec, kind in streams:
+        if rec is None:
+            continue
+        place = np.maximum.accumulate(np.where(np.isfinite(rec.t), rec.t, -np.inf)) if len(rec) else rec.t
+        events += [(float(place[i]), kind, i) for i in range(len(rec))]
     events.sort()
     with bagio.BagWriter(path, storage) as bag:
-        for t, kind, i in events:
-            ns = units.ns_from_s(t)
+        if wheel is not None:
+            bag.add_topic(wheel_topic, wheel_type, bagio.default_qos(wheel_topic, wheel_type, sensor=True))
+        for place, kind, i in events:
+            ns = units.ns_from_s(max(place, 0.0))
             if kind == 0:
-                bag.write(imu_topic, ns, bagio.imu_message(t, imu.gyro[i], imu.accel[i], imu.frame_id,
+                bag.write(imu_topic, ns, bagio.imu_message(imu.t[i], imu.gyro[i], imu.accel[i], imu.frame_id,
                                                            gyro_std**2, accel_std**2))
                 if imu.temp_c is not None:
-                    bag.write(temp_topic, ns, bagio.temperature_message(t, imu.temp_c[i], imu.frame_id))
-            else:
+                    bag.write(temp_topic, ns, bagio.temperature_message(imu.t[i], imu.temp_c[i], imu.frame_id))
+            elif kind == 1:
                 bag.write(gnss_topic, ns, bagio.navsatfix_message(
-                    t, gnss.lat[i] / DEG, gnss.lon[i] / DEG, gnss.h[i], gnss.std_enu[i], gnss.status[i]))
+                    gnss.t[i], gnss.lat[i] / DEG, gnss.lon[i] / DEG, gnss.h[i], gnss.std_enu[i], gnss.status[i]))
+            else:
+                bag.write(wheel_topic, ns, bagio.wheel_speed_message(wheel.t[i], wheel.speed_mps[i], wheel_type))
     return Path(path)
+
+
+@dataclass
+class WheelSpeedRecording:
+    """Wheel odometer: ``t`` (n,) s, forward speed ``speed_mps`` (n,) m/s, in the order recorded. A stamp or speed
+    that was not a number is kept as NaN (the filter names and counts it), ``damage`` says where the first was."""
+
+    t: np.ndarray
+    speed_mps: np.ndarray
+    source: str = ""
+    damage: str | None = None
+
+    def __post_init__(self):
+        self.t = np.asarray(self.t, dtype=float).reshape(-1)
+        self.speed_mps = np.asarray(self.speed_mps, dtype=float).reshape(-1)
+
+    def __len__(self):
+        return len(self.t)
+
+
+def read_wheel_speed_csv(path, strict: bool = False) -> WheelSpeedRecording:
+    """Wheel speeds from a CSV with columns ``t,speed_mps`` (s, m/s forward). Unlike the other CSVs, a field that
+    is not a number is read as NaN rather than its row skipped, so the filter counts it (``odometer_nonfinite``);
+    ``damage`` names the first such line and column (``strict``: RecordingError instead)."""
+    path = Path(path)
+    with open(path, newline="", errors="replace") as fh:
+        reader = csv.reader(fh)
+        header = [h.strip() for h in next(reader, [])]
+        if any(c not in header for c in WHEEL_CSV_COLUMNS):
+            raise RecordingError(f"{path}: header {header}: expected columns t,speed_mps (s, m/s)")
+        cols = [header.index(c) for c in WHEEL_CSV_COLUMNS]
+        rows, damage = [], None
+        for line, row in enumerate(reader, start=2):
+            if not row or all(not c.strip() for c in row):
+                continue
+            vals = []
+            for i, name in zip(cols, WHEEL_CSV_COLUMNS):
+                try:
+                    vals.append(float(row[i]))
+                except (ValueError, IndexError):
+                    vals.append(np.nan)
+                    damage = damage or (f"{path}: line {line}, column {name}: {row[i] if i < len(row) else ''!r} "
+                                        "is not a number (read as NaN, counted as odometer_nonfinite)")
+                    if strict:
+                        raise RecordingError(damage)
+            rows.append(vals)
+    a = np.asarray(rows, dtype=float).reshape(-1, 2)
+    return WheelSpeedRecording(a[:, 0], a[:, 1], str(path), damage)
+
+
+def write_wheel_speed_csv(path, wheel: WheelSpeedRecording) -> Path:
+    """Write the wheel-speed CSV (``t,speed_mps``)."""
+    return _write_csv(path, {"t": wheel.t, "speed_mps": wheel.speed_mps})
+
+
+def read_wheel_speed_bag(path, topic: str = WHEEL_TOPIC, strict: bool = False) -> WheelSpeedRecording:
+    """Forward speeds (``twist.twist.linear.x`` of ``nav_msgs/Odometry``, ``twist.linear.x`` of
+    ``geometry_msgs/TwistStamped``) and header stamps of ``topic`` in a bag, in the order recorded."""
+    from nav_core import bagio
+
+    path = Path(path)
+    rows, damage = [], None
+    try:
+        for _, _, msg in bagio.iter_messages(path, [topic]):
+            rows.append((bagio.stamp_to_s(msg.header.stamp), bagio.forward_speed(msg)))
+    except bagio.BagDamage as err:
+        damage = _damage_or_raise(err, strict)
+    except bagio.NotWheelSpeed as err:
+        raise RecordingError(f"{path}: topic {topic!r}: {err}") from None
+    if not rows:
+        raise _no_topic(path, topic, damage)
+    a = np.asarray(rows, dtype=float).reshape(-1, 2)
+    return WheelSpeedRecording(a[:, 0], a[:, 1], str(path), damage)
 
 
 @dataclass
@@ -516,3 +598,9 @@ def read_imu(path, topic: str = IMU_TOPIC, strict: bool = False) -> ImuRecording
 def read_gnss(path, topic: str = GNSS_TOPIC, strict: bool = False) -> GnssRecording:
     """Read GNSS fixes from a rosbag2 bag or the GNSS CSV."""
     return _read_any(path, "GNSS recording", read_gnss_bag, read_gnss_csv, topic=topic, strict=strict)
+
+
+def read_wheel_speed(path, topic: str = WHEEL_TOPIC, strict: bool = False) -> WheelSpeedRecording:
+    """Read wheel speeds from a rosbag2 bag (``topic``) or the wheel-speed CSV (``t,speed_mps``)."""
+    return _read_any(path, "wheel-speed recording", read_wheel_speed_bag, read_wheel_speed_csv, topic=topic,
+                     strict=strict)
