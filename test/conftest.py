@@ -90,6 +90,13 @@ def outage_drive():
     return sim, windows, drop_fixes(sim.gnss, windows)
 
 
+def wheel_motion():
+    """The motion of :func:`wheel_drive` (ins_gps_kf.synthetic.Motion): 20 s at rest, 5 m/s round a bend."""
+    from ins_gps_kf import synthetic as syn
+
+    return syn.circle(still_s=20.0, accel_s=5.0, straight_s=10.0, turn_s=20.0)
+
+
 @pytest.fixture(scope="session")
 def wheel_drive():
     """A 55-s synthetic drive at 32 Hz (20 s at rest, then 5 m/s round a bend) with 1-Hz fixes and a 10-Hz wheel
@@ -101,7 +108,7 @@ def wheel_drive():
     from ins_gps_kf import synthetic as syn
     from nav_core.recording import WheelSpeedRecording
 
-    motion = syn.circle(still_s=20.0, accel_s=5.0, straight_s=10.0, turn_s=20.0)
+    motion = wheel_motion()
     rng = np.random.default_rng(9)
     imu = syn.add_imu_errors(syn.ideal_imu(motion, 32.0), rng, 1e-4, 0.01, 1e-3, 1e-3)
     gnss = syn.gnss(motion, 32.0, 1.0, rng)

@@ -10,6 +10,9 @@ filter node dropped or found missing, so a run that did not give the offline ans
 start the filter node missed (its first received stamps, from its diagnostics, come later) is
 counted and the replay starts where the node's input did; input the node had before the bag's
 first message (the recorder subscribed late) is named, since no replay of that bag can match.
+With a truth, GNSS outages as KF-GINS's paper scores them (60 s every 3 minutes) are cut from the bag's fixes and
+the forward filter and its forward-backward smoother run over it offline (:func:`nav_eval.outages.outage_study`):
+the horizontal errors with their 3-sigma bands through the outages, and the largest error per outage, each way.
 """
 from __future__ import annotations
 
@@ -174,12 +177,9 @@ def compare_with_offline(bag: Path, odom, filter_params: dict, filter_diag: Filt
     from ins_gps_kf.filter import InsGpsFilter
     from ins_gps_kf.replay import load_model, run
 
-    p = {k: v for k, v in filter_params.items() if k in kfconfig.SPEC_BY_NAME}
-    imu = recording.read_imu(bag, topic=p.get("imu_topic", "imu/data_corrected"))
-    gnss = recording.read_gnss(bag, topic=p.get("gps_topic", "gps/fix"))
-    imu, gnss, missed = _from_filter_start(imu, gnss, filter_diag or {})
+    p, imu, gnss, missed, odometry = _filter_input(bag, filter_params, filter_diag)
     filt = InsGpsFilter(kfconfig.from_params(p), load_model(p.get("sensor_model_path") or "default"))
-    estimates = run(filt, imu, gnss)
+    estimates = run(filt, imu, gnss, odometry=odometry)
     off_t = np.array([e.t for e in estimates])
     off_pos = np.array([e.position_n for e in estimates]).reshape(-1, 3)
     # the twist as the node builds it (one estimate each), so the live one is checked too
@@ -195,6 +195,41 @@ def compare_with_offline(bag: Path, odom, filter_params: dict, filter_diag: Filt
             "largest twist.linear difference (m/s)": float(twist_diff.max()) if len(twist_diff) else float("nan"),
             "live stamps going back": int(np.sum(np.diff(odom.t) <= 0)),
             "imu samples replayed": len(imu), **missed}
+
+
+def _filter_input(bag: Path, filter_params: dict, filter_diag):
+    """What the filter node had of the bag: (its core parameters, IMU, fixes, what it missed at the start, wheel
+    speeds (t, m/s) with ``odometer_enabled``, else None)."""
+    from ins_gps_kf import config as kfconfig
+
+    p = {**kfconfig.defaults(), **{k: v for k, v in filter_params.items() if k in kfconfig.SPEC_BY_NAME}}
+    imu = recording.read_imu(bag, topic=p["imu_topic"])
+    gnss = recording.read_gnss(bag, topic=p["gps_topic"])
+    imu, gnss, missed = _from_filter_start(imu, gnss, filter_diag or {})
+    odometry = None
+    if p["odometer_enabled"]:
+        wheel = recording.read_wheel_speed(bag, topic=p["odometer_topic"])
+        odometry = (wheel.t, wheel.speed_mps)
+    return p, imu, gnss, missed, odometry
+
+
+def outage_study(bag: Path, filter_params: dict, filter_diag, truth_csv: Path, epoch_s: float, png: Path) -> dict:
+    """KF-GINS's outage score on this run: 60-s outages every 3 minutes cut from the bag's fixes, the forward filter
+    (the node's parameters) and its smoothed pass against the truth (CSV time + ``epoch_s`` = bag stamps); the plot
+    to ``png``; the figures (:func:`nav_eval.outages.figures`)."""
+    from ins_gps_kf.offline import load_model
+    from nav_eval import outages
+
+    p, imu, gnss, _, odometry = _filter_input(bag, filter_params, filter_diag)
+    truth = recording.read_trajectory_csv(truth_csv)
+    truth.t = truth.t + epoch_s
+    figs, e_fwd, e_smo, windows = outages.outage_study(imu, gnss, truth, p, load_model(p["sensor_model_path"] or
+                                                                                        "default"), odometry=odometry)
+    if not windows:
+        return {"not run": f"the run's {gnss.t[-1] - gnss.t[0]:.0f} s of fixes hold no 60-s outage 3 minutes in"}
+    outages.plot(png, e_fwd, e_smo, windows, title="GNSS outages cut from this run's bag (60 s every 3 min), offline: "
+                 "forward and smoothed horizontal error, 3σ bands")
+    return figs
 
 
 FIRST_STAMP_TOLERANCE_S = 1e-4
@@ -284,16 +319,57 @@ def write_report(run_dir: Path, sim_dir: Path | None = None, truth_csv: Path | N
         shutil.copy(run_dir / "allan" / "allan.png", run_dir / "allan.png")
         figures.append("allan.png")
     res["offline"] = offline
+    res["outages"] = _outages(run_dir, bag, filter_params, diags, sim_dir, truth_csv, truth)
+    if (run_dir / "outages.png").exists():
+        figures.append("outages.png")
     res["stream"] = _stream_checks(raw, den, diags)
     if sim_dir is not None and raw is not None and len(raw) > 8:
         res["stamps"] = frame_time_errors(raw, sim_dir, truth.epoch_s)
     res["health_events"] = health_events(bag)
     _write_html(run_dir, res, odom, gnss, raw, den, diags, figures, exit_codes or {})
-    summary = {"rms": res["rms"], "offline": offline, "stream": res["stream"], "stamps": res.get("stamps"),
+    summary = {"rms": res["rms"], "offline": offline, "outages": res["outages"], "stream": res["stream"],
+               "stamps": res.get("stamps"),
                "sensor_health_events": [e.to_dict() for e in res["health_events"]],
                "exit_codes": exit_codes or {}}
     (run_dir / "summary.json").write_text(json.dumps(summary, indent=1, default=str))
     return _summary(run_dir, res, odom, gnss, raw, den, diags, exit_codes or {})
+
+
+def _outages(run_dir, bag, filter_params, diags, sim_dir, truth_csv, truth) -> dict:
+    """:func:`outage_study` of the run when there is a truth and the filter's parameters; else why not."""
+    if filter_params is None or truth is None:
+        return {"not run": "needs the truth (a simulated run, or --truth) and the filter's parameters"}
+    csv = Path(sim_dir) / "truth.csv" if sim_dir is not None else Path(truth_csv)
+    try:
+        return outage_study(bag, filter_params, filter_status(diags), csv, truth.epoch_s, run_dir / "outages.png")
+    except (recording.RecordingError, ValueError) as err:
+        return {"not run": str(err)}
+
+
+def _outage_lines(study) -> list:
+    """The outage study on the terminal: forward against smoothed, the largest error per outage."""
+    if not study:
+        return []
+    if "not run" in study:
+        return [f"    GNSS outages (offline, 60 s every 3 min): not run ({study['not run']})"]
+    fwd, smo = study["forward_largest_per_outage_m"], study["smoothed_largest_per_outage_m"]
+    return [f"    GNSS outages cut from the bag (offline, {len(fwd)} x 60 s every 3 min), largest horizontal error "
+            f"per outage, RMS: forward {study['forward_largest_rms_m']:.2f} m, smoothed "
+            f"{study['smoothed_largest_rms_m']:.2f} m",
+            "      each (forward / smoothed, m): " + ", ".join(f"{f:.1f} / {s:.1f}" for f, s in zip(fwd, smo)),
+            f"      horizontal RMS over the run: forward {study['forward_horizontal_rms_m']:.2f} m, smoothed "
+            f"{study['smoothed_horizontal_rms_m']:.2f} m; smoothed no worse at "
+            f"{100 * study['smoothed_no_worse_fraction']:.0f} % of epochs"]
+
+
+def _outage_table(study) -> dict:
+    """The outage study's rows for the HTML report."""
+    if not study or "not run" in study:
+        return study or {}
+    rows = {f"outage {a:.0f}-{b:.0f} s: largest forward / smoothed (m)": f"{f:.2f} / {s:.2f}"
+            for (a, b), f, s in zip(study["outages"], study["forward_largest_per_outage_m"],
+                                    study["smoothed_largest_per_outage_m"])}
+    return {**rows, **{k: v for k, v in study.items() if not isinstance(v, list)}}
 
 
 def _stream_checks(raw, den, diags) -> dict:
@@ -432,6 +508,7 @@ def _summary(run_dir, res, odom, gnss, raw, den, diags, codes) -> str:
                      f"(twist.linear {off['largest twist.linear difference (m/s)']:.3g} m/s) "
                      f"over {off['common epochs']} common epochs (live {off['live epochs']}, offline "
                      f"{off['offline epochs']}; only live {off['only live']}, only offline {off['only offline']})")
+    lines += _outage_lines(res.get("outages"))
     for name, (level, message, values) in sorted(diags.items()):
         status = node_status(name, level, message, values)
         detail = status.summary() if status is not None else ""
@@ -465,6 +542,7 @@ table{{border-collapse:collapse;margin-bottom:1em}}</style></head><body>
 <h2>Messages</h2>{_table(_counts(odom, gnss, raw, den))}
 <h2>Stamps and drops</h2>{_table({**res.get("stream", {}), **(res.get("stamps") or {})})}
 <h2>Live odometry against an offline replay of the bag</h2>{_table(res.get("offline") or no_offline)}
+<h2>GNSS outages cut from the bag (offline): forward against smoothed</h2>{_table(_outage_table(res.get("outages")))}
 <h2>Sensor health events</h2><pre>{html.escape(chr(10).join(_health_lines(res.get("health_events", []))))}</pre>
 <h2>Exit codes</h2>{_table(codes)}
 {imgs}

@@ -1,4 +1,5 @@
-"""``ins-gps-kf evaluate``: accuracy figures and plots on a simulated or real dataset (JSON on stdout).
+"""``ins-gps-kf evaluate``: accuracy figures and plots on a simulated or real dataset, or of a smoothed replay's
+trajectories through GNSS outages against a truth (``--trajectory``, :mod:`nav_eval.outages`); JSON on stdout.
 
 Registered as a plugin of the ``ins-gps-kf`` CLI (entry point group ``ins_gps_kf.cli``), so the
 runtime package ``ins_gps_kf`` offers the command without importing the evaluations.
@@ -18,8 +19,17 @@ def add_parser(subparsers) -> None:
     ev = subparsers.add_parser("evaluate", help="accuracy figures and plots on a simulated or real dataset", **about(
         "Measure the filter's accuracy on the simulated paper drive or a real recording: JSON figures and plots.",
         "ins-gps-kf evaluate --dataset katwijk --out out/eval_katwijk",
-        "ins-gps-kf evaluate --dataset paper-sim --claims --seed 1 --out out/claims"))
-    ev.add_argument("--dataset", required=True, choices=DATASETS)
+        "ins-gps-kf evaluate --dataset paper-sim --claims --seed 1 --out out/claims",
+        "ins-gps-kf evaluate --trajectory out/smoothed.csv --truth truth.csv --out out/eval_outages"))
+    ev.add_argument("--dataset", choices=DATASETS, help="a dataset to run the filter on (or --trajectory)")
+    ev.add_argument("--trajectory", metavar="OUT.csv", help="the smoothed trajectory of ins-gps-kf replay --smooth "
+                    "(OUT.forward.csv beside it is the forward one): forward and smoothed horizontal errors with "
+                    "their 3-sigma bands through the GNSS outages, and the largest error per outage")
+    ev.add_argument("--forward", metavar="FORWARD.csv", help="with --trajectory: the forward trajectory (default "
+                    "OUT.forward.csv)")
+    ev.add_argument("--truth", metavar="TRUTH.csv", help="with --trajectory: the truth trajectory CSV")
+    ev.add_argument("--outage", action="append", metavar="T0:T1", help="with --trajectory: an outage window, s "
+                    "(repeat; default: the gaps over 10 s between the forward filter's GNSS updates)")
     ev.add_argument("--out", required=True, help="output folder (JSON figures and PNG plots)")
     ev.add_argument("--seed", type=int, default=0, help="simulation seed (paper-sim)")
     ev.add_argument("--scenario", help="scenario YAML for paper-sim (default: the workspace's "
@@ -38,9 +48,13 @@ def evaluate(args) -> int:
     """
     from nav_core.outputs import staged_dir
 
+    if (args.dataset is None) == (args.trajectory is None):
+        raise RecordingError("give either --dataset or --trajectory (with --truth)")
+    if args.trajectory is not None and args.truth is None:
+        raise RecordingError("--trajectory needs --truth TRUTH.csv (the errors are against it)")
     if args.claims and args.dataset not in ("paper-sim", "katwijk"):
         raise RecordingError(f"--claims: only paper-sim and katwijk, not {args.dataset}")
-    inputs = (args.scenario,) if getattr(args, "scenario", None) else ()
+    inputs = tuple(p for p in (getattr(args, "scenario", None), args.trajectory, args.forward, args.truth) if p)
     with staged_dir(args.out, getattr(args, "force", False), inputs=inputs) as tmp:  # checked before the work
         figures = _run(args, tmp)
     print(json.dumps(figures, indent=1, default=float))
@@ -49,8 +63,10 @@ def evaluate(args) -> int:
 
 def _run(args, out_dir) -> dict:
     """The evaluation ``args`` ask for, written into ``out_dir``; its figures."""
-    from nav_eval import claims, datasets, paper_sim
+    from nav_eval import claims, datasets, outages, paper_sim
 
+    if args.trajectory is not None:
+        return outages.evaluate_files(args.trajectory, args.truth, out_dir, args.forward, _windows(args.outage))
     if args.claims:
         return (claims.claims_paper_sim(out_dir, seed=args.seed, scenario=args.scenario)
                 if args.dataset == "paper-sim" else claims.claims_katwijk(out_dir))
@@ -59,3 +75,19 @@ def _run(args, out_dir) -> dict:
     if args.dataset == "balzer":
         return datasets.evaluate_balzer(out_dir)
     return datasets.evaluate_rover(args.dataset, out_dir)
+
+
+def _windows(specs) -> list | None:
+    """``--outage T0:T1`` windows as (t0, t1) s; None when none given. RecordingError naming a bad one."""
+    if not specs:
+        return None
+    out = []
+    for spec in specs:
+        try:
+            t0, t1 = (float(v) for v in spec.split(":"))
+        except ValueError:
+            raise RecordingError(f"--outage {spec!r}: expected T0:T1 in s") from None
+        if not t1 > t0:
+            raise RecordingError(f"--outage {spec!r}: T1 must be after T0")
+        out.append((t0, t1))
+    return out
