@@ -124,3 +124,16 @@ def test_a_wildcard_params_file_gives_the_filter_s_parameters_everywhere(tmp_pat
     with pytest.raises(kfconfig.FilterConfigError, match="filter_rat_hz"):
         demo.check_inputs(argparse.Namespace(**{**vars(args), "params": bad}))
 
+
+
+def test_a_recordings_wheel_speeds_are_played_when_the_filters_odometer_is_on(tmp_path):
+    from nav_core import recording
+
+    bag = recording.write_bag(tmp_path / "bag", gnss=recording.GnssRecording([1.0], [0.8], [0.2], [10.0], [[1, 1, 1]]),
+                              wheel=recording.WheelSpeedRecording([1.0, 1.1], [2.0, 2.1]))
+    params = tmp_path / "p.yaml"
+    for enabled, played in ((False, ["gps/fix"]), (True, ["gps/fix", "odom/wheel"])):
+        params.write_text(f"ins_gps_kf_node:\n  ros__parameters:\n    odometer_enabled: {str(enabled).lower()}\n")
+        args = argparse.Namespace(params=params, model=demo.DEFAULT_MODEL, recording=bag, rate=1.0)
+        player = next(s for s in demo.graph_specs(args, tmp_path / "run", None) if s.executable == "bag_play")
+        assert player.overrides["topics"] == played

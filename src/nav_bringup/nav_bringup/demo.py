@@ -165,9 +165,11 @@ def graph_inputs(args, run_dir: Path, sim_dir: Path | None) -> GraphInputs:
     common = dict(sensor_model=str(args.model.resolve()), rate=args.rate, bag_out=str(run_dir / "bag"),
                   allan_dir=str(run_dir / "allan"))
     if sim_dir is None:
-        gps_topic = filter_section(args.params).get("gps_topic", "gps/fix")
+        section = filter_section(args.params)
+        wheel = section.get("odometer_topic", "odom/wheel") if section.get("odometer_enabled") else None
         return GraphInputs("recording", recording=str(args.recording.resolve()),
-                           played_topics=played_topics(args.recording, gps_topic), **common)
+                           played_topics=played_topics(args.recording, section.get("gps_topic", "gps/fix"), wheel),
+                           **common)
     return GraphInputs("simulation", sim_dir=str(sim_dir), port=str(run_dir / "bp3010_port"),
                        duration_s=args.duration, reconnect_period_s=0.2, **common)
 

@@ -114,10 +114,10 @@ def scenario_datum(sim_dir) -> dict:
             "datum_h_m": float(frame.h0_m)}
 
 
-def played_topics(recording, gps_topic: str = "gps/fix") -> tuple:
-    """The bag's topics the graph reads (raw IMU and the filter's GPS topic): a bag of another run holds the
-    graph's own outputs too, which, played, would meet the live ones."""
+def played_topics(recording, gps_topic: str = "gps/fix", wheel_topic: str | None = None) -> tuple:
+    """The bag's topics the graph reads (raw IMU, the filter's GPS topic and, with its odometer on, its wheel-speed
+    topic): a bag of another run holds the graph's own outputs too, which, played, would meet the live ones."""
     from nav_core import bagio
 
-    read = {"imu/data_raw", bagio.norm_topic(gps_topic)}
+    read = {"imu/data_raw", bagio.norm_topic(gps_topic)} | ({bagio.norm_topic(wheel_topic)} if wheel_topic else set())
     return tuple(sorted(read & set(bagio.topics(Path(recording)))))
