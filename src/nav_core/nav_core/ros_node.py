@@ -16,6 +16,7 @@ from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 from rclpy.callback_groups import CallbackGroup
 from rclpy.clock import Clock, ClockType
 from rclpy.executors import ExternalShutdownException
+from rclpy.impl.implementation_singleton import rclpy_implementation as _rclpy
 from rclpy.node import Node
 from rclpy.qos import QoSProfile, ReliabilityPolicy, qos_profile_sensor_data
 from rclpy.qos_overriding_options import QoSOverridingOptions
@@ -46,6 +47,8 @@ def link_publisher(node: Node, msg_type, topic: str, qos: QoSProfile = SENSOR_QO
     # copied: rclpy writes the overrides into the profile it is given, and SENSOR_QOS is rclpy's shared one
     return node.create_publisher(msg_type, topic, copy.copy(qos), qos_overriding_options=LINK_QOS)
 
+
+RCLError = _rclpy.RCLError
 SHUTDOWN_DUMP_S = 8.0
 """A node still shutting down this long after its spin ended prints every thread's stack (the runners kill at 10 s)."""
 
@@ -77,6 +80,11 @@ def run_node(node_factory, args=None, usage=None) -> int:
         status = 2
     except (KeyboardInterrupt, ExternalShutdownException):
         pass
+    except RCLError:
+        if rclpy.ok():
+            raise
+        # SIGINT's shutdown landed between the executor's check of the context and its making a wait set (or
+        # guard condition): rclpy raises RCLError there, not ExternalShutdownException; the same clean stop
     finally:
         # armed for every node as soon as the spin ends, and never cancelled: a hang anywhere in the shutdown (a
         # node's close, destroy_node, rclpy's shutdown) leaves the stacks in the log before the runners' SIGKILL
