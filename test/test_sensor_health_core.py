@@ -1,4 +1,5 @@
 """sensor_health's core on the model's own noise and on injected faults: names, channels, onsets, no ROS."""
+import functools
 import json
 
 import numpy as np
@@ -36,8 +37,14 @@ def _drive(seed, duration_s=200.0):
     return t, x
 
 
+@functools.lru_cache(maxsize=1)
+def _thresholds():
+    """The Monte Carlo once per worker: every test here monitors the same model."""
+    return HealthMonitor(_model(), HealthConfig(mc_windows=4000)).thr
+
+
 def _run(x, t, chunk=None):
-    mon = HealthMonitor(_model(), HealthConfig(mc_windows=4000))
+    mon = HealthMonitor(_model(), HealthConfig(mc_windows=4000), thresholds=_thresholds())
     if chunk is None:
         return mon.push(t, x[:, :3], x[:, 3:])
     out = []

@@ -8,14 +8,16 @@ Sample-level checks (:mod:`sensor_health.sample_checks`) run on every sample. Wi
   floored at the model's) (``white_noise_increase``);
 * a chi-square gate per channel on the largest whitened line, against the run's own spectrum after a 30-s
   warm-up (``vibration``: a *new* line; the vehicle's own vibration is not a fault);
-* a two-sided CUSUM per channel on the window mean minus a slow baseline (``bias_shift``, gx gy az).
+* a two-sided CUSUM per channel on the standardised innovation of a Kalman filter of the window mean (bias plus
+  the vehicle's motion: :mod:`sensor_health.bias_filter`), through turns (``bias_shift``, gx gy az);
+* a count of samples at the extreme of the last 10 windows (``saturation`` below the configured range).
 
 Thresholds come from :func:`sensor_health.thresholds.monte_carlo`. A channel touched by a deterministic fault
 in a window is left out of the statistics of that window (its CUSUMs restart).
 """
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
@@ -23,14 +25,13 @@ from nav_core import noise_stats
 from nav_core.sensor_model import SensorModel
 from nav_core.units import deg2rad, g2mps2
 from sensor_health import thresholds as thr
+from sensor_health.bias_filter import BiasFilter, motion_regressors
 from sensor_health.events import CHANNELS, Event
 from sensor_health.sample_checks import SampleChecks
-from sensor_health.window_stats import WindowGrid, detrend, window_stats
+from sensor_health.window_stats import CLIP_SPAN_WINDOWS, WindowGrid, detrend, span_ties, window_stats
 
 Z95 = 1.959964
-CLIP_ONSET_LOOK_S = 10.0
-QUIET_HOLD = 2
-"""Windows after a turn before the bias test resumes (the roll settles)."""
+CLIP_ONSET_LOOK_S = 60.0
 LINE_WARMUP_S = 30.0
 LINE_REFERENCE_S = 300.0
 LINE_CONFIRM = 3
@@ -48,7 +49,7 @@ class HealthConfig:
     """Lines are searched from here to Nyquist (the vehicle's motion lives below)."""
     false_alarms_per_10h: float = 0.3
     """Budget of statistical false events on the model's own noise, all detectors and channels together."""
-    baseline_s: float = 120.0
+    baseline_s: float = 600.0
     """Time constant of the bias baseline, s."""
     gyro_range_rad_s: float = float(deg2rad(300.0))
     accel_range_m_s2: float = float(g2mps2(10.0))
@@ -56,8 +57,6 @@ class HealthConfig:
     rate_tolerance: float = 0.1
     clear_s: float = 10.0
     """An effect on a channel is reported again only after this long without it."""
-    quiet_gz_rad_s: float = 0.02
-    """The bias test runs on windows whose mean yaw rate is below this (and the QUIET_HOLD before them), rad/s."""
     history_s: float = 120.0
     mc_windows: int = 8000
     seed: int = 0
@@ -101,16 +100,19 @@ class HealthMonitor:
         self.noise_warm, self.noise_ref = [], np.zeros(6)
         self.line_last = np.full(6, -np.inf)
         self.clip_last = np.full(6, -np.inf)
+        self.clip_lattice_done = False
+        self.clip_buf = np.full((CLIP_SPAN_WINDOWS - 1, self.grid.n, 6), np.nan)
+        """The windows before the next one (NaN before the first: ignored by the clip statistic)."""
         self.line_ref, self.line_n, self.line_now = None, 0, np.zeros(6)
         self.line_run, self.line_prev_bin = np.zeros(6, int), np.full(6, -10)
-        self.bias_base = None
-        self.quiet_run = 0
-        self.quiet_spans = []
-        """(t0, t1) of the windows the bias test ran on (the change point is looked for in them only)."""
-        self.bias_prev = None
-        self.bias_warm = []
+        chans = list(thr.BIAS_CHANNELS)
+        self.bias_filter = BiasFilter(chans, self.thr.bias_sd[chans], self.thr.bias_tau_s[chans] / self.thr.window_s)
+        self.bias_hist = []
+        """(t0, t1, motion (C,), used (C,)) of the recent windows: the motion part is taken out of the samples
+        before the change point is looked for."""
         self.bias_pos, self.bias_neg = np.zeros(6), np.zeros(6)
         self.bias_start = np.full((2, 6), np.nan)
+        self.bias_windows = 0
         self.checked_s = [None, None]
         self.windows = 0
         self.active = {}
@@ -164,6 +166,10 @@ class HealthMonitor:
 
     def _windows(self, tw, xw, faulty) -> list:
         ws = window_stats(self.grid, xw)
+        span = np.concatenate([self.clip_buf, xw])
+        st = span_ties(span)
+        self.clip_buf = span[-(CLIP_SPAN_WINDOWS - 1):]
+        phi = motion_regressors(np.where(np.isfinite(xw), xw, 0.0))
         use = ws.finite & ~faulty
         th = self.thr
         y = (np.log(ws.level) - th.noise_mu) / th.noise_sd
@@ -173,8 +179,8 @@ class HealthMonitor:
             t0, t1 = float(tw[w, 0]), float(tw[w, -1])
             events += self._noise(w, t0, t1, y[w], ws, use[w])
             events += self._line(w, t1, ws, use[w], xw[w])
-            events += self._bias(w, t0, t1, ws, use[w])
-            events += self._clip(w, tw[w], xw[w], ws, use[w])
+            events += self._bias(t0, t1, ws.mean[w], ws.level[w], use[w], phi[w])
+            events += self._clip(tw[w], st[w], span[w:w + CLIP_SPAN_WINDOWS], use[w])
             if self.trace is not None:
                 self.trace.t.append(t1)
                 self.trace.level.append(ws.level[w].copy())
@@ -311,88 +317,103 @@ class HealthMonitor:
         sd = self.thr.sample_sigma[chans] * np.sqrt(level) * np.sqrt(2.0 / n) / sinc
         return amp, sd
 
-    def _clip(self, w, tw, xwin, ws, use) -> list:
-        """Flat tops: more samples exactly at the window's extreme than the model's noise ever gives."""
+    def _clip(self, tw, ties, span, use) -> list:
+        """Flat tops: more samples of the last CLIP_SPAN_WINDOWS windows exactly at their extreme, reached in this
+        window (``span`` (k, n, 6) ends with it), than the model's noise ever gives."""
         th, t1 = self.thr, float(tw[-1])
-        hit = use & (ws.ties[w] >= th.clip_ties)
+        self._clip_lattice(t1)
+        hit = use & (ties >= th.clip_span_ties)
         fired = np.flatnonzero(hit & (t1 - self.clip_last > self.config.clear_s))
         self.clip_last = np.where(hit, t1, self.clip_last)
         events = []
+        flat = span.reshape(-1, 6)
         for c in fired:
-            hi = np.count_nonzero(xwin[:, c] == xwin[:, c].max()) >= np.count_nonzero(xwin[:, c] == xwin[:, c].min())
-            value = float(xwin[:, c].max() if hi else xwin[:, c].min())
+            v = flat[np.isfinite(flat[:, c]), c]
+            hi = np.count_nonzero(v == v.max()) >= np.count_nonzero(v == v.min())
+            value = float(v.max() if hi else v.min())
             # the clip began at its first flat top, often a window or more before enough of them gathered
             recent = (self._hist_t > t1 - CLIP_ONSET_LOOK_S) & (self._hist_t <= t1)
             hits = self._hist_t[recent][self._hist_x[recent, c] == value]
-            onset = float(hits[0]) if len(hits) else float(tw[np.argmax(xwin[:, c] == value)])
+            onset = float(hits[0]) if len(hits) else float(tw[0])
             events.append(Event(t1, onset, "saturation", [CHANNELS[c]], "ERROR", value, [value, value],
-                                f"{CHANNELS[c]} clips at {value:.6g} ({int(ws.ties[w, c])} samples of the window at it)",
-                                {"ties": int(ws.ties[w, c]), "threshold": int(th.clip_ties[c])}))
+                                f"{CHANNELS[c]} clips at {value:.6g} ({int(ties[c])} samples of the last "
+                                f"{len(span) * th.window_s:.3g} s at it)",
+                                {"ties": int(ties[c]), "threshold": int(th.clip_span_ties[c])}))
         return events
 
-    def _bias(self, w, t0, t1, ws, use) -> list:
-        """The bias test on the window before this one, if neither is in a turn.
+    def _clip_lattice(self, t1) -> None:
+        """Once, after LINE_WARMUP_S: the clip threshold again on the lattice the output shows, if finer than the
+        model's (the model's quantization is often only an upper bound, and a coarse lattice ties often)."""
+        if self.clip_lattice_done or t1 - self.checked_s[0] < LINE_WARMUP_S:
+            return
+        self.clip_lattice_done = True
+        seen = thr.observed_lattice(self._hist_x)
+        model = thr.model_lattice(self.model, self.dt)
+        seen = np.where(seen > 1e-6 * self.thr.sample_sigma, seen, 0.0)  # float output: no lattice
+        lattice = np.where(seen < model, seen, model)
+        if np.array_equal(lattice, model):
+            return
+        p_window = self.thr.budget_per_10h / thr.N_TESTS * self.thr.window_s / thr.SECONDS_PER_10H
+        ties = thr.clip_threshold(self.thr.sample_sigma, lattice, self.grid.n, p_window, seed=self.config.seed)
+        self.thr = replace(self.thr, clip_span_ties=ties)
 
-        Turning, a land vehicle rolls: gx sees the roll rate, gy the yaw rate times the roll, az the lateral
-        acceleration times it. The test holds its state through turns, the QUIET_HOLD windows after one and the
-        window before one (the roll-in starts before the yaw rate is up), and runs on straights and stops: it
-        judges a window once the next has shown no turn, so it names a step one window later."""
-        mean = ws.mean[w]
-        turning = abs(mean[2]) >= self.config.quiet_gz_rad_s or not np.isfinite(mean[2])
-        self.quiet_run = 0 if turning else self.quiet_run + 1
-        prev, self.bias_prev = self.bias_prev, (t0, t1, mean.copy(), ws.level[w].copy(), use.copy(), self.quiet_run)
-        if prev is None or turning or prev[5] <= QUIET_HOLD:
-            return []
-        return self._bias_test(*prev[:5], t1)
+    def _bias(self, t0, t1, mean, level, use, phi) -> list:
+        """One window through the bias filter (the motion's part of gx, gy, az taken out) and its CUSUMs.
 
-    def _bias_test(self, t0, t1, mean, level, use, t_now) -> list:
-        """One quiet window (t0..t1 s, means, noise levels, usable channels) through the bias CUSUMs."""
+        A tested channel counts when it and the motion channels it is predicted from (gz, ax, ay) are usable."""
         th = self.thr
-        chans = np.zeros(6, bool)
-        chans[list(thr.BIAS_CHANNELS)] = True
-        self.quiet_spans.append((t0, t1))
-        while self.quiet_spans and self.quiet_spans[0][1] < t1 - self.config.history_s:
-            self.quiet_spans.pop(0)
-        if self.bias_base is None:
-            if use[list(thr.BIAS_CHANNELS)].all():
-                self.bias_warm.append(mean)
-            warm = thr.bias_warmup_windows(th.window_s)
-            if len(self.bias_warm) >= warm:
-                self.bias_base = np.mean(self.bias_warm, axis=0)
+        chans = np.array(thr.BIAS_CHANNELS)
+        on = use[chans] & use[[2, 3, 4]].all()
+        z, motion = self.bias_filter.step(mean, phi, level, on)
+        self.bias_hist.append((t0, t1, motion, on))
+        while self.bias_hist and self.bias_hist[0][1] < t1 - self.config.history_s:
+            self.bias_hist.pop(0)
+        self.bias_windows += 1
+        if self.bias_windows <= thr.bias_warmup_windows(th.window_s):
             return []
-        on = chans & use
-        z = np.where(on, (mean - self.bias_base) / (th.bias_sd * np.sqrt(np.maximum(level, 1.0))), 0.0)
-        pos = np.where(on, np.maximum(0.0, self.bias_pos + z - th.bias_k), 0.0)
-        neg = np.where(on, np.maximum(0.0, self.bias_neg - z - th.bias_k), 0.0)
+        zz = np.zeros(6)
+        zz[chans] = z
+        on6 = np.zeros(6, bool)
+        on6[chans] = on
+        pos = np.where(on6, np.maximum(0.0, self.bias_pos + zz - th.bias_k), self.bias_pos)
+        neg = np.where(on6, np.maximum(0.0, self.bias_neg - zz - th.bias_k), self.bias_neg)
         self.bias_start[0] = np.where((self.bias_pos == 0) & (pos > 0), t0, self.bias_start[0])
         self.bias_start[1] = np.where((self.bias_neg == 0) & (neg > 0), t0, self.bias_start[1])
         self.bias_pos, self.bias_neg = pos, neg
-        alpha = th.window_s / th.bias_tau_s
-        self.bias_base = np.where(on, self.bias_base + alpha * (mean - self.bias_base), self.bias_base)
         fired = np.flatnonzero(np.maximum(pos, neg) > th.bias_h)
         events = []
         for c in fired:
+            i = int(np.flatnonzero(chans == c)[0])
             start = self.bias_start[0 if pos[c] > neg[c] else 1, c]
-            onset, step, sd = self._mean_onset(c, start, t1, level[c])
-            events.append(Event(t_now, onset, "bias_shift", [CHANNELS[c]], "WARN", step,
+            onset, step, sd = self._mean_onset(i, c, start, t1, level[c])
+            events.append(Event(t1, onset, "bias_shift", [CHANNELS[c]], "WARN", step,
                                 [step - Z95 * sd, step + Z95 * sd],
                                 f"{CHANNELS[c]} mean stepped by {step:.3g} ({abs(step) / sd:.1f} sd)",
                                 {"cusum": float(max(pos[c], neg[c])), "threshold": float(th.bias_h[c])}))
-            # the new mean is the baseline from here on: one event per step
-            after = (self._hist_t >= onset) & (self._hist_t <= t1)
-            self.bias_base[c] = float(np.mean(self._hist_x[after, c]))
+            # the new mean is the bias from here on, relearned from the windows that follow: one event per step
+            self.bias_filter.restart_bias(i, step if np.isfinite(step) else 0.0)
             self.bias_pos[c] = self.bias_neg[c] = 0.0
         return events
 
-    def _mean_onset(self, c, start, t1, level):
-        """Change point of the mean of channel c in [min(start - 10 s, t1 - 60 s), t1]: (onset s, step, sd).
+    def _mean_onset(self, i, c, start, t1, level):
+        """Change point of channel c's mean, the motion's part taken out, in [min(start - 10 s, t1 - 60 s), t1]:
+        (onset s, step, sd). Maximum likelihood over the samples of the windows the filter used.
 
         The CUSUM's last zero can fall after the onset (noise pulled it back once), hence the 10 s before; a long
         stretch before the step sharpens the change point of a weak one."""
         lo = min((start if np.isfinite(start) else t1) - max(10.0, 2 * self.thr.window_s), t1 - 60.0)
-        sel = (self._hist_t >= lo) & (self._hist_t <= t1) & self._in_quiet_spans(self._hist_t)
-        x, ts = self._hist_x[sel, c], self._hist_t[sel]
         sigma = self.thr.sample_sigma[c] * np.sqrt(max(level, 1.0))
+        spans = [(a, b, m[i]) for a, b, m, u in self.bias_hist if u[i] and b >= lo]
+        if not spans:
+            return float(lo), float("nan"), float("nan")
+        sp = np.array(spans)
+        sel = (self._hist_t >= max(lo, sp[0, 0])) & (self._hist_t <= t1)
+        ts = self._hist_t[sel]
+        k = np.searchsorted(sp[:, 0], ts, side="right") - 1
+        inside = (k >= 0) & (ts <= sp[np.maximum(k, 0), 1])
+        x = self._hist_x[sel, c][inside] - sp[k[inside], 2]
+        ts = ts[inside]
+        x, ts = x[np.isfinite(x)], ts[np.isfinite(x)]
         if len(x) < 8:
             return float(lo), float("nan"), float("nan")
         cs = np.cumsum(x - x.mean())
@@ -401,14 +422,6 @@ class HealthMonitor:
         j = int(k[np.argmax(score)])
         step = float(x[j:].mean() - x[:j].mean())
         return float(ts[j]), step, float(sigma * np.sqrt(1 / j + 1 / (len(x) - j)))
-
-    def _in_quiet_spans(self, t: np.ndarray) -> np.ndarray:
-        """Whether each time falls in a window the bias test ran on."""
-        if not self.quiet_spans:
-            return np.zeros(len(t), bool)
-        spans = np.array(self.quiet_spans)
-        i = np.searchsorted(spans[:, 0], t, side="right") - 1
-        return (i >= 0) & (t <= spans[np.maximum(i, 0), 1])
 
     # ------------------------------------------------------------------ status
 

@@ -136,7 +136,7 @@ class SampleChecks:
         look = look[np.isfinite(look)]
         extreme = len(look) > 0 and (value >= look.max() or value <= look.min())
         hits = np.count_nonzero(look == value)
-        if not extreme or hits == 0:
+        if not extreme:
             return "stuck_output"
         return "saturation" if hits >= self.clip_ties[c] else "unsure"
 

@@ -9,7 +9,7 @@ statistics and the same CUSUM recursions as the monitor. Per detector and channe
   grows exponentially with its threshold) and solved for the budget's run length;
 * the line gate (one window, chi-square(2) max over the searched bins): an exponential tail fitted to the
   upper 2 % of the simulated maxima, solved for the budget's per-window probability.
-* the clip test (samples exactly at a window's extreme): two more than the most any simulated window had;
+* the clip test (samples of the last 10 windows exactly at their extreme): two more than the most simulated;
 * the stuck-output run length is exact: the probability that quantized noise repeats a value.
 """
 from __future__ import annotations
@@ -20,8 +20,8 @@ import numpy as np
 from scipy import stats
 
 from nav_core.sensor_model import SensorModel
-from sensor_health import noise_sim
-from sensor_health.window_stats import WindowGrid, sample_sigma, window_stats
+from sensor_health import bias_filter, noise_sim
+from sensor_health.window_stats import WindowGrid, sample_sigma, span_ties, window_stats
 
 SECONDS_PER_10H = 36000.0
 NOISE_IGNORED_RATIO = 3.0
@@ -56,6 +56,10 @@ BIAS_CHANNELS = (0, 1, 5)
 gz, ax, ay carry the vehicle's turns and accelerations, so a bias step there is not seen in the raw signal."""
 
 
+N_TESTS = 6 + 6 + 6 + len(BIAS_CHANNELS)
+"""Statistical tests sharing the false-alarm budget: noise, line and clip on every channel, bias on BIAS_CHANNELS."""
+
+
 @dataclass
 class Thresholds:
     """Everything the monitor needs from the Monte Carlo; SI units, windows of ``window_s`` s."""
@@ -68,7 +72,8 @@ class Thresholds:
     noise_k: float
     noise_h: float
     bias_sd: np.ndarray
-    """(6,) sd of (window mean - baseline) under the model; scaled by sqrt(max(1, level)) in use."""
+    """(6,) sd of a window mean of the model's white and quantization noise (the bias filter's measurement noise,
+    scaled by max(1, level) in use)."""
     bias_k: np.ndarray
     """(6,) drift per channel, sd."""
     bias_h: np.ndarray
@@ -80,7 +85,11 @@ class Thresholds:
     stuck_run: np.ndarray
     """(6,) samples repeating one value that make a stuck output."""
     clip_ties: np.ndarray
-    """(6,) samples of a window exactly at its extreme that make a clip: 2 more than the most the Monte Carlo saw."""
+    """(6,) samples of one window exactly at its extreme (a run's look-back in the sample checks): 2 more than the
+    most the Monte Carlo saw."""
+    clip_span_ties: np.ndarray
+    """(6,) samples of the last CLIP_SPAN_WINDOWS windows exactly at their extreme that make a clip
+    (:func:`clip_threshold`)."""
     sample_sigma: np.ndarray
     """(6,) per-sample sd of the model's white and quantization noise."""
     budget_per_10h: float
@@ -118,15 +127,12 @@ def cusum_threshold(y: np.ndarray, k: float, target_windows: float) -> float:
     return float((np.log(target_windows) - icpt) / slope)
 
 
-def baseline_deviation(means: np.ndarray, alpha: float, warmup: int) -> np.ndarray:
-    """(window mean - exponential baseline before it), (nw, c); the baseline starts as the mean of the first
-    ``warmup`` windows and follows with weight ``alpha`` per window. Rows before ``warmup`` are 0."""
-    out = np.zeros_like(means)
-    base = means[:warmup].mean(axis=0)
-    for i in range(warmup, len(means)):
-        out[i] = means[i] - base
-        base = base + alpha * (means[i] - base)
-    return out
+def bias_innovations(ws, phi: np.ndarray, sd_mean: np.ndarray, tau_windows: np.ndarray) -> np.ndarray:
+    """The bias filter's standardised innovations (nw, len(BIAS_CHANNELS)) on windows ``ws`` with regressors phi."""
+    chans = list(BIAS_CHANNELS)
+    filt = bias_filter.BiasFilter(chans, sd_mean[chans], tau_windows[chans])
+    use = np.ones(len(chans), bool)
+    return np.array([filt.step(ws.mean[w], phi[w], ws.level[w], use)[0] for w in range(len(phi))])
 
 
 def exp_tail_threshold(x: np.ndarray, p: float, top: float = 0.02) -> float:
@@ -134,6 +140,11 @@ def exp_tail_threshold(x: np.ndarray, p: float, top: float = 0.02) -> float:
     u = np.quantile(x, 1 - top)
     excess = x[x > u] - u
     return float(u + excess.mean() * np.log(top / p))
+
+
+def model_lattice(model: SensorModel, dt: float) -> np.ndarray:
+    """The output lattice step (6,) of the model's increment quantization Q (lsb = Q sqrt(12) / dt), rad/s, m/s^2."""
+    return np.concatenate([model.gyro.quantization, model.accel.quantization]) * np.sqrt(12.0) / dt
 
 
 def stuck_run_length(model: SensorModel, dt: float, budget_per_channel: float, max_run: int) -> np.ndarray:
@@ -149,6 +160,33 @@ def stuck_run_length(model: SensorModel, dt: float, budget_per_channel: float, m
     return np.clip(runs, 3, max_run).astype(int)
 
 
+def clip_threshold(sigma: np.ndarray, lattice: np.ndarray, n: int, p_window: float, windows: int = 4000,
+                   seed: int = 0) -> np.ndarray:
+    """Clip threshold (6,) for white noise of per-sample sd ``sigma`` (6,) on a lattice of step ``lattice`` (6,)
+    (0: none), exceeded with probability ``p_window`` per window: an exponential tail fitted to the upper 2 % of
+    the simulated span ties (the spans overlap, so their maximum says little about a 10-h budget), and at least
+    2 more than the most simulated (and 3)."""
+    rng = np.random.default_rng(seed)
+    x = rng.normal(0.0, 1.0, (windows, n, 6)) * sigma
+    step = np.where(lattice > 0, lattice, 1.0)
+    x = np.where(lattice > 0, np.round(x / step + rng.uniform(size=6)) * step, x)
+    ties = span_ties(x)
+    tail = np.array([exp_tail_threshold(ties[:, c].astype(float) + rng.uniform(0, 1, len(ties)), p_window)
+                     for c in range(6)])  # jittered: a continuous tail through the integer counts
+    return np.maximum.reduce([np.full(6, 3), ties.max(axis=0) + 2, np.ceil(tail).astype(int)]).astype(int)
+
+
+def observed_lattice(x: np.ndarray) -> np.ndarray:
+    """The smallest positive difference between distinct finite values of each channel of x (m, 6): the output's
+    lattice step as recorded (0 if fewer than two values)."""
+    out = np.zeros(6)
+    for c in range(6):
+        v = np.unique(x[np.isfinite(x[:, c]), c])
+        d = np.diff(v)
+        out[c] = d.min() if len(d) else 0.0
+    return out
+
+
 def monte_carlo(model: SensorModel, grid: WindowGrid, window_s: float, budget_per_10h: float,
                 baseline_s: float, mc_windows: int = 20000, seed: int = 0) -> Thresholds:
     """Thresholds for ``model`` from ``mc_windows`` simulated windows (seeded: the same model gives the same
@@ -156,15 +194,13 @@ def monte_carlo(model: SensorModel, grid: WindowGrid, window_s: float, budget_pe
     rng = np.random.default_rng(seed)
     x = noise_sim.model_noise(model, mc_windows * grid.n, grid.dt, rng).reshape(mc_windows, grid.n, 6)
     ws = window_stats(grid, x)
-    n_tests = 6 + 6 + len(BIAS_CHANNELS)
-    per_test = budget_per_10h / n_tests
+    per_test = budget_per_10h / N_TESTS
     target = SECONDS_PER_10H / window_s / per_test
     log_level = np.log(ws.level)
     mu = np.median(log_level, axis=0)
     sd = stats.iqr(log_level, axis=0) / 1.349
     noise_k = np.log(NOISE_IGNORED_RATIO) / float(np.median(sd))
     noise_h = cusum_threshold((log_level - mu) / sd, noise_k, target)
-    warmup = bias_warmup_windows(window_s)
     b = np.concatenate([model.gyro.bias_instability, model.accel.bias_instability])
     white_sd = np.std(ws.mean[1:] - ws.mean[:-1], axis=0) / np.sqrt(2)
     bias_k = np.clip(0.5 * BIAS_DESIGN_STEP * b / white_sd, *BIAS_K_RANGE)
@@ -172,14 +208,15 @@ def monte_carlo(model: SensorModel, grid: WindowGrid, window_s: float, budget_pe
     # short baseline, which follow it; a smaller accelerometer step than 3 sd per window is not claimed
     bias_k[3:] = BIAS_K_RANGE[1]
     tau = baseline_times(bias_k, baseline_s)
-    dev = baseline_deviation(ws.mean, window_s / tau, warmup)[warmup:]
-    bias_sd = stats.iqr(dev, axis=0) / 1.349
-    z = dev / (bias_sd * np.sqrt(np.maximum(ws.level[warmup:], 1.0)))
+    z = bias_innovations(ws, bias_filter.motion_regressors(x), white_sd, tau / window_s)
+    z = z[bias_warmup_windows(window_s):]
     bias_h = np.full(6, np.inf)
-    for c in BIAS_CHANNELS:
-        bias_h[c] = cusum_threshold(np.column_stack([z[:, c], -z[:, c]]), bias_k[c], target / 2)
+    for i, c in enumerate(BIAS_CHANNELS):
+        bias_h[c] = cusum_threshold(np.column_stack([z[:, i], -z[:, i]]), bias_k[c], target / 2)
     line_h = exp_tail_threshold(ws.line.ravel(), per_test * window_s / SECONDS_PER_10H)
     stuck = stuck_run_length(model, grid.dt, per_test, max_run=max(3, grid.n))
     clip_ties = np.maximum(3, ws.ties.max(axis=0) + 2)
-    return Thresholds(window_s, mu, sd, noise_k, noise_h, bias_sd, bias_k, bias_h, tau, line_h, stuck, clip_ties,
-                      sample_sigma(model, grid.dt), budget_per_10h, mc_windows)
+    clip_span = clip_threshold(sample_sigma(model, grid.dt), model_lattice(model, grid.dt), grid.n,
+                               per_test * window_s / SECONDS_PER_10H, seed=seed)
+    return Thresholds(window_s, mu, sd, noise_k, noise_h, white_sd, bias_k, bias_h, tau, line_h, stuck, clip_ties,
+                      clip_span, sample_sigma(model, grid.dt), budget_per_10h, mc_windows)

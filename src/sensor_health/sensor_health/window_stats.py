@@ -9,16 +9,22 @@ motion is slow next to the sample rate), and its DFT is tapered (Hann) and white
 * ``line``: the largest whitened periodogram ordinate above ``f_min_hz``, chi-square(2) under the model
   after dividing out ``level`` (so a rise of the whole noise floor is not a line);
 * ``mean``: the window mean (for the bias CUSUM);
-* ``ties``: how many samples sit exactly at the window's extreme (a clip's flat tops).
+* ``ties``: how many samples sit exactly at the window's extreme (a clip's flat tops);
+* ``span_ties`` (separately, it needs the windows before): how many samples of the last ``CLIP_SPAN_WINDOWS``
+  windows sit exactly at the extreme of the span, when this window holds it (a clip touched a few samples at a
+  time, turn after turn, on a lattice the noise almost never repeats at its extreme).
 """
 from __future__ import annotations
 
+import warnings
 from dataclasses import dataclass
 
 import numpy as np
 
 from nav_core import noise_stats
 from nav_core.sensor_model import SensorModel
+
+CLIP_SPAN_WINDOWS = 10
 
 
 def quantization_psd(model: SensorModel, freqs: np.ndarray, dt: float) -> np.ndarray:
@@ -110,3 +116,28 @@ def window_stats(grid: WindowGrid, x: np.ndarray) -> WindowStats:
     ties = np.where(finite & (np.ptp(xs, axis=1) > 0), ties, 0)
     power = np.where(finite[..., None], power, 0.0)
     return WindowStats(level, line, bins, power, xs.mean(axis=1), finite, ties)
+
+
+def span_ties(x: np.ndarray, span: int = CLIP_SPAN_WINDOWS) -> np.ndarray:
+    """(nw - span + 1, 6) for contiguous windows x (nw, n, 6) (non-finite samples are ignored): for each window from
+    the span-th on, the samples of it and the span - 1 before exactly at the span's largest (smallest) value when
+    this window reaches it, the larger of the two counts; 0 on a constant span."""
+    xs = np.where(np.isfinite(x), x, np.nan)
+    nw = x.shape[0] - span + 1
+    if nw <= 0:
+        return np.zeros((0, 6), int)
+    out = np.zeros((nw, 6), int)
+    with np.errstate(all="ignore"), warnings.catch_warnings():
+        warnings.simplefilter("ignore", RuntimeWarning)  # all-NaN spans (before the first window) stay NaN
+        wmax, wmin = np.nanmax(xs, axis=1), np.nanmin(xs, axis=1)
+        for sign, ext in ((1, wmax), (-1, wmin)):
+            view = np.lib.stride_tricks.sliding_window_view(ext * sign, span, axis=0)  # (nw, 6, span)
+            top = np.nanmax(view, axis=-1) * sign  # the span's extreme
+            holds = ext[span - 1:] == top
+            count = np.zeros((nw, 6), int)
+            for j in range(span):
+                count += (xs[j:j + nw] == top[:, None, :]).sum(axis=1)
+            out = np.maximum(out, np.where(holds, count, 0))
+        flat = np.nanmax(np.lib.stride_tricks.sliding_window_view(wmax, span, axis=0), axis=-1) == \
+            np.nanmin(np.lib.stride_tricks.sliding_window_view(wmin, span, axis=0), axis=-1)
+    return np.where(flat, 0, out)
