@@ -414,24 +414,25 @@ def write_bag(path, imu: ImuRecording | None = None, gnss: GnssRecording | None 
               imu_topic: str = IMU_TOPIC, gnss_topic: str = GNSS_TOPIC, temp_topic: str = TEMP_TOPIC,
               gyro_std: float = 0.0, accel_std: float = 0.0, wheel: WheelSpeedRecording | None = None,
               wheel_topic: str = WHEEL_TOPIC, wheel_type: str = "nav_msgs/msg/Odometry") -> Path:
-    """Write IMU (and temperature), GNSS and wheel-speed recordings to a new rosbag2 bag, messages in time order
-    (stamps that are not finite or go back stay where they are in their stream); ``wheel_type`` is
-    ``nav_msgs/msg/Odometry`` or ``geometry_msgs/msg/TwistStamped`` (the speed in ``twist.linear.x``)."""
+    """Write IMU (and temperature), GNSS and wheel-speed recordings to a new rosbag2 bag, messages in stamp order
+    (wheel speeds in their recorded order: one stamped back stays where it was, as a live odometer sends it);
+    ``wheel_type`` is ``nav_msgs/msg/Odometry`` or ``geometry_msgs/msg/TwistStamped`` (the speed in
+    ``twist.linear.x``)."""
     from nav_core import bagio
 
-    streams = [(imu, 0), (gnss, 1), (wheel, 2)]
     events = []
-    for rec, kind in streams:
-        if rec is None:
-            continue
-        place = np.maximum.accumulate(np.where(np.isfinite(rec.t), rec.t, -np.inf)) if len(rec) else rec.t
-        events += [(float(place[i]), kind, i) for i in range(len(rec))]
+    for rec, kind in ((imu, 0), (gnss, 1)):
+        if rec is not None:
+            events += [(float(rec.t[i]), kind, i) for i in range(len(rec))]
+    if wheel is not None and len(wheel):
+        place = np.maximum.accumulate(np.where(np.isfinite(wheel.t), wheel.t, -np.inf))
+        events += [(float(place[i]), 2, i) for i in range(len(wheel))]
     events.sort()
     with bagio.BagWriter(path, storage) as bag:
         if wheel is not None:
             bag.add_topic(wheel_topic, wheel_type, bagio.default_qos(wheel_topic, wheel_type, sensor=True))
         for place, kind, i in events:
-            ns = units.ns_from_s(max(place, 0.0))
+            ns = units.ns_from_s(place)
             if kind == 0:
                 bag.write(imu_topic, ns, bagio.imu_message(imu.t[i], imu.gyro[i], imu.accel[i], imu.frame_id,
                                                            gyro_std**2, accel_std**2))
