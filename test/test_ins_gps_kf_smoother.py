@@ -9,17 +9,18 @@ from scipy.stats import chi2
 
 from imu_sim.models import bp3010_grade_model
 from nav_core import recording
+from nav_core.earth import LocalFrame
 from nav_eval.metrics import truth_at
 from ins_gps_kf import config
 from ins_gps_kf import synthetic as syn
 from ins_gps_kf.filter import InsGpsFilter
 from ins_gps_kf.offline import run
 from ins_gps_kf.replay import forward_path, main
-from ins_gps_kf.smoother import ForwardStore, _backward, run_smoothed
+from ins_gps_kf.smoother import ForwardStore, backward, run_smoothed
 
 
 
-def _linear_closed_loop(ram_rows, seed=0, steps=60):
+def _linear_closed_loop(ram_rows, block_rows, seed=0, steps=60):
     """A 1-D constant-velocity track measured in position, run closed loop (nominal corrected, error reset) into
     a ForwardStore, and open loop (textbook KF + RTS); returns (closed-loop smoothed, RTS smoothed) states."""
     rng = np.random.default_rng(seed)
@@ -46,8 +47,9 @@ def _linear_closed_loop(ram_rows, seed=0, steps=60):
             x, p = x - dx, (np.eye(2) - gain @ h) @ p
         post.append(x.copy()), post_cov.append(p.copy())
         store.epoch(SimpleNamespace(cov=p))
-    rows = store.rows()
-    e_s = _backward(rows, 2)
+    e_s, p_s = np.zeros((steps, 2)), np.zeros((steps, 2, 2))
+    for lo, e, p in backward(store, block_rows):
+        e_s[lo:lo + len(e)], p_s[lo:lo + len(e)] = e, p
     closed = np.array(post) - e_s
     store.close()
     xs, ps = [post[-1]], [post_cov[-1]]
@@ -55,12 +57,12 @@ def _linear_closed_loop(ram_rows, seed=0, steps=60):
         c = post_cov[k] @ f.T @ np.linalg.inv(prior_cov[k + 1])
         xs.insert(0, post[k] + c @ (xs[0] - prior[k + 1]))
         ps.insert(0, post_cov[k] + c @ (ps[0] - prior_cov[k + 1]) @ c.T)
-    return closed, np.array(xs), np.array(rows[:, 3:7]).reshape(-1, 2, 2), np.array(ps)
+    return closed, np.array(xs), p_s, np.array(ps)
 
 
-@pytest.mark.parametrize("ram_rows", [1000, 7])  # in memory; spilled to the temporary file
-def test_closed_loop_smoother_equals_textbook_rts_on_a_linear_system(ram_rows):
-    closed, rts, cov_closed, cov_rts = _linear_closed_loop(ram_rows)
+@pytest.mark.parametrize("ram_rows, block_rows", [(1000, 1000), (7, 5)])  # in memory; spilled, in blocks
+def test_closed_loop_smoother_equals_textbook_rts_on_a_linear_system(ram_rows, block_rows):
+    closed, rts, cov_closed, cov_rts = _linear_closed_loop(ram_rows, block_rows)
     np.testing.assert_allclose(closed, rts, atol=1e-9)
     np.testing.assert_allclose(cov_closed, cov_rts, atol=1e-9)
 
@@ -101,19 +103,66 @@ def test_smoothed_covariance_is_never_larger_and_the_outage_error_shrinks(drive,
     assert np.sqrt(np.mean(h_s[~inside] ** 2)) < np.sqrt(np.mean(h_f[~inside] ** 2))
 
 
-@pytest.mark.parametrize("params", [{}, {"nhc_enabled": True}], ids=["plain", "nhc"])
-def test_smoothed_position_nees_is_no_worse_than_the_forward_filters(drive, params):
-    """The smoothed covariance can only be as consistent as the forward one it comes from (the forward filter's
-    position NEES is above its chi-square bound on this drive: see the README)."""
-    forward, smoothed, ref, _ = _smoothed_run(drive, **params)
+@pytest.fixture(scope="module")
+def true_model_drives():
+    """Two synthetic circle drives (1-m GNSS throughout) whose IMU errors are what the filter's sensor model says
+    (white noise, constant biases within the initial stds): per drive (forward, smoothed, truth ENU) after the
+    heading is known. Where the model is right, forward and smoothed must both be consistent."""
+    from nav_core import sensor_model as sm
 
-    def beyond(est):
-        err = np.array([e.position_n for e in est]) - ref
-        nees = np.array([d @ np.linalg.solve(e.cov[:3, :3], d) for d, e in zip(err, est)])
-        return np.mean(nees > chi2.ppf(0.99, 3))
+    rate, gw, aw = 64.0, 1e-3, 2e-3
+    motion = syn.circle(still_s=60.0, accel_s=10.0, straight_s=10.0, turn_s=300.0, yaw_rate=0.03)
+    model = sm.SensorModel(sample_rate_hz=rate)
+    model.gyro.white_noise, model.accel.white_noise = np.full(3, gw), np.full(3, aw)
+    model.gyro.bias_instability = model.accel.bias_instability = np.zeros(3)
+    model.gyro.rate_random_walk, model.accel.rate_random_walk = np.full(3, 1e-6), np.full(3, 1e-5)
+    t_true, pos_true, _, _ = syn.truth(motion, rate)
+    ideal = syn.ideal_imu(motion, rate)
+    out = []
+    for seed in (0, 1):
+        rng = np.random.default_rng(seed)
+        imu = syn.add_imu_errors(ideal, rng, rng.normal(0, 2e-4, 3), rng.normal(0, 0.02, 3), gw, aw)
+        gnss = syn.gnss(motion, rate, 1.0, rng)
+        filt = InsGpsFilter(config.from_params({"imu_rate_hz": rate, "init_accel_bias_std_mg": 3.0}), model)
+        forward, smoothed = run_smoothed(filt, run, imu, gnss)
+        t = np.array([e.t for e in forward])
+        origin = LocalFrame(motion.lat0_deg, motion.lon0_deg, motion.h0_m).to_enu(
+            *filt.frame.to_geodetic(np.zeros((1, 3))))[0]  # the filter's datum is the first (noisy) fix
+        ref = np.column_stack([np.interp(t, t_true, pos_true[:, i]) for i in range(3)]) - origin
+        keep = t > 90.0
+        out.append(([e for e, k in zip(forward, keep) if k], [e for e, k in zip(smoothed, keep) if k], ref[keep]))
+    return out
 
-    assert beyond(smoothed) <= beyond(forward)
-    assert beyond(smoothed) < 0.10  # measured 0.056 plain, 0.091 NHC (a consistent filter: 0.01)
+
+def _nees(est, ref):
+    err = np.array([e.position_n for e in est]) - ref
+    return np.array([d @ np.linalg.solve(e.cov[:3, :3], d) for d, e in zip(err, est)])
+
+
+def test_forward_and_smoothed_nees_are_consistent_where_the_model_is_right(true_model_drives):
+    """Position NEES (3 dof): mean near 3 and few epochs beyond the chi-square 99 % point, forward and smoothed
+    alike (measured means 3.3 / 2.9 forward, 3.5 / 2.5 smoothed). On the paper drive, whose simulator has errors the
+    model does not state, both are overconfident: bench_ins_gps_kf_outages prints them."""
+    for kind in (0, 1):
+        nees = np.concatenate([_nees(run_[kind], run_[2]) for run_ in true_model_drives])
+        assert 2.0 < nees.mean() < 4.2, (kind, nees.mean())
+        assert np.mean(nees > chi2.ppf(0.99, 3)) < 0.03, (kind, np.mean(nees > chi2.ppf(0.99, 3)))
+
+
+def test_smoothed_error_is_no_larger_as_often_as_an_optimal_smoother_allows(true_model_drives):
+    """The smoothed horizontal error is no larger than the forward one in the share of epochs the two covariances
+    predict for an optimal smoother (smoother.no_worse_probability; measured 87 % against 86 %), which with GNSS
+    throughout is well short of issue 25's 95 %: that target is out of reach of any smoother there."""
+    from ins_gps_kf.smoother import no_worse_probability
+
+    measured, expected = [], []
+    for forward, smoothed, ref in true_model_drives:
+        h_f, h_s = _horizontal(forward, ref), _horizontal(smoothed, ref)
+        measured.append(h_s <= h_f)
+        expected.append(no_worse_probability(np.array([e.cov[:2, :2] for e in forward]),
+                                             np.array([e.cov[:2, :2] for e in smoothed]), draws=400))
+    measured, expected = np.concatenate(measured).mean(), np.concatenate(expected).mean()
+    assert abs(measured - expected) < 0.05 and expected < 0.95, (measured, expected)
 
 
 def test_replay_smooth_writes_smoothed_and_forward_trajectories(tmp_path, capsys):

@@ -16,8 +16,8 @@ and the smoothed state is the forward one with ``e_s(k)`` fed back as the filter
 (heading from the course, GPS reset, re-alignment) is not a linear update: the chain is cut there.
 
 Memory: one row per filter epoch (the covariances, the transition and the correction: ``1 + n + 3 n^2``
-floats, 5.5 kB with 15 states); rows go to a temporary file (read back through ``np.memmap``) once more
-than ``ram_rows`` are held, and the backward pass overwrites the stored P+ with the smoothed P in place.
+floats, 5.5 kB with 15 states); rows go to a temporary file once more than ``ram_rows`` are held, and the
+backward pass reads them back in blocks of that many (:func:`backward`).
 """
 from __future__ import annotations
 
@@ -99,13 +99,15 @@ class ForwardStore:
         self._spilled += self._used
         self._used = 0
 
-    def rows(self) -> np.ndarray:
-        """All rows (len, width): in memory, or a writable memmap of the spill file."""
-        if self._file is None:
-            return self._buf[:self._used]
-        if self._used:
+    def read(self, lo: int, hi: int) -> np.ndarray:
+        """Rows ``lo`` to ``hi`` (exclusive), a copy (hi - lo, width): read from the spill file by explicit reads, so
+        the backward pass holds one block at a time (a memory map's touched pages would count as resident)."""
+        if self._file is not None and self._used:
             self._spill()
-        return np.memmap(self._file, dtype=np.float64, mode="r+", shape=(self._spilled, self.width))
+        if self._file is None:
+            return self._buf[lo:hi].copy()
+        return np.fromfile(self._file, dtype=np.float64, count=(hi - lo) * self.width,
+                           offset=lo * self.width * 8).reshape(hi - lo, self.width)
 
     def close(self) -> None:
         """Delete the spill file."""
@@ -115,48 +117,65 @@ class ForwardStore:
 
 
 @njit(cache=True)
-def _backward(rows, n):
-    """The RTS recursion over ``rows`` (see the module doc); returns e_s (N, n) and writes P_s over P+ in place."""
+def _backward_block(rows, after, e_next, p_next, n):
+    """The RTS recursion (see the module doc) over ``rows`` (m, width), from its last row back, ``after`` the row
+    that follows them and (``e_next``, ``p_next``) its smoothed error and covariance; returns e_s (m, n), P_s
+    (m, n, n)."""
     m = rows.shape[0]
     nn = n * n
     o = 1 + n
     e_s = np.zeros((m, n))
-    e_next = np.zeros(n)
-    p_next = rows[m - 1, o:o + nn].copy().reshape(n, n)
-    for k in range(m - 2, -1, -1):
+    p_s = np.zeros((m, n, n))
+    for k in range(m - 1, -1, -1):
+        nxt = rows[k + 1] if k + 1 < m else after
         p_post = rows[k, o:o + nn].copy().reshape(n, n)
-        if rows[k + 1, 0] > 0.5:
-            prior = rows[k + 1, o + nn:o + 2 * nn].copy().reshape(n, n)
-            phi = rows[k + 1, o + 2 * nn:].copy().reshape(n, n)
+        if nxt[0] > 0.5:
+            prior = nxt[o + nn:o + 2 * nn].copy().reshape(n, n)
+            phi = nxt[o + 2 * nn:].copy().reshape(n, n)
             c_t = np.linalg.solve(prior, phi @ p_post)  # C' (P+ and P- symmetric)
             c = np.ascontiguousarray(c_t.T)
-            e = c @ (e_next + rows[k + 1, 1:1 + n])
+            e = c @ (e_next + nxt[1:1 + n])
             p = p_post + c @ (p_next - prior) @ c_t
             p = 0.5 * (p + p.T)
         else:
             e = np.zeros(n)
             p = p_post
         e_s[k] = e
-        rows[k, o:o + nn] = p.ravel()
+        p_s[k] = p
         e_next, p_next = e, p
-    return e_s
+    return e_s, p_s
+
+
+def backward(store: ForwardStore, block_rows: int = RAM_ROWS):
+    """The backward pass in blocks of ``block_rows`` epochs from the last: yields (first epoch index, e_s (m, n),
+    P_s (m, n, n)) per block, so memory holds one block whatever the drive's length."""
+    n, total = store.n, len(store)
+    if total == 0:
+        return
+    after = store.read(total - 1, total)[0]
+    e_next, p_next = np.zeros(n), after[1 + n:1 + n + n * n].reshape(n, n).copy()
+    yield total - 1, e_next[None], p_next[None]
+    hi = total - 1
+    while hi > 0:
+        lo = max(0, hi - block_rows)
+        rows = store.read(lo, hi)
+        e_s, p_s = _backward_block(rows, after, e_next, p_next, n)
+        yield lo, e_s, p_s
+        after, e_next, p_next, hi = rows[0], e_s[0], p_s[0], lo
 
 
 def smooth(store: ForwardStore, forward: list[Estimate]) -> list[Estimate]:
     """The smoothed estimates (state and covariance) of the ``forward`` estimates the filter gave while
-    ``store`` recorded it; the store is spent (its P+ overwritten) and its spill file deleted."""
+    ``store`` recorded it; the store's spill file is deleted."""
     if len(store) != len(forward):
         raise ValueError(f"the store holds {len(store)} epochs, the forward run {len(forward)}")
     if not forward:
         return []
-    n = store.n
+    out = [None] * len(forward)
     try:
-        rows = store.rows()
-        e_s = _backward(rows, n)
-        o = 1 + n
-        out = []
-        for k, est in enumerate(forward):
-            out.append(_corrected(est, e_s[k], np.array(rows[k, o:o + n * n]).reshape(n, n)))
+        for lo, e_s, p_s in backward(store):
+            for i in range(len(e_s)):
+                out[lo + i] = _corrected(forward[lo + i], e_s[i], p_s[i])
     finally:
         store.close()
     return out
