@@ -151,3 +151,24 @@ def test_run_node_collects_the_nodes_cycles_and_freezes_the_rest_so_the_exit_doe
                          timeout=60).stdout
     assert "status 0 node_collected True" in out, out
     assert int(out.split("frozen ")[1]) > 1000, out  # the heap (rclpy, numpy) is frozen, not left to the exit
+
+
+@pytest.mark.parametrize("node_class", ["wmra_filter.wmra_node:WmraNode",
+                                        "sensor_health.sensor_health_node:SensorHealthNode"])
+def test_a_node_whose_intake_is_still_busy_at_shutdown_leaves_it_alone(node_class):
+    # as the filter node's close (5543822): when the intake thread has not ended, close() must not drain the same
+    # subscription and state on a second thread (issue 29's list of shutdown hazards; these two still did)
+    import importlib
+    from types import SimpleNamespace
+
+    module, name = node_class.split(":")
+    cls = getattr(importlib.import_module(module), name)
+    warnings = []
+
+    def drain():
+        raise AssertionError("drained on a second thread while the intake was busy")
+
+    busy = SimpleNamespace(intake_loop=SimpleNamespace(stop=lambda: False), intake=SimpleNamespace(drain=drain),
+                           get_logger=lambda: SimpleNamespace(warn=warnings.append))
+    cls.close(busy)
+    assert warnings and "still busy" in warnings[0]

@@ -119,7 +119,9 @@ class SensorHealthNode(Node):
 
     def close(self) -> None:
         """Take what is queued before shutting down."""
-        self.intake_loop.stop()
+        if not self.intake_loop.stop():  # its thread is still on a batch: a second thread on the intake would race
+            self.get_logger().warn("shutdown: the intake is still busy; what is queued is not checked")
+            return
         try:
             self.intake.drain()
         except Exception:  # the context may already be shut down on SIGINT

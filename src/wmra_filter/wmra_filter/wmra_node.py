@@ -161,7 +161,9 @@ class WmraNode(Node):
 
     def close(self) -> None:
         """Publish the samples still in the window before shutting down."""
-        self.intake_loop.stop()
+        if not self.intake_loop.stop():  # its thread is still on a batch: a second thread on the intake would race
+            self.get_logger().warn("shutdown: the intake is still busy; the samples in the window are not published")
+            return
         try:
             self.intake.drain()
             self._publish(self.policy.flush())
