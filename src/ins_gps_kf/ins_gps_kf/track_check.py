@@ -12,6 +12,7 @@ import numpy as np
 TRACK_WINDOW_S = 10.0  # velocity changes compared over windows this long: GPS noise / window is small
 TRACK_MIN_DV_MPS = 1.0  # windows where the INS changes velocity by less than this say nothing
 TRACK_RATIO = 10.0  # GPS and INS velocity changes differing by this factor (either way) are not one motion
+CHUNK = 65536  # IMU samples rotated at a time
 REJECTED_FRACTION = 0.5  # more than this share of the fixes at filter epochs rejected: persistently rejected
 LIKELY_CAUSES = ("latitude/longitude in radians (or another unit) where degrees are expected, latitude and "
                  "longitude columns swapped, positions in another datum or projection, or fixes of another run")
@@ -34,10 +35,13 @@ def track_disagreement(imu_t, accel, estimates, fixes_t, fixes_enu, min_windows:
     k = np.clip(np.searchsorted(t_est, imu_t), 0, len(t_est) - 1)
     quats = np.array([e.quat_xyzw for e in estimates])
     bias = np.array([e.accel_bias for e in estimates])
-    f_n = Rotation.from_quat(quats[k]).apply(accel - bias[k])
     dt = np.diff(imu_t, prepend=imu_t[0])
     dt = np.where((dt > 0) & (dt < 1.0), dt, 0.0)
-    dv_ins = np.vstack([np.zeros(2), np.cumsum(f_n[:, :2] * dt[:, None], axis=0)])  # (n + 1, 2)
+    dv_ins = np.zeros((len(imu_t) + 1, 2))
+    for s in range(0, len(imu_t), CHUNK):  # in chunks: rotating a 2-hour 64-Hz run at once took 60 MB more
+        e = min(s + CHUNK, len(imu_t))
+        f_n = Rotation.from_quat(quats[k[s:e]]).apply(accel[s:e] - bias[k[s:e]])
+        dv_ins[s + 1:e + 1] = dv_ins[s] + np.cumsum(f_n[:, :2] * dt[s:e, None], axis=0)
     good = np.isfinite(fixes_t) & np.all(np.isfinite(fixes_enu[:, :2]), axis=1)
     ft, fe = fixes_t[good], fixes_enu[good, :2]
     if len(ft) < 3 or np.any(np.diff(ft) <= 0):
