@@ -149,3 +149,24 @@ def test_the_runtime_package_imports_neither_the_simulator_nor_ros_outside_its_n
         assert not names & {"imu_sim", "nav_bringup", "nav_eval"}, path.name
         if path.name != "sensor_health_node.py":
             assert not names & {"rclpy", "std_msgs", "sensor_msgs", "nav_msgs", "diagnostic_msgs"}, path.name
+
+
+def test_a_one_window_burst_on_two_channels_is_a_knock_not_a_noise_increase():
+    t, x = _drive(7, 120.0)
+    burst = (t >= 80.0) & (t < 81.0)
+    x[burst, 4:6] += np.random.default_rng(1).normal(0, 0.04, (burst.sum(), 2))  # variance x7 for one window
+    assert [e.effect for e in _run(x, t)] == []
+    lasting = t >= 80.0
+    x[lasting, 4] += np.random.default_rng(2).normal(0, 0.04, lasting.sum())
+    assert [e.effect for e in _run(x, t)] == ["white_noise_increase"]
+
+
+def test_span_ties_count_the_samples_at_a_recurring_extreme_only_where_the_window_reaches_it():
+    from sensor_health.window_stats import span_ties
+    x = np.tile(np.linspace(-1, 1, 16)[None, :, None], (12, 1, 6)) + np.arange(12)[:, None, None] * 1e-3
+    x[3, :4, 0] = 5.0   # four samples at the top in window 3
+    x[10, :2, 0] = 5.0  # the same top again in window 10: 6 in the span of windows 1..10
+    st = span_ties(x, span=10)
+    assert st.shape == (3, 6)
+    assert st[:, 0].tolist() == [0, 6, 0]  # window 10 reaches the recurring top (4 + 2 samples); 9 and 11 do not
+    assert (st[:, 1:] == 1).all()  # a ramp rising window by window: each window holds the span's top once

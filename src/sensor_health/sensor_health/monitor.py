@@ -32,6 +32,9 @@ from sensor_health.window_stats import CLIP_SPAN_WINDOWS, WindowGrid, detrend, s
 
 Z95 = 1.959964
 CLIP_ONSET_LOOK_S = 60.0
+NOISE_CONFIRM = 2
+"""Consecutive windows the noise CUSUM must stay over its threshold: a noise increase lasts; a one-window burst on
+several channels (a knock on the mount) is not one."""
 LINE_WARMUP_S = 30.0
 LINE_REFERENCE_S = 300.0
 LINE_CONFIRM = 3
@@ -97,6 +100,7 @@ class HealthMonitor:
         self.noise_start = np.full(6, np.nan)
         self.noise_active = np.zeros(6, bool)
         self.noise_quiet = np.zeros(6, int)
+        self.noise_over = np.zeros(6, int)
         self.noise_warm, self.noise_ref = [], np.zeros(6)
         self.line_last = np.full(6, -np.inf)
         self.clip_last = np.full(6, -np.inf)
@@ -214,7 +218,8 @@ class HealthMonitor:
         self.noise_quiet = np.where(s == 0, self.noise_quiet + 1, 0)
         clear = self.noise_active & (self.noise_quiet * th.window_s >= self.config.clear_s)
         self.noise_active &= ~clear
-        fired = np.flatnonzero((s > th.noise_h) & ~self.noise_active)
+        self.noise_over = np.where(s > th.noise_h, self.noise_over + 1, 0)
+        fired = np.flatnonzero((self.noise_over >= NOISE_CONFIRM) & ~self.noise_active)
         if len(fired) == 0:
             return []
         self.noise_active[fired] = True
@@ -347,10 +352,9 @@ class HealthMonitor:
         if self.clip_lattice_done or t1 - self.checked_s[0] < LINE_WARMUP_S:
             return
         self.clip_lattice_done = True
-        seen = thr.observed_lattice(self._hist_x)
         model = thr.model_lattice(self.model, self.dt)
-        seen = np.where(seen > 1e-6 * self.thr.sample_sigma, seen, 0.0)  # float output: no lattice
-        lattice = np.where(seen < model, seen, model)
+        seen = thr.observed_lattice(self._hist_x[self._hist_t <= t1], 1e-4 * self.thr.sample_sigma)
+        lattice = np.where(seen > 0, np.minimum(seen, model), model)
         if np.array_equal(lattice, model):
             return
         p_window = self.thr.budget_per_10h / thr.N_TESTS * self.thr.window_s / thr.SECONDS_PER_10H

@@ -176,13 +176,13 @@ def clip_threshold(sigma: np.ndarray, lattice: np.ndarray, n: int, p_window: flo
     return np.maximum.reduce([np.full(6, 3), ties.max(axis=0) + 2, np.ceil(tail).astype(int)]).astype(int)
 
 
-def observed_lattice(x: np.ndarray) -> np.ndarray:
-    """The smallest positive difference between distinct finite values of each channel of x (m, 6): the output's
-    lattice step as recorded (0 if fewer than two values)."""
+def observed_lattice(x: np.ndarray, floor: np.ndarray) -> np.ndarray:
+    """The smallest difference above ``floor`` (6,) between distinct finite values of each channel of x (m, 6): the
+    output's lattice step as recorded (float rounding of counts x lsb gives differences below it); 0 if none."""
     out = np.zeros(6)
     for c in range(6):
-        v = np.unique(x[np.isfinite(x[:, c]), c])
-        d = np.diff(v)
+        d = np.diff(np.unique(x[np.isfinite(x[:, c]), c]))
+        d = d[d > floor[c]]
         out[c] = d.min() if len(d) else 0.0
     return out
 
