@@ -75,7 +75,14 @@ def figures(forward: HorizontalErrors, smoothed: HorizontalErrors, windows) -> d
         ok = np.isfinite(e.std_m)
         out[f"{name}_inside_3sigma_fraction"] = float(np.mean(e.err_m[ok] <= 3.0 * e.std_m[ok])) if ok.any() \
             else float("nan")
-    return out
+    return {k: _none_for_nan(v) for k, v in out.items()}
+
+
+def _none_for_nan(value):
+    """``value`` with NaN as None (JSON null: no outage, or none with an epoch, has no largest error)."""
+    if isinstance(value, list):
+        return [_none_for_nan(v) for v in value]
+    return None if isinstance(value, float) and np.isnan(value) else value
 
 
 def plot(path, forward: HorizontalErrors, smoothed: HorizontalErrors, windows, title: str = "") -> Path:
