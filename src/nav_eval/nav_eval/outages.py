@@ -145,7 +145,8 @@ def evaluate_files(smoothed_csv, truth_csv, out_dir, forward_csv=None, windows=N
         windows = outages_from_updates(fwd.t, fwd.extra.get("gps_used", np.ones(len(fwd.t))))
     out = figures(e_fwd, e_smo, windows)
     out_dir = Path(out_dir)
-    plot(out_dir / "outages.png", e_fwd, e_smo, windows)
+    plot(out_dir / "outages.png", e_fwd, e_smo, windows, "" if windows else
+         f"Forward and smoothed horizontal error (no GNSS outage: no gap over {MIN_OUTAGE_S:g} s between updates)")
     write_report(out_dir / "outages.json", out)
     return out
 
