@@ -19,7 +19,7 @@ from nav_core.sensor_model import SensorModel, load as load_model
 
 from imu_sim import effects, kinematics
 from imu_sim.scenario import Scenario, build_trajectory, load as load_scenario, temperature_profile
-from imu_sim.simulate import simulate
+from imu_sim.simulate import _fit_length, imu_measurements, merge_physics, simulate
 
 CHANNELS = ("gyro_x", "gyro_y", "gyro_z", "accel_x", "accel_y", "accel_z")
 DETERMINISTIC_TERMS = ("bias", "scale_factor", "misalignment")
@@ -127,7 +127,7 @@ def make_case(rec: ImuRecording, sc: Scenario, model: SensorModel, gnss=None, wh
     if resets:
         notes.append("a separate turn-on bias per joined file (a step on every channel at each join is a nuisance)")
     return Case(rec, sc, model, t, 1.0 / rate, temp, gyro_true, accel_true, t_abs[:n], gnss, notes, masked=masked,
-                bias_resets=resets)
+                bias_resets=resets, cache={"traj": traj})
 
 
 def _check_uniform(rec: ImuRecording, where: str) -> None:
@@ -170,12 +170,38 @@ def _unrecorded_motion(rec, gyro_true, where, sc_where):
     return bad
 
 
+def trajectory(case: Case):
+    """The case's truth trajectory, built once (a truth CSV's read and spline fit take seconds)."""
+    if "traj" not in case.cache:
+        case.cache["traj"] = build_trajectory(case.scenario)
+    return case.cache["traj"]
+
+
 def deterministic(case: Case, model: SensorModel, stochastic: bool = False, seed: int = 0) -> np.ndarray:
-    """Simulated channels (n, 6) of ``model`` in the case's scenario; noise-free unless ``stochastic``."""
-    terms = None if stochastic else DETERMINISTIC_TERMS
-    res = simulate(case.scenario, model, seed=seed, terms=terms, with_bytes=False,
-                   temp_c=case.temp_c if _needs_temp(model) else None)
-    return np.column_stack([res.imu.gyro, res.imu.accel])[:case.n]
+    """Simulated channels (n, 6) of ``model`` in the case's scenario; noise-free unless ``stochastic``.
+
+    What :func:`imu_sim.simulate.simulate` computes for the IMU, on the case's trajectory and exact increments
+    built once per case (the simulator rebuilt them on every call: 3/4 of a diagnosis' time on a truth CSV)."""
+    sc = case.scenario
+    terms = sc.error_terms if stochastic else DETERMINISTIC_TERMS
+    temp_c = case.temp_c if _needs_temp(model) else None
+    if sc.faults:  # a faulty unit's output: the simulator's own path
+        res = simulate(sc, model, seed=seed, terms=terms, with_bytes=False, temp_c=temp_c)
+        return np.column_stack([res.imu.gyro, res.imu.accel])[:case.n]
+    base = model.copy()
+    base.physics = merge_physics(base.physics, sc.physics)
+    mdl = effects.apply_model_overrides(base)
+    traj = trajectory(case)
+    rate = float(sc.rate_hz)
+    dt = 1.0 / rate
+    key = ("increments", kinematics.Physics.from_effects(mdl.physics))
+    if key not in case.cache:
+        t = kinematics.sample_times(traj, rate)
+        case.cache[key] = (t, *kinematics.increments(traj, t, dt, key[1]))
+    t, dth0, dv0 = case.cache[key]
+    temp = temperature_profile(sc, t) if temp_c is None else _fit_length(np.asarray(temp_c, float), len(t))
+    dtheta, dv = imu_measurements(t, dt, dth0.copy(), dv0.copy(), mdl, mdl.physics, temp, int(seed), terms)
+    return np.column_stack([dtheta / dt, dv / dt])[:case.n]
 
 
 def _needs_temp(model: SensorModel) -> bool:
@@ -199,7 +225,7 @@ def kinematic_difference(case: Case, model: SensorModel, effect: str) -> np.ndar
     for phys in (with_effect, base):
         key = kinematics.Physics.from_effects(phys)
         if key not in case.cache:
-            traj = case.cache.setdefault("traj", build_trajectory(case.scenario))
+            traj = trajectory(case)
             dth, dv = kinematics.increments(traj, case.sim_t_abs, case.dt, key)
             case.cache[key] = np.column_stack([dth, dv]) / case.dt
             if case.masked is not None:

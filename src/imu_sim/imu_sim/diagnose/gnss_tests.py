@@ -25,8 +25,8 @@ from scipy import stats
 from nav_core.units import DEG
 
 from imu_sim.diagnose import noise_tests
+from imu_sim.diagnose.case import trajectory
 from imu_sim.gnss import GpsEffects, antenna_offset_n
-from imu_sim.scenario import build_trajectory
 
 AXES = "ENU"
 CHANNELS = ("gps_e", "gps_n", "gps_u")
@@ -59,7 +59,7 @@ def gnss_residual(case, model) -> GnssResidual | None:
     g = case.gnss
     if g is None:
         return None
-    traj = case.cache.setdefault("traj", build_trajectory(case.scenario))
+    traj = trajectory(case)
     offset_t = case.sim_t_abs[0] - case.rec.t[0]
     ok = (g.status >= 0) & np.isfinite(g.lat) & np.isfinite(g.lon) & np.isfinite(g.h)
     t_abs = g.t[ok] + offset_t

@@ -13,7 +13,7 @@ from __future__ import annotations
 import numpy as np
 from scipy.ndimage import median_filter
 
-from imu_sim.scenario import build_trajectory
+from imu_sim.diagnose.case import trajectory
 
 F_MECH_HZ = 1.0
 """Lowest frequency (Hz) searched for a vibration line: below it no mechanical source of a sensor mount."""
@@ -32,7 +32,7 @@ def moving_file_truth(case) -> bool:
     if getattr(case.scenario, "source", None) not in FILE_SOURCES:
         return False
     if "moving_file_truth" not in case.cache:
-        traj = case.cache.setdefault("traj", build_trajectory(case.scenario))
+        traj = trajectory(case)
         speed = np.linalg.norm(traj.position.enu(case.sim_t_abs, 1), axis=1)
         case.cache["moving_file_truth"] = bool(np.max(speed) > MOVING_MPS)
     return case.cache["moving_file_truth"]

@@ -18,8 +18,7 @@ from nav_core.earth import RATE as EARTH_RATE, normal_gravity
 from nav_core.sensor_model import SensorModel
 from nav_core.units import G0
 
-from imu_sim.diagnose.case import Case, effective_model, kinematic_difference
-from imu_sim.scenario import build_trajectory
+from imu_sim.diagnose.case import Case, effective_model, kinematic_difference, trajectory
 
 AXES = "xyz"
 TAU_GRID_PER_DECADE = 8
@@ -183,7 +182,7 @@ def physical_value(effect: str, theta: np.ndarray, ci: np.ndarray, case: Case) -
             "earth_rate_rad_per_s": (ci[0] * EARTH_RATE).tolist()}
     if effect == "gravity_model":
         # the site from the trajectory itself: a truth CSV's scenario has no latitude_deg / height_m of its own
-        traj = case.cache.setdefault("traj", build_trajectory(case.scenario))
+        traj = trajectory(case)
         lat, _, h = traj.geodetic(np.array([case.sim_t_abs[0]]))
         dg = float(normal_gravity(float(lat[0]), float(h[0])) - G0)
         return ({"gravity_mps2": G0 + float(theta[0]) * dg},
