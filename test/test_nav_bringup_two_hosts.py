@@ -38,6 +38,11 @@ def test_sensor_data_crossing_the_link_is_reliable_and_kept_for_a_cut():
     assert by_name["ins_gps_kf_node"] == {"qos_overrides./gps/fix.subscription.reliability": "reliable"}
     assert by_name["allan_node"] == {"out_dir": "a"}  # best effort: it may lose a cut's samples
     assert not any(k.startswith("qos_overrides") for k in demo.filter_params(PARAMS_FILE, hosts.link_qos(specs)))
+    env = hosts.discovery_env({"ROS_LOCALHOST_ONLY": "1", "ROS_AUTOMATIC_DISCOVERY_RANGE": "LOCALHOST"})
+    assert env["ROS_AUTOMATIC_DISCOVERY_RANGE"] == "SUBNET" and "ROS_LOCALHOST_ONLY" not in env
+    assert env["FASTRTPS_DEFAULT_PROFILES_FILE"].endswith(hosts.FASTDDS_PROFILE)  # lease 60 s, heartbeat 0.1 s
+    assert "<heartbeatPeriod>" in open(env["FASTRTPS_DEFAULT_PROFILES_FILE"]).read()
+    assert hosts.discovery_env({"FASTRTPS_DEFAULT_PROFILES_FILE": "own.xml"})["FASTRTPS_DEFAULT_PROFILES_FILE"] == "own.xml"
 
 
 def test_stale_input_turns_the_status_to_a_warning_saying_for_how_long():

@@ -4,7 +4,8 @@ host's bag (everything there was received on the compute host, log times on its 
 Figures (``summary.json``): ``hosts``, ``link_cuts`` (``{at_s, for_s}``, simulated seconds from the start of the
 drive), ``odometry_max_gap_s`` (the longest time between two odometry messages the compute host received, by
 their log times), ``gnss_resumed_after_s`` (per cut: from the link's return to the first filter status that
-counts a fix fused after it; the status comes once a simulated second, so this is an upper bound within 1 s),
+counts more fixes than any status before it; the status comes once a simulated second, so this is an upper
+bound within 1 s),
 ``input_stale_max_s`` (the longest input staleness the filter reported through the cuts, its steady-clock s),
 ``live_vs_offline_max_m`` and ``horizontal_rms_m`` (the report's: live odometry against the offline replay of
 this bag, and against the truth),
@@ -74,7 +75,9 @@ def link_figures(run_dir: Path, cuts: list, epoch_s: float, sim_dir=None) -> dic
     for cut in cuts:
         at, back = epoch_s + cut["at_s"], epoch_s + cut["restored_at_s"]
         stale += [s for t, _, s in diag if at <= t <= back + STALE_AFTER_S]
-        before = max((f for t, f, _ in diag if t <= at), default=0)
+        # every fix fused before the link returned counts as before, those queued before the cut and fused in it
+        # too (the status then comes on the steady clock, logged at the stopped simulated time)
+        before = max((f for t, f, _ in diag if t <= back), default=0)
         after = next((t for t, f, _ in diag if t > back and f > before), None)
         resumed.append(None if after is None else round(after - back, 3))
     summary = _summary(run_dir)
