@@ -17,8 +17,8 @@ def _same(a, b) -> bool:
     return a == b or (isinstance(a, float) and isinstance(b, float) and math.isnan(a) and math.isnan(b))
 
 
-def _status(seconds=60.0):
-    cfg = config.from_params({"alignment_time_s": 10.0})
+def _status(seconds=60.0, **params):
+    cfg = config.from_params({"alignment_time_s": 10.0, **params})
     filt = InsGpsFilter(cfg)
     intake = StampOrderIntake(filt, 0.1, 1.0, cfg.imu_rate_hz)
     motion = synthetic.straight(still_s=15.0, accel_s=5.0, cruise_s=seconds - 20.0)
@@ -68,3 +68,10 @@ def test_an_older_or_partial_status_still_parses_with_defaults():
     back = FilterStatus.from_values({"fixes": "7", "first_imu_stamp_s": "", "last_nis": "nan", "gps_age_s": "x"})
     assert back.fixes == 7 and back.first_imu_stamp_s is None and math.isnan(back.last_nis)
     assert back.gps_age_s == math.inf and back.input.gps_jumps == 0
+
+
+def test_an_odometer_that_sends_nothing_is_said_and_its_counts_are_in_the_status():
+    st, _ = _status(30.0, odometer_enabled=True)
+    assert st.level == "WARN" and "odometer on but no wheel speed received" in st.message
+    assert (st.wheel_speeds_received, st.odometer_updates, st.odometer_scale_pct) == (0, 0, 0.0)
+    assert _status(30.0)[0].odometer_scale_pct is None  # off: no scale to report

@@ -85,22 +85,10 @@ def filter_status(filt, intake, first_imu_t=None, first_fix_t=None, bad_imu_mess
                   processing_errors=0, last_processing_error="", bad_odometer_messages=0) -> FilterStatus:
     """The status of ``filt`` (:class:`ins_gps_kf.filter.InsGpsFilter`) behind ``intake``
     (:class:`ins_gps_kf.intake.StampOrderIntake`), with the node's own counts; level and message included."""
-    st = _status(filt, intake, first_imu_t, first_fix_t, bad_imu_messages, nonfinite_estimates, processing_errors,
-                 last_processing_error)
-    c, ic = filt.counters, intake.counters
-    st.wheel_speeds_received, st.late_odometer, st.bad_odometer_messages = (ic.wheel_speeds, ic.late_odometer,
-                                                                            bad_odometer_messages)
-    st.odometer_updates, st.odometer_rejected = c.odometer_updates, c.odometer_rejected
-    st.odometer_scale_pct = 100.0 * filt.odometer.scale if filt.cfg.odometer_enabled else None
-    return st
-
-
-def _status(filt, intake, first_imu_t, first_fix_t, bad_imu_messages, nonfinite_estimates, processing_errors,
-            last_processing_error) -> FilterStatus:
     c, ic, cfg = filt.counters, intake.counters, filt.cfg
     age = (intake.last_t - filt.last_fix_t) if intake.last_t is not None else math.inf
     level, message = _level(filt, age, ic.dropped, nonfinite_estimates, processing_errors)
-    return FilterStatus(
+    st = FilterStatus(
         level, message, filt.status, filt.last_nis, c.fixes, c.fixes_rejected, c.fixes_invalid, c.fixes_reused,
         c.gps_resets, age, c.zupts, c.nhc_updates, c.nhc_rejected, *filt.nhc.mounting_deg(), c.epochs,
         ("aligned" if filt.alignment is not None else
@@ -113,6 +101,14 @@ def _status(filt, intake, first_imu_t, first_fix_t, bad_imu_messages, nonfinite_
         dataclasses.replace(filt.input),
         filt.alignment.roll / DEG if filt.alignment is not None else None,
         filt.alignment.pitch / DEG if filt.alignment is not None else None)
+    st.wheel_speeds_received, st.late_odometer, st.bad_odometer_messages = (ic.wheel_speeds, ic.late_odometer,
+                                                                            bad_odometer_messages)
+    st.odometer_updates, st.odometer_rejected = c.odometer_updates, c.odometer_rejected
+    st.odometer_scale_pct = 100.0 * filt.odometer.scale if cfg.odometer_enabled else None
+    if cfg.odometer_enabled and not ic.wheel_speeds and filt.status == NAVIGATING:  # a topic or type mistaken
+        st.level = "WARN"
+        st.message += "; odometer on but no wheel speed received (odometer_topic, odometer_msg_type?)"
+    return st
 
 
 def _level(filt, age, dropped, nonfinite, errors) -> tuple[str, str]:
