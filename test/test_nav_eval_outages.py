@@ -6,6 +6,7 @@ from conftest import wheel_motion
 from ins_gps_kf import synthetic as syn
 from ins_gps_kf.replay import main
 from nav_core import recording
+from nav_eval.cli import main as nav_eval_main
 
 
 def test_evaluate_scores_forward_and_smoothed_through_an_outage_found_in_the_forward_run(wheel_drive, tmp_path,
@@ -23,6 +24,9 @@ def test_evaluate_scores_forward_and_smoothed_through_an_outage_found_in_the_for
     assert main(["evaluate", "--trajectory", str(out), "--truth", str(truth_csv), "--out", str(tmp_path / "eval")]) == 0
     figures = json.loads(capsys.readouterr().out)
     assert figures == json.loads((tmp_path / "eval" / "outages.json").read_text())
+    # nav-eval, the command the issue names, is the same command
+    assert nav_eval_main(["--trajectory", str(out), "--truth", str(truth_csv), "--out", str(tmp_path / "ne")]) == 0
+    assert json.loads(capsys.readouterr().out) == figures
     assert (tmp_path / "eval" / "outages.png").stat().st_size > 10000
     (t0, t1), = figures["outages"]
     assert 33.9 <= t0 <= 35.0 and 50.0 <= t1 <= 50.1  # from the last update before to the first after

@@ -17,5 +17,6 @@ setup(
     entry_points={
         # `ins-gps-kf evaluate`: a subcommand added to ins_gps_kf's CLI, which does not import this package
         "ins_gps_kf.cli": ["evaluate = nav_eval.cli:add_parser"],
+        "console_scripts": ["nav-eval = nav_eval.cli:main"],
     },
 )

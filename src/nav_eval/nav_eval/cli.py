@@ -1,4 +1,4 @@
-"""``ins-gps-kf evaluate``: accuracy figures and plots on a simulated or real dataset, or of a smoothed replay's
+"""``nav-eval`` (also ``ins-gps-kf evaluate``): accuracy figures and plots on a simulated or real dataset, or of a smoothed replay's
 trajectories through GNSS outages against a truth (``--trajectory``, :mod:`nav_eval.outages`); JSON on stdout.
 
 Registered as a plugin of the ``ins-gps-kf`` CLI (entry point group ``ins_gps_kf.cli``), so the
@@ -6,21 +6,44 @@ runtime package ``ins_gps_kf`` offers the command without importing the evaluati
 """
 from __future__ import annotations
 
+import argparse
 import json
 
-from nav_core.cli import about
+from nav_core.cli import about, add_common, parse_args, run_cli
 from nav_core.recording import RecordingError
 
 DATASETS = ("paper-sim", "katwijk", "canada", "balzer")
 
 
+PURPOSE = "Measure the filter's accuracy on the simulated paper drive or a real recording: JSON figures and plots."
+EXAMPLES = ("evaluate --dataset katwijk --out out/eval_katwijk",
+            "evaluate --dataset paper-sim --claims --seed 1 --out out/claims",
+            "evaluate --trajectory out/smoothed.csv --truth truth.csv --out out/eval_outages")
+
+
 def add_parser(subparsers) -> None:
     """Add the ``evaluate`` subcommand to the ``ins-gps-kf`` parser; it runs :func:`evaluate`."""
-    ev = subparsers.add_parser("evaluate", help="accuracy figures and plots on a simulated or real dataset", **about(
-        "Measure the filter's accuracy on the simulated paper drive or a real recording: JSON figures and plots.",
-        "ins-gps-kf evaluate --dataset katwijk --out out/eval_katwijk",
-        "ins-gps-kf evaluate --dataset paper-sim --claims --seed 1 --out out/claims",
-        "ins-gps-kf evaluate --trajectory out/smoothed.csv --truth truth.csv --out out/eval_outages"))
+    ev = subparsers.add_parser("evaluate", help="accuracy figures and plots on a simulated or real dataset",
+                               **about(PURPOSE, *(f"ins-gps-kf {e}" for e in EXAMPLES)))
+    _add_arguments(ev)
+
+
+def build_parser() -> argparse.ArgumentParser:
+    """The ``nav-eval`` parser: the same arguments as ``ins-gps-kf evaluate``."""
+    parser = argparse.ArgumentParser(prog="nav-eval", **about(
+        PURPOSE, *(f"nav-eval {e.removeprefix('evaluate ')}" for e in EXAMPLES)))
+    _add_arguments(parser)
+    add_common(parser)
+    return parser
+
+
+def main(argv=None) -> int:
+    """Console script ``nav-eval`` (the same command as ``ins-gps-kf evaluate``)."""
+    return run_cli("nav-eval", evaluate, parse_args(build_parser(), argv))
+
+
+def _add_arguments(ev) -> None:
+    """The evaluation's options on parser ``ev``."""
     ev.add_argument("--dataset", choices=DATASETS, help="a dataset to run the filter on (or --trajectory)")
     ev.add_argument("--trajectory", metavar="OUT.csv", help="the smoothed trajectory of ins-gps-kf replay --smooth "
                     "(OUT.forward.csv beside it is the forward one): forward and smoothed horizontal errors with "
