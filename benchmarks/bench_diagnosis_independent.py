@@ -8,6 +8,13 @@ user types them), model.yaml (what the user believes) and, for drives, gnss.csv;
 Scores: right effect first, interval coverage of the true parameters, findings on the null cases.
 The ``null_single_naive`` case is chained like a user: ``imu-calib allan`` on the recording writes the model.
 Seeds 7000.. (effects) and 8000.. (nulls): neither the calibration (5000..) nor the own suite (1000.., 3000..).
+
+``--realistic`` gives every case the input properties a real user's data has (issue 24): the model states each
+noise level only to within +-10 %; the bias instability is flicker noise (two-sided PSD B^2 / (2 pi f)), stated in
+the model (to +-10 %); fixtures (tumble poses, the static and up/down holds) are off their nominal attitude by up
+to ATTITUDE_TOL_DEG while the user's truth states the nominal one; a drive's truth.csv is at 10 Hz and carries a
+slow position error (5-30 cm, periods 30-600 s) and a slow attitude error, as from smoothing a noisy GNSS track;
+the rate table is typed as static_segments (its holds), so the simulator's own ramp shape differs from the table's.
 """
 from __future__ import annotations
 
@@ -26,6 +33,17 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 import independent_gen as gen  # noqa: E402
 
 SITE = (51.0784, -114.13, 1100.0)
+REALISTIC = False
+"""Set by ``--realistic`` (see the module docstring)."""
+NOISE_MISSTATED = 0.10
+"""Largest relative error of a noise level the user's model states (realistic cases)."""
+GYRO_FLICKER, ACCEL_FLICKER = 2e-5, 1e-4
+"""Flicker bias instability B of the realistic cases, rad/s and m/s^2 (corner with the white noise near 1.6 mHz)."""
+RW_REALISTIC = 5.0
+"""The realistic random-walk case's walk is this many times larger: 6e-7 rad/s/sqrt(s) is buried under the flicker
+bias instability over the whole 2-h record (their PSDs cross near 1e-4 Hz), so no method could name it."""
+ATTITUDE_TOL_DEG = 1.0
+"""A realistic fixture is off its nominal attitude by up to this, per angle (the scenario's default tolerance)."""
 GYRO_WHITE, ACCEL_WHITE = 2e-4, 1e-3
 """White noise of every case, rad/s/sqrt(s) and m/s/sqrt(s) (the own suite's)."""
 TUMBLE_POSES = [(0, 0, 0), (180, 0, 40), (0, -89, 80), (0, 89, 130), (90, 0, 200), (-90, 0, 270), (0, 0, 90),
@@ -95,10 +113,12 @@ def generate(name: str, seed: int, folder: Path) -> dict:
     rng = np.random.default_rng(seed)
     site = gen.Site(*SITE)
     motion, rate, truth_rate = motion_of(kind)
+    real = np.random.default_rng([seed, 24]) if REALISTIC else None
     if kind == "updown":
-        return _updown(site, rng, folder, effect)
+        return _updown(site, rng, folder, effect, real)
     dt = 1.0 / rate
-    t, gyro, accel = site.true_imu(motion, rate)
+    true_motion = _off_nominal(motion, real) if real is not None and kind != "drive" and kind != "table" else motion
+    t, gyro, accel = site.true_imu(true_motion, rate)
     n = len(t)
     gyro_out, accel_out = gyro.copy(), accel.copy()
     temp = None
@@ -125,13 +145,17 @@ def generate(name: str, seed: int, folder: Path) -> dict:
         gyro_out += gen.gauss_markov(rng, n, dt, [par["gyro"]] * 3, par["tau"])
         accel_out += gen.gauss_markov(rng, n, dt, [par["accel"]] * 3, par["tau"])
     elif effect == "bias_random_walk":
-        gyro_out += np.cumsum(rng.normal(0, par["gyro"] * np.sqrt(dt), (n, 3)), axis=0)
-        accel_out += np.cumsum(rng.normal(0, par["accel"] * np.sqrt(dt), (n, 3)), axis=0)
+        k = RW_REALISTIC if real is not None else 1.0
+        gyro_out += np.cumsum(rng.normal(0, k * par["gyro"] * np.sqrt(dt), (n, 3)), axis=0)
+        accel_out += np.cumsum(rng.normal(0, k * par["accel"] * np.sqrt(dt), (n, 3)), axis=0)
     if kind == "static_rw":  # the naive-model null: the sensor has a rate random walk the user's model must learn
         gyro_out += np.cumsum(rng.normal(0, 6e-7 * np.sqrt(dt), (n, 3)), axis=0)
         accel_out += np.cumsum(rng.normal(0, 3e-6 * np.sqrt(dt), (n, 3)), axis=0)
     gyro_out += rng.normal(0, GYRO_WHITE / np.sqrt(dt), (n, 3))
     accel_out += rng.normal(0, ACCEL_WHITE / np.sqrt(dt), (n, 3))
+    if real is not None:
+        gyro_out += gen.flicker(real, n, dt, [GYRO_FLICKER] * 3)
+        accel_out += gen.flicker(real, n, dt, [ACCEL_FLICKER] * 3)
     # turn-on biases: present in every real sensor, unknown to the user (a nuisance for the diagnosis)
     gyro_out += rng.normal(0, 1e-3, 3)
     accel_out += rng.normal(0, 2e-2, 3)
@@ -148,6 +172,12 @@ def generate(name: str, seed: int, folder: Path) -> dict:
         scenario.update(latitude_deg=SITE[0], longitude_deg=SITE[1], height_m=SITE[2], gps=False,
                         static_segments=[{"t0": 0.0, "t1": float(motion.duration_s), "roll_deg": 0.0,
                                           "pitch_deg": 0.0, "yaw_deg": 0.0}])
+    elif real is not None and kind == "table":
+        scenario.update(latitude_deg=SITE[0], longitude_deg=SITE[1], height_m=SITE[2], gps=False,
+                        static_segments=_table_holds(motion))
+    elif real is not None and kind == "drive":
+        gen.write_csv(folder / "truth.csv", _smoothed_gnss_truth(site, motion, real))
+        scenario.update(trajectory="truth.csv", gps=False)
     else:
         gen.write_csv(folder / "truth.csv", site.truth_rows(motion, truth_rate))
         scenario.update(trajectory="truth.csv", gps=False)
@@ -156,8 +186,44 @@ def generate(name: str, seed: int, folder: Path) -> dict:
         paths["gnss"] = _gnss(site, motion, rng, folder, effect, par)
     paths["scenario"] = folder / "scenario.yaml"
     paths["scenario"].write_text(yaml.safe_dump(scenario, sort_keys=False))
-    paths["model"] = _model(folder, rate, effect, kind)
+    paths["model"] = _model(folder, rate, effect, kind, real)
     return paths
+
+
+def _off_nominal(motion, real):
+    """The poses a real fixture holds: each nominal pose off by up to ATTITUDE_TOL_DEG per angle."""
+    poses = np.degrees(motion.poses) + real.uniform(-ATTITUDE_TOL_DEG, ATTITUDE_TOL_DEG, motion.poses.shape)
+    return gen.Poses(poses, motion.hold_s, motion.move_s)
+
+
+def _table_holds(table) -> list:
+    """The rate table as a user types it: static_segments of its constant-rate holds (yaw at each hold's start
+    to 0.1 deg, as the table's encoder gives it); the ramps between them are the simulator's own."""
+    segs = [{"t0": 0.0, "t1": float(table.rest_s), "roll_deg": 0.0, "pitch_deg": 0.0, "yaw_deg": 0.0,
+             "rate_dps": 0.0}]
+    for k, r in enumerate(np.degrees(table.rates[1:])):
+        t0 = table.rest_s + k * table.seg + table.ramp_s
+        (_, _, yaw), _ = table.attitude(np.array([t0]))
+        segs.append({"t0": float(t0), "t1": float(t0 + table.hold_s), "roll_deg": 0.0, "pitch_deg": 0.0,
+                     "yaw_deg": round(float((np.degrees(yaw[0]) + 180.0) % 360.0 - 180.0), 1),
+                     "rate_dps": float(r)})
+    return segs
+
+
+def _smoothed_gnss_truth(site, motion, real) -> dict:
+    """A drive's truth at 10 Hz with the slow errors of a track smoothed from noisy GNSS: position 5-30 cm and
+    attitude 0.05-0.3 deg, periods 30-600 s (velocity the position error's derivative)."""
+    rows = site.truth_rows(motion, 10.0)
+    t = rows["t"]
+    pos, vel, _ = gen.slow_wander(real, t, (0.05, 0.30), (30.0, 600.0))
+    att, _, _ = gen.slow_wander(real, t, (0.05, 0.30), (30.0, 600.0))
+    enu = site.enu_offset(np.radians(rows["lat_deg"]), np.radians(rows["lon_deg"]), rows["h_m"]) + pos
+    lat, lon, h = gen.geodetic_from_ecef(site.r0 + enu @ site.c_e_enu0.T)
+    rows.update(lat_deg=np.degrees(lat), lon_deg=np.degrees(lon), h_m=h, ve=rows["ve"] + vel[:, 0],
+                vn=rows["vn"] + vel[:, 1], vu=rows["vu"] + vel[:, 2], roll_deg=rows["roll_deg"] + att[:, 0],
+                pitch_deg=rows["pitch_deg"] + att[:, 1],
+                yaw_deg=(rows["yaw_deg"] + att[:, 2] + 180.0) % 360.0 - 180.0)
+    return rows
 
 
 def _gnss(site, motion, rng, folder, effect, par):
@@ -177,39 +243,52 @@ def _gnss(site, motion, rng, folder, effect, par):
     return gen.write_csv(folder / "gnss.csv", cols)
 
 
-def _updown(site, rng, folder, effect):
+def _updown(site, rng, folder, effect, real=None):
     """Navigation-grade static run at 64 Hz: x axis up 300 s, a recorded 10-s turn, x down 300 s; truth CSV at 64 Hz."""
     rate, hold = 64.0, 300.0
     motion = gen.Poses([(0, -90, 0), (0, 90, 0)], hold, 10.0)
-    t, gyro, accel = site.true_imu(motion, rate)
+    t, gyro, accel = site.true_imu(motion if real is None else _off_nominal(motion, real), rate)
     n = len(t)
     gw, aw = 2e-6, 2e-5  # ring-laser-grade white noise, rad/s/sqrt(s), m/s/sqrt(s)
     gyro = gyro + rng.normal(0, gw * np.sqrt(rate), (n, 3)) + rng.normal(0, 1e-7, 3)
     accel = accel + rng.normal(0, aw * np.sqrt(rate), (n, 3)) + rng.normal(0, 1e-4, 3)
+    if real is not None:
+        gyro += gen.flicker(real, n, 1.0 / rate, [gw / 10] * 3)
+        accel += gen.flicker(real, n, 1.0 / rate, [aw / 10] * 3)
     cols = {"t": t, "gx": gyro[:, 0], "gy": gyro[:, 1], "gz": gyro[:, 2], "ax": accel[:, 0], "ay": accel[:, 1],
             "az": accel[:, 2]}
     paths = {"recording": gen.write_csv(folder / "imu.csv", cols)}
     gen.write_csv(folder / "truth.csv", site.truth_rows(motion, rate))
     paths["scenario"] = folder / "scenario.yaml"
     paths["scenario"].write_text(yaml.safe_dump({"trajectory": "truth.csv", "rate_hz": rate, "gps": False}))
-    from nav_core.sensor_model import SensorModel, TriadModel, save
-    model = SensorModel(gyro=TriadModel(white_noise=np.full(3, gw)), accel=TriadModel(white_noise=np.full(3, aw)),
-                        sample_rate_hz=rate, physics={"gravity_model": {}, "coriolis": {}})
+    from nav_core.sensor_model import SensorModel, save
+    model = SensorModel(gyro=_triad(gw, gw / 10, real), accel=_triad(aw, aw / 10, real), sample_rate_hz=rate,
+                        physics={"gravity_model": {}, "coriolis": {}})
     paths["model"] = save(model, folder / "model.yaml")
     return paths
 
 
-def _model(folder, rate, effect, kind):
+def _triad(white, flicker, real):
+    """The user's statement of one triad's noise: exact without ``real``, else each level within
+    +-NOISE_MISSTATED and the flicker bias instability stated too."""
+    from nav_core.sensor_model import TriadModel
+    if real is None:
+        return TriadModel(white_noise=np.full(3, white))
+    err = real.uniform(1 - NOISE_MISSTATED, 1 + NOISE_MISSTATED, (2, 3))
+    return TriadModel(white_noise=white * err[0], bias_instability=flicker * err[1])
+
+
+def _model(folder, rate, effect, kind, real=None):
     """The user's model: white noise and the full Earth model, less the concealed Earth-model term."""
-    from nav_core.sensor_model import SensorModel, TriadModel, save
+    from nav_core.sensor_model import SensorModel, save
     if kind == "static_rw":
         from imu_calib.cli import main as calib_main
         calib_main(["allan", str(folder / "imu.csv"), "--out", str(folder / "calib"), "--no-progress"])
         return folder / "calib" / "sensor_model.yaml"
     physics = {"earth_rotation": {}, "gravity_model": {}, "coriolis": {}}
     physics.pop(effect, None)
-    model = SensorModel(gyro=TriadModel(white_noise=np.full(3, GYRO_WHITE)),
-                        accel=TriadModel(white_noise=np.full(3, ACCEL_WHITE)), sample_rate_hz=rate, physics=physics)
+    model = SensorModel(gyro=_triad(GYRO_WHITE, GYRO_FLICKER, real), accel=_triad(ACCEL_WHITE, ACCEL_FLICKER, real),
+                        sample_rate_hz=rate, physics=physics)
     return save(model, folder / "model.yaml")
 
 
@@ -229,7 +308,9 @@ def run_case(name: str, seed: int, max_effects: int = 2) -> dict:
            "significant": [t["effect"] for t in res["tested"] if t["significant"]]}
     if first and first["effect"] == effect:
         cover = []
+        scale = RW_REALISTIC if REALISTIC and name == "bias_random_walk" else 1.0
         for par, true in TRUE.get(name, {}).items():
+            true *= scale
             if par in first["intervals"]:
                 lo, hi = first["intervals"][par]
                 cover.append(bool(lo <= true <= hi))
@@ -283,7 +364,12 @@ def main(argv=None) -> int:
     parser.add_argument("--out", default="/tmp/diag_independent")
     parser.add_argument("--resume", default=None, help="rows.json of an earlier run of the same code to reuse")
     parser.add_argument("--quick", action="store_true", help="1 seed of one effect and one null (a smoke run)")
+    parser.add_argument("--realistic", action="store_true",
+                        help="misstated noise, flicker bias instability, off-nominal fixtures, a 10-Hz drive truth with "
+                             "slow error, the rate table typed as its holds (module docstring)")
     args = parser.parse_args(argv)
+    global REALISTIC
+    REALISTIC = args.realistic
     if args.quick:
         args.seeds, args.null_seeds, args.cases = 1, 1, args.cases or ["gravity_model", "null_tumble"]
     names = args.cases or list(NULLS) + list(CASES)

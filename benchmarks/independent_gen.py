@@ -289,6 +289,33 @@ def gauss_markov(rng, n: int, dt: float, sigma, tau_s):
     return x
 
 
+def flicker(rng, n: int, dt: float, b) -> np.ndarray:
+    """Flicker (1/f) noise (n, k) with two-sided PSD b^2 / (2 pi |f|) (one-sided b^2 / (pi f)), by shaping white
+    noise in the frequency domain over 8 n samples (so the record holds power below 1/(n dt)) and keeping n."""
+    b = np.atleast_1d(np.asarray(b, float))
+    m = 8 * n
+    spec = np.fft.rfft(rng.normal(size=(m, len(b))), axis=0)
+    f = np.fft.rfftfreq(m, dt)
+    gain = np.zeros_like(f)
+    gain[1:] = np.sqrt(1.0 / (2 * np.pi * f[1:] * dt))  # white N(0, 1) samples have two-sided PSD dt
+    x = np.fft.irfft(spec * gain[:, None], n=m, axis=0)[:n]
+    return x * b
+
+
+def slow_wander(rng, t, amp_range, period_range, k: int = 3) -> np.ndarray:
+    """Sum of ``k`` sinusoids per column (3 columns): amplitudes and periods drawn uniformly in the ranges, random
+    phases; returns the value and its first two derivatives, each (n, 3)."""
+    out = np.zeros((3, len(t), 3))
+    for col in range(3):
+        for _ in range(k):
+            a, p, ph = rng.uniform(*amp_range) / np.sqrt(k), rng.uniform(*period_range), rng.uniform(0, 2 * np.pi)
+            w = 2 * np.pi / p
+            out[0, :, col] += a * np.sin(w * t + ph)
+            out[1, :, col] += a * w * np.cos(w * t + ph)
+            out[2, :, col] -= a * w**2 * np.sin(w * t + ph)
+    return out
+
+
 def interval_mean_sin(t_end, dt, freq_hz, phase):
     """Mean of sin(2 pi f t + phase) over each (t - dt, t]."""
     w = 2 * np.pi * freq_hz

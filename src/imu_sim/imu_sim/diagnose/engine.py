@@ -27,7 +27,7 @@ from imu_sim.diagnose.case import CHANNELS, Case, residual
 from imu_sim.diagnose.effect_tests import TESTS
 from imu_sim.diagnose.heldout import fit_metric
 from imu_sim.diagnose.ranking import rank_low_frequency
-from imu_sim.diagnose.spectral import Whitener
+from imu_sim.diagnose.spectral import Whitener, noise_psd
 
 __all__ = ["Candidate", "Diagnosis", "diagnose", "evaluate"]
 MIN_GAIN = 2e-4
@@ -47,7 +47,8 @@ def evaluate(case: Case, model: SensorModel, resid: np.ndarray, exclude=(), fact
     """
     factors = load_calibration() if factors is None else factors
     resid = reference.clean(case, resid)
-    ctx = Context(case, model, resid, Whitener.from_model(model, resid, case.dt), np.fft.rfft(resid, axis=0),
+    psd = reference.with_reference_error(case, resid, noise_psd(model, np.fft.rfftfreq(case.n, case.dt), case.dt))
+    ctx = Context(case, model, resid, Whitener.from_psd(psd, resid, case.dt), np.fft.rfft(resid, axis=0),
                   len(EFFECTS), factors)
     gnss = {c.effect: c for c in gnss_candidates.candidates(case, model, ctx.m_tests, factors, exclude)}
     out = [gnss[effect] if effect in GNSS_EFFECTS else TESTS[effect](ctx) for effect in EFFECTS
@@ -55,6 +56,8 @@ def evaluate(case: Case, model: SensorModel, resid: np.ndarray, exclude=(), fact
     for cand in out:
         if cand.effect == "coriolis" and cand.identifiable is False and "constant" in cand.reason:
             cand.reason = "the truth has no velocity here (static): Coriolis cannot show"
+        if cand.kind == "noise" and reference.moving_file_truth(case):
+            cand.identifiable, cand.reason = False, reference.NOT_SEPARABLE
         _rank_known_constant(cand)
     rank_low_frequency(ctx, out)
     return out

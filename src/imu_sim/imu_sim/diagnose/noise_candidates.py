@@ -8,9 +8,34 @@ from __future__ import annotations
 import numpy as np
 from scipy import stats
 
-from imu_sim.diagnose import local_level, noise_tests
+from imu_sim.diagnose import local_level, noise_tests, robust_noise
 from imu_sim.diagnose.candidate import Candidate, Context, threshold
 from imu_sim.diagnose.case import CHANNELS, effective_model
+
+
+ROBUST_TEXT = ("per channel the smaller of it and the Whittle likelihood ratio against a free white level, the "
+               f"model's other noise levels within +-{100 * robust_noise.NOISE_TOLERANCE:g} % and its bias "
+               "instability as flicker noise (a misstated noise model and a flicker bias instability are no finding)")
+
+
+def robust_lr(ctx: Context, effect: str, taus, lr_ch: np.ndarray, cut: float) -> np.ndarray:
+    """Per channel (6,) the smaller of ``lr_ch`` and the term's likelihood ratio against the robust null of
+    :mod:`robust_noise` (detrended block means; a Gauss-Markov bias' correlation time profiled over ``taus``),
+    the latter computed only where ``lr_ch`` exceeds ``cut`` (elsewhere the minimum is ``lr_ch`` already small)."""
+    out = np.asarray(lr_ch, float).copy()
+    need = [c for c in range(6) if out[c] > cut]
+    if not need:
+        return out
+    case = ctx.case
+    m = noise_tests.block_interval(case.n)
+    tb = m * case.dt
+    xb = noise_tests.detrended(noise_tests.block_means(ctx.resid, m))
+    freqs, pgram = noise_tests.periodogram(xb, tb)
+    extras = ([noise_tests.rw_extra(freqs)] if effect == "bias_random_walk"
+              else [noise_tests.gm_extra(freqs, tc) for tc in taus])
+    for c in need:
+        out[c] = min(out[c], robust_noise.extra_lr(pgram[:, c], freqs, ctx.model, c, extras)[0])
+    return out
 
 
 def _random_walk(ctx: Context):
@@ -23,11 +48,13 @@ def _random_walk(ctx: Context):
     if bgs is None:
         return None
     fits = [local_level.fit(yb[:, c], tb, bgs[c]) for c in range(6)]
-    lr_ch = np.array([f.lr for f in fits])
-    cand = Candidate("bias_random_walk", float(lr_ch.sum()), threshold(6, ctx.m_tests, 1, ctx.factor("bias_random_walk")),
+    cut = stats.chi2.isf(0.01, 2)
+    lr_ch = robust_lr(ctx, "bias_random_walk", None, np.array([f.lr for f in fits]), cut)
+    cand = Candidate("bias_random_walk", float(lr_ch.sum()),
+                     threshold(6, ctx.m_tests, 1, ctx.factor("bias_random_walk")),
                      f"likelihood ratio of the {tb:.3g}-s block means (Kalman filter: model noise + a walk, "
-                     "its level free)", kind="noise")
-    cand.channels = [CHANNELS[c] for c in range(6) if lr_ch[c] > stats.chi2.isf(0.01, 2)]
+                     f"its level free), {ROBUST_TEXT}", kind="noise")
+    cand.channels = [CHANNELS[c] for c in range(6) if lr_ch[c] > cut]
     mdl = effective_model(model)
     phys = {}
     for c, f in enumerate(fits):
@@ -100,11 +127,12 @@ def noise(ctx: Context, effect: str) -> Candidate:
         best = _whittle_fits(model, resid, m, tb, effect, taus)
         statistic = "Whittle likelihood ratio of the block-averaged residual" + (
             ", correlation time profiled" if n_grid > 1 else "")
-    lr_ch = np.array([b[0] for b in best])
     dof = 6 if effect == "bias_random_walk" else 12
+    cut = stats.chi2.isf(0.01, dof // 6 + 1)
+    lr_ch = robust_lr(ctx, effect, taus, np.array([b[0] for b in best]), cut)
     thr = threshold(dof, ctx.m_tests, n_grid, ctx.factor(effect))
-    cand = Candidate(effect, float(lr_ch.sum()), thr, statistic, kind="noise")
-    cand.channels = [CHANNELS[c] for c in range(6) if lr_ch[c] > stats.chi2.isf(0.01, dof // 6 + 1)]
+    cand = Candidate(effect, float(lr_ch.sum()), thr, f"{statistic}; {ROBUST_TEXT}", kind="noise")
+    cand.channels = [CHANNELS[c] for c in range(6) if lr_ch[c] > cut]
     mdl = effective_model(model)
     phys = {}
     for c in range(6):

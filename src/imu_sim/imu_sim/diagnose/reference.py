@@ -1,10 +1,14 @@
 """The reference trajectory's own error: a nuisance tied to the motion, separated before sensor physics is blamed.
 
-A truth a user brings (a reference INS, a survey, a CSV from another simulator) is rounded and interpolated; the
-simulator turns it into rates and specific forces through a smoothing spline, whose error follows the motion:
-(1) on a moving truth file, the specific force carries a slow error (the spline's position error, a few mm at
-periods of tens of seconds, times (2 pi f)^2: ~1e-4 m/s^2 on a car), so on those recordings the accelerometer
-residual below :data:`REF_CUTOFF_HZ` is a nuisance (its DFT bins are projected out, which only removes power);
+A truth a user brings (a reference INS, a smoothed GNSS track, a CSV from another simulator) carries its own slow
+error, and the simulator turns it into rates and specific forces through a smoothing spline, whose error follows
+the motion: (1) on a moving truth file, the residual of every channel carries the reference's error (a smoothed
+track's 5-30 cm at periods of 30-600 s, its attitude error, and the spline's specific-force error of ~5e-3 m/s^2
+at the end of speed changes, 3-30x the Coriolis acceleration). It is estimated as an extra PSD beside the sensor
+noise (:func:`with_reference_error`: the smoothed residual periodogram's excess over the model's noise) and the
+regressions are weighted by both, so a regressor with a known shape (2 Omega x v, the Earth rate, the gravity model)
+is fitted jointly with it and still found where its power stands above the reference's; the slow noise terms,
+which have no shape of their own against it, are not separable from the reference on such a record;
 (2) spectral lines at harmonics of the trajectory (where the truth's own rate/specific force has a line) are the
 reference's error, not vibration; lines below :data:`F_MECH_HZ` are slow periodic wander, not a mechanical source.
 """
@@ -17,14 +21,17 @@ from imu_sim.diagnose.case import trajectory
 
 F_MECH_HZ = 1.0
 """Lowest frequency (Hz) searched for a vibration line: below it no mechanical source of a sensor mount."""
-REF_CUTOFF_HZ = 0.2
-"""On a moving truth file the accelerometer residual below this (Hz) is the reference's error (a nuisance)."""
 FILE_SOURCES = ("trajectory", "gnss_track")
 MOVING_MPS = 0.05
 """A truth whose speed exceeds this (m/s) somewhere translates: its spline's position error reaches the
 accelerometers."""
 HARMONIC_RATIO = 100.0
 """A bin where the truth's rate/specific force has 100x its local median power is a harmonic of the motion."""
+
+
+NOT_SEPARABLE = ("not separable from the reference on this record: a moving truth file's own slow error (a smoothed "
+                 "track's position and attitude error, the simulator's spline error) puts power at the same low "
+                 "frequencies with no shape to tell it from a slow noise term; not ranked")
 
 
 def moving_file_truth(case) -> bool:
@@ -39,20 +46,51 @@ def moving_file_truth(case) -> bool:
 
 
 def clean(case, resid: np.ndarray) -> np.ndarray:
-    """The residual less its nuisances: each joined file's own turn-on bias (its mean per channel), and on a
-    moving truth file the accelerometers' slow part (else unchanged)."""
+    """The residual less each joined file's own turn-on bias (its mean per channel; else unchanged). The moving
+    truth file's error is not removed here but weighted (:func:`with_reference_error`)."""
     resets = list(getattr(case, "bias_resets", None) or [])
     if resets:
         resid = resid.copy()
         for a, b in zip([0] + resets, resets + [len(resid)]):
             resid[a:b] -= resid[a:b].mean(axis=0)
+    return resid
+
+
+def with_reference_error(case, resid: np.ndarray, psd: np.ndarray) -> np.ndarray:
+    """The model's noise PSD (6, nf, on the rfft grid of ``resid``) plus, on a moving truth file, the reference's
+    error: per channel the excess of the residual's smoothed periodogram (running mean over +-REF_WINDOW in
+    frequency: a reference error made of a few slow lines is spread over its neighbourhood, so a regressor near
+    one of them is weighted by it) over the model's PSD at its robust level (else ``psd`` unchanged)."""
     if not moving_file_truth(case):
-        return resid
-    spec = np.fft.rfft(resid[:, 3:], axis=0)
-    freqs = np.fft.rfftfreq(len(resid), case.dt)
-    spec[(freqs > 0) & (freqs < REF_CUTOFF_HZ)] = 0.0  # DC (the turn-on bias) kept: every test drops it anyway
-    out = resid.copy()
-    out[:, 3:] = np.fft.irfft(spec, n=len(resid), axis=0)
+        return psd
+    n = len(resid)
+    pgram = (np.abs(np.fft.rfft(resid, axis=0)) ** 2 * case.dt / n).T
+    level = np.median(pgram[:, 1:] / psd[:, 1:], axis=1) / np.log(2.0)
+    smooth = _log_running_mean(pgram)
+    excess = np.clip(smooth - level[:, None] * psd, 0.0, None)
+    excess[:, 0] = 0.0
+    return psd + excess / level[:, None]
+
+
+REF_WINDOW = 0.25
+"""Half-width of the running mean that estimates the reference error's PSD, relative to the frequency."""
+REF_MIN_BINS = 15
+
+
+def _log_running_mean(pgram: np.ndarray) -> np.ndarray:
+    """Running mean (6, nf) of a periodogram over bins within +-REF_WINDOW of each frequency (at least
+    +-REF_MIN_BINS bins), on a log-spaced set of centres interpolated back to every bin."""
+    nf = pgram.shape[1]
+    centres = np.unique(np.r_[np.arange(1, min(nf, 4 * REF_MIN_BINS)),
+                              np.geomspace(1, nf - 1, 400).astype(int)])
+    med = np.empty((pgram.shape[0], len(centres)))
+    for j, k in enumerate(centres):
+        half = max(REF_MIN_BINS, int(REF_WINDOW * k))
+        med[:, j] = np.mean(pgram[:, max(1, k - half):min(nf, k + half + 1)], axis=1)
+    out = np.empty_like(pgram)
+    for c in range(pgram.shape[0]):
+        out[c, 1:] = np.exp(np.interp(np.log(np.arange(1, nf)), np.log(centres), np.log(np.maximum(med[c], 1e-300))))
+    out[:, 0] = out[:, 1]
     return out
 
 
@@ -79,6 +117,6 @@ def note(case, n_harmonic: int) -> str:
         parts.append(f"{n_harmonic} bins at harmonics of the trajectory's own motion excluded (the reference "
                      "trajectory's error follows the motion)")
     if moving_file_truth(case):
-        parts.append(f"accelerometer residual below {REF_CUTOFF_HZ:g} Hz treated as the reference trajectory's "
+        parts.append("the residual's smooth excess over the model's noise weighted as the reference trajectory's "
                      "error (moving truth file)")
     return "; ".join(parts)
