@@ -74,7 +74,9 @@ def link_figures(run_dir: Path, cuts: list, epoch_s: float, sim_dir=None) -> dic
     resumed, stale = [], [0.0]
     for cut in cuts:
         at, back = epoch_s + cut["at_s"], epoch_s + cut["restored_at_s"]
-        stale += [s for t, _, s in diag if at <= t <= back + STALE_AFTER_S]
+        # from a status period before the cut: the stale statuses are logged at the last /clock the compute host
+        # received, which the cut's start (the probe's /clock) can be a hair past
+        stale += [s for t, _, s in diag if at - 1.0 <= t <= back + STALE_AFTER_S]
         # every fix fused before the link returned counts as before, those queued before the cut and fused in it
         # too (the status then comes on the steady clock, logged at the stopped simulated time)
         before = max((f for t, f, _ in diag if t <= back), default=0)
