@@ -70,6 +70,7 @@ CASES = {
     "gps_latency": ("drive", "gps_latency", {"latency": 0.03}),
     "gps_lever_arm": ("drive", "gps_lever_arm", {"arm": [0.35, -0.25, 0.4]}),
     "colored_gps_noise": ("drive", "colored_gps_noise", {"sigma": [0.3, 0.3, 0.5], "tau": 30.0}),
+    "coriolis": ("drive", "coriolis", {}),  # the user's model leaves out 2 Omega x v (and the transport rate)
 }
 NULLS = {"null_drive": "drive", "null_table": "table", "null_single_naive": "static_rw", "null_tumble": "tumble"}
 TRUE = {

@@ -96,3 +96,21 @@ def test_reference_error_is_weighted_so_a_slow_regressor_beyond_it_is_found_and_
             lrs[amp] = gls(wh, np.fft.rfft(resid, axis=0), {3: x, 4: x}, 1).lr
         assert lrs[0.0] < stats.chi2.isf(0.01, 1)
         assert lrs[1.0] > stats.chi2.isf(1e-6, 1)
+
+
+def test_an_out_of_bound_parameter_is_dropped_and_the_rest_refitted():
+    from imu_sim.diagnose.candidate import Candidate
+    from imu_sim.diagnose.engine import _refit_without
+
+    def cand(params, stat=100.0):
+        c = Candidate("scale_factor", stat, 10.0, "GLS", params=dict(params),
+                      intervals={k: [v - 1e-4, v + 1e-4] for k, v in params.items()})
+        c.refit = lambda names: cand({k: v for k, v in params.items() if k not in names}, stat / 2)
+        return c
+    both = cand({"gyro[x]": 0.5, "gyro[z]": 7e-4})
+    broken = [{"parameter": "gyro[x]", "value": 0.5, "bound": 3e-2, "grade": "industrial"}]
+    again = _refit_without(both, broken, "industrial")
+    assert list(again.params) == ["gyro[z]"] and "Refitted without gyro[x]" in again.caveat
+    assert _refit_without(cand({"gyro[x]": 0.5}), broken, "industrial") is None  # nothing left to refit
+    weak = cand({"gyro[x]": 0.5, "gyro[z]": 7e-4}, stat=15.0)  # the rest no longer significant
+    assert _refit_without(weak, broken, "industrial") is None

@@ -90,6 +90,8 @@ class Candidate:
     """A known constant's fitted scale on its exact regressor (1 = the constant); None for other effects."""
     constant_se: float | None = None
     """Standard error of ``constant_scale``."""
+    refit: object = None
+    """For a regression: a function of parameter names returning the candidate refitted without them (None else)."""
 
     @property
     def significant(self) -> bool:

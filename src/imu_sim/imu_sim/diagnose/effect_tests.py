@@ -112,6 +112,11 @@ def regression(ctx: Context, design, statistic: str = "GLS likelihood ratio", se
             "tested on the others")
     if not res.identifiable:
         return cand
+
+    def refit(names):
+        return regression(ctx, design.without([design.names.index(m) for m in names if m in design.names]),
+                          statistic, se_max)
+    cand.refit = refit if design.effect not in KINEMATIC else None
     ci = res.interval()
     cand.params, cand.intervals = _names_values(design.names, res.theta, ci)
     cand.physics = design.to_physics(res.theta)

@@ -126,6 +126,21 @@ def _model_error(cand: Candidate, broken: list, grade: str, how: str) -> dict:
                             "reference (fixture attitude, trajectory, site) or the model is wrong, not the sensor.")}
 
 
+def _refit_without(cand: Candidate, broken: list, grade: str) -> Candidate | None:
+    """The regression refitted without its out-of-bound parameters (each reported as reference_or_model_error),
+    when the rest is still significant and plausible; None otherwise."""
+    names = [b["parameter"] for b in broken]
+    if cand.refit is None or len(names) >= len(cand.params):
+        return None
+    again = cand.refit(names)
+    if not again.significant or plausibility.violations(again, grade, again.constant_scale):
+        return None
+    again.caveat = " ".join(filter(None, [again.caveat, (
+        f"Refitted without {', '.join(names)}: outside the {grade}-grade bounds, reported under "
+        "reference_or_model_error, not as sensor physics.")]))
+    return again
+
+
 @dataclass
 class Diagnosis:
     """The result: JSON-ready dict plus arrays for the report."""
@@ -167,7 +182,9 @@ def diagnose(case: Case, max_effects: int = 4, seed: int = 0, progress=None, fac
         broken = plausibility.violations(best, grade, best.constant_scale)
         if broken:  # not sensor physics: kept out of the model, and it does not use up a round
             model_errors.append(_model_error(best, broken, grade, grade_how))
-            continue
+            best = _refit_without(best, broken, grade)
+            if best is None:
+                continue
         rounds += 1
         new_model = add_effect(model, best)
         name, before, after = fit_metric(case, best, model, new_model, reference.clean(case, resid), seed)
@@ -207,7 +224,9 @@ def diagnose(case: Case, max_effects: int = 4, seed: int = 0, progress=None, fac
         if flagged:
             entry["note"] = (entry["note"] + "; " if entry["note"] else "") + (
                 f"fit outside the {grade}-grade bounds ({flagged[0]['parameter']} = {flagged[0]['value']:.4g}, "
-                f"bound {flagged[0]['bound']}): reported as reference_or_model_error, not as sensor physics")
+                f"bound {flagged[0]['bound']}): reported as reference_or_model_error, not as sensor physics" + (
+                    "; the effect's other parameters refitted without it and kept"
+                    if entry["effect"] in [f["effect"] for f in findings] else ""))
         if entry["effect"] in accepted and entry["effect"] not in [f["effect"] for f in findings] and not flagged:
             entry["note"] = (entry["note"] + "; " if entry["note"] else "") + (
                 "not kept (no practically meaningful held-out improvement)")
