@@ -205,6 +205,7 @@ class ClockFollower:
         self._best = None  # max of sim_i - rate * recv_i, both relative to the first message (precision)
         self._ref = None
         self._count = 0
+        self._standing_since = None  # receive time of the first message of the run standing at the clock's end
         self.jumps = 0
 
     def update(self, sim_s: float, received_s: float) -> None:
@@ -222,6 +223,10 @@ class ClockFollower:
             self.rate, self._count = 0.0, 0
         self._sim.append(sim_s - self._ref[0])
         self._recv.append(received_s - self._ref[1])
+        if len(self._sim) >= 2 and self._sim[-1] == self._sim[-2]:
+            self._standing_since = self._recv[-2] if self._standing_since is None else self._standing_since
+        else:
+            self._standing_since = None
         while self._recv[-1] - self._recv[0] > self.window_s and len(self._recv) > 2:
             self._sim.popleft()
             self._recv.popleft()
@@ -236,16 +241,19 @@ class ClockFollower:
         message of a standing clock, or when no message came for ``max_extrapolation_s``."""
         if self._best is None:
             return None
+        wall = wall_s - self._ref[1]
+        if self._standing_since is not None:  # standing at its end: its time is known only up to its last message
+            if wall > self._recv[-1]:
+                # it may have started since (the scenario player's frames and its first moving /clock start
+                # together), and a time held at the standing value, or a line bent by it, is early, which the
+                # driver's frame clock keeps for its whole window (issue 29: reads made 6 ms of wall time before
+                # the first moving /clock came stamped 48 ms early for 10 s at 8x; after a 3-s stand mid-run, 31 ms)
+                return None
+            if wall >= self._standing_since:
+                return self._ref[0] + self._sim[-1]
         paused = len(self._sim) >= 2 and self._sim[-1] == self._sim[0]
         if not paused and self._recv[-1] - self._recv[0] < self.min_span_s:
             return None  # moving (or not known to stand still) at a rate not yet measured
-        wall = wall_s - self._ref[1]
-        if paused and wall > self._recv[-1]:
-            # a standing clock is known to stand only up to its last message: it may have started since (the
-            # scenario player's frames and its first moving /clock start together), and a time held at the
-            # standing value is early, which the driver's frame clock keeps for its whole window (issue 29:
-            # reads made 6 ms of wall time before the first moving /clock came stamped 48 ms early for 10 s at 8x)
-            return None
         if wall > self._recv[-1] + self.max_extrapolation_s:
             # /clock has gone quiet: no time. Up to then the line runs on: held at its end 1 s after the last
             # delivery (as before), a read after a 1.1 s gap in deliveries (RATE=1, CPU busy) was 106 ms early,
