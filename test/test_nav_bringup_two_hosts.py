@@ -1,9 +1,12 @@
 """nav-demo --hosts 2: the graph over two network namespaces joined by a veth link; the link cut and restored;
 the filter says its input is stale and fuses GNSS again after; not root is one line and exit 2."""
 import json
+import math
 import os
 import re
 import subprocess
+import time
+from types import SimpleNamespace
 
 import pytest
 
@@ -43,6 +46,23 @@ def test_sensor_data_crossing_the_link_is_reliable_and_kept_for_a_cut():
     assert env["FASTRTPS_DEFAULT_PROFILES_FILE"].endswith(hosts.FASTDDS_PROFILE)  # lease 60 s, heartbeat 0.1 s
     assert "<heartbeatPeriod>" in open(env["FASTRTPS_DEFAULT_PROFILES_FILE"]).read()
     assert hosts.discovery_env({"FASTRTPS_DEFAULT_PROFILES_FILE": "own.xml"})["FASTRTPS_DEFAULT_PROFILES_FILE"] == "own.xml"
+
+
+def test_after_a_stale_spell_the_filter_waits_for_the_fixes_backlog_then_runs():
+    from ins_gps_kf.ins_gps_kf_node import RESUME_WAIT_S, InsGpsKfNode
+
+    released = []
+    node = SimpleNamespace(_resume_until=time.monotonic() + RESUME_WAIT_S, _newest_imu_t=190.0, _newest_fix_t=179.0,
+                           params={"gps_rate_hz": 1.0}, intake=SimpleNamespace(release=lambda: released.append(1)),
+                           _guarded=lambda fn: fn())
+    InsGpsKfNode._release(node)  # the IMU backlog came, the fixes' not yet: a fix run past would be dropped late
+    assert not released and node._resume_until
+    node._newest_fix_t = 189.0  # the fixes caught up
+    InsGpsKfNode._release(node)
+    assert released == [1] and node._resume_until == 0.0
+    node.__dict__.update(_resume_until=time.monotonic() - 0.01, _newest_fix_t=-math.inf)  # no fix at all: the wait ends
+    InsGpsKfNode._release(node)
+    assert released == [1, 1]
 
 
 def test_stale_input_turns_the_status_to_a_warning_saying_for_how_long():

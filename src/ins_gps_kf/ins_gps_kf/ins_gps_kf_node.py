@@ -81,6 +81,10 @@ WHEEL_TYPE = Param("odometer_msg_type", "auto", "message type on odometer_topic:
                    choices=("auto", *WHEEL_TYPES))
 NODE_PARAMS = (INTAKE, QUEUE, WHEEL_TYPE, *TF_PARAMS)
 ERROR_LOG_PERIOD_S = 10.0  # a repeating processing error is logged at most this often
+RESUME_WAIT_S = 1.0
+"""s of the steady clock the intake may hold its release when input comes back after a stale spell (a link down)
+while the fixes lag the IMU by over 1.5 GNSS periods: the two backlogs come from two writers repaired apart, and a
+fix arriving after the IMU samples past its stamp were run would be dropped as late (docs/two_hosts.md)."""
 
 
 def _param(spec: Param) -> Param:
@@ -140,6 +144,8 @@ class InsGpsKfNode(Node):
         # the simulated clock stops when /clock stops (a link down from the sensor host): staleness is said on
         # the node's own steady clock
         self._last_input_wall: float | None = None
+        self._resume_until = 0.0  # steady s: the release may wait for the fixes' backlog until then
+        self._newest_imu_t = self._newest_fix_t = -math.inf
         self.create_timer(1.0, self._locked(self._diagnostics_if_stale), clock=Clock(clock_type=ClockType.STEADY_TIME))
         start = time.monotonic()
         strapdown.warm_up()
@@ -195,8 +201,13 @@ class InsGpsKfNode(Node):
         imu, fixes = self.imu_intake.take_all(), self.gps_intake.take_all()
         wheel = self.wheel_intake.take_all() if self.wheel_intake is not None else []
         if not imu and not fixes and not wheel:
+            if self._resume_until:
+                self._release()
             return
-        self._last_input_wall = time.monotonic()
+        now = time.monotonic()
+        if self._last_input_wall is not None and now - self._last_input_wall > INPUT_STALE_S:
+            self._resume_until = now + RESUME_WAIT_S
+        self._last_input_wall = now
         batch = self.imu_intake.decode([blob for blob, _ in imu])
         if len(batch) != len(imu):  # a bad message was skipped: arrival order is lost for this batch only
             imu = [(None, imu[-1][1])] * len(batch)
@@ -208,6 +219,7 @@ class InsGpsKfNode(Node):
         t_s = batch.t_s.tolist()
         if self.first_imu_t is None and t_s:
             self.first_imu_t = t_s[0]
+        self._newest_imu_t = max([self._newest_imu_t, *t_s[-1:]])
         restarts, steps = self.intake.counters.restarts, self.filter.input.gnss_clock_steps
         for _, kind, i in arrivals:
             if kind == IMU:
@@ -216,7 +228,7 @@ class InsGpsKfNode(Node):
                 self.on_wheel_speed(wheel[i][0])
             else:
                 self.on_gps(deserialize_message(fixes[i][0], NavSatFix))
-        self._guarded(self.intake.release)
+        self._release()
         if self.intake.counters.restarts != restarts:
             self.get_logger().warn(f"time jump: {self.intake.counters.last_restart}; filter reset")
         if self.filter.input.gnss_clock_steps != steps:
@@ -224,12 +236,23 @@ class InsGpsKfNode(Node):
                                    f"{self.filter.input.last_rejection}")
         self._publish_imu_out()
 
+    def _release(self):
+        """Run what is due, unless input came back after a stale spell under :data:`RESUME_WAIT_S` ago and the
+        fixes still lag the IMU by over 1.5 GNSS periods (their backlog is on its way; no fix at all: the wait ends)."""
+        if self._resume_until:
+            lag_s = self._newest_imu_t - self._newest_fix_t
+            if time.monotonic() < self._resume_until and lag_s > 1.5 / self.params["gps_rate_hz"]:
+                return
+            self._resume_until = 0.0
+        self._guarded(self.intake.release)
+
     def on_gps(self, msg: NavSatFix):
         """Queue one fix (the filter judges NaN, NO_FIX and implausible fixes)."""
         cov = np.asarray(msg.position_covariance, dtype=float).reshape(3, 3)
         std = np.sqrt(np.clip(np.diag(cov), 0.0, None)) if msg.position_covariance_type > 0 else np.zeros(3)
         if self.first_fix_t is None:
             self.first_fix_t = stamp_to_s(msg.header.stamp)
+        self._newest_fix_t = max(self._newest_fix_t, stamp_to_s(msg.header.stamp))
         self.intake.add_fix(stamp_to_s(msg.header.stamp), msg.latitude * DEG, msg.longitude * DEG, msg.altitude,
                             std, msg.status.status)
 
