@@ -69,6 +69,8 @@ PARAMETERS = (
          "m/s", 0.0, 100.0),
     Param("zupt_max_ins_speed_mps", 0.2, "no ZUPT while the INS speed exceeds this, m/s", 0.0, 100.0),
     Param("zupt_std_mps", 0.02, "zero-velocity measurement std, m/s", 1e-4, 10.0),
+    Param("zupt_gate_probability", 0.99, "chi-square gate of the zero-velocity update: a vehicle pulling away gently, "
+          "which the IMU and the GPS chord cannot yet tell from rest, fails it", 0.5, 1.0),
     Param("nhc_enabled", False, "non-holonomic constraints: a land vehicle's lateral and vertical velocity at the "
          "constraint point is zero (a measurement each filter epoch, skipped at rest, gated)"),
     Param("nhc_std_mps", 0.1, "non-holonomic constraint std (lateral and vertical velocity), m/s", 1e-3, 10.0),
@@ -156,6 +158,7 @@ class FilterConfig:
     max_rejected_fixes: int = 5
     zupt_enabled: bool = True
     zupt_std: float = 0.02
+    zupt_gate_probability: float = 0.99
     zupt_max_gps_speed: float = 0.1
     zupt_max_ins_speed: float = 0.2
     nhc_enabled: bool = False
@@ -232,6 +235,7 @@ def from_params(params: dict) -> FilterConfig:
         gate_probability=float(p["gate_probability"]), reuse_last_fix=bool(p["reuse_last_fix"]),
         max_rejected_fixes=int(p["max_rejected_fixes"]),
         zupt_enabled=bool(p["zupt_enabled"]), zupt_std=float(p["zupt_std_mps"]),
+        zupt_gate_probability=float(p["zupt_gate_probability"]),
         zupt_max_gps_speed=float(p["zupt_max_gps_speed_mps"]),
         zupt_max_ins_speed=float(p["zupt_max_ins_speed_mps"]),
         nhc_enabled=bool(p["nhc_enabled"]), nhc_std=float(p["nhc_std_mps"]),

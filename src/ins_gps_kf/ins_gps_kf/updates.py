@@ -29,6 +29,7 @@ class Epoch:
         self.t = t
         self.nav = nav
         self.n_states = n_states
+        self.f_n = motion[0]  # m/s^2, the epoch's mean specific force (ENU, bias-corrected)
         self.w_rms, self.w_mean, self.f_mean, self.f_std = motion[1:]  # rad/s, rad/s, m/s^2, m/s^2
         self.gravity = gravity  # m/s^2
         self.gps_speed = 0.0    # m/s, horizontal speed between the last two fixes less 3 sigma of its noise
@@ -80,15 +81,19 @@ class ZeroVelocity(UpdateModel):
 
     def __init__(self, cfg: FilterConfig):
         self.cfg = cfg
+        self.gate_probability = cfg.zupt_gate_probability
 
     def stationary(self, epoch: Epoch) -> bool:
         """Whether the epoch looks like rest."""
         cfg = self.cfg
         # rms catches vibration, the mean catches a steady turn; GPS and INS speed veto smooth cruising and
-        # braking, which a MEMS IMU cannot tell from rest
+        # braking, which a MEMS IMU cannot tell from rest. A car pulling away gently barely changes |f| and the GPS
+        # chord cannot see it, while each ZUPT clamps the INS speed under its veto: the horizontal specific force
+        # (ENU) can, and a vehicle accelerating by more than 3 ZUPT sigmas within the epoch is not at rest
         return bool(epoch.w_rms < cfg.stationary_gyro and epoch.w_mean < 0.25 * cfg.stationary_gyro
                     and epoch.f_std < cfg.stationary_accel
                     and abs(epoch.f_mean - epoch.gravity) < 3 * cfg.stationary_accel
+                    and float(np.hypot(epoch.f_n[0], epoch.f_n[1])) < 3.0 * cfg.zupt_std * cfg.filter_rate_hz
                     and epoch.gps_speed < cfg.zupt_max_gps_speed
                     and float(np.linalg.norm(epoch.nav[strapdown.V])) < cfg.zupt_max_ins_speed)
 
