@@ -19,6 +19,9 @@ REGRESSORS = ("gz", "ax", "ay", "gz*ay", "gz*ax", "ay^2", "ax^2", "gz^2", "d_ay"
 """Window means of the motion channels and their products, and their change across the window (LS slope)."""
 _RATE_UNIT, _ACC_UNIT = 0.2, 2.0
 """Scale of a turn's yaw rate (rad/s) and a manoeuvre's acceleration (m/s^2): regressors of order 1 in a turn."""
+DEAD_ZONE = 0.05
+"""Regressors are shrunk towards 0 by this (soft threshold, in units of a turn's): on a straight they are noise,
+bias and mount tilt, and an unlearned coefficient times them would let the bias leak into the motion part."""
 PRIOR_COEF_SD = {"gyro": 0.05, "accel": 1.0}
 """Prior sd of a coefficient (channel units per unit regressor): generous, the drive teaches them."""
 COEF_DRIFT_PER_WINDOW = 1e-4
@@ -41,7 +44,8 @@ def motion_regressors(x: np.ndarray) -> np.ndarray:
 
     cols = [gz.mean(1), ax.mean(1), ay.mean(1), (gz * ay).mean(1), (gz * ax).mean(1), (ay * ay).mean(1),
             (ax * ax).mean(1), (gz * gz).mean(1), change(ay), change(ax), change(gz)]
-    return np.column_stack(cols)
+    phi = np.column_stack(cols)
+    return np.sign(phi) * np.maximum(np.abs(phi) - DEAD_ZONE, 0.0)
 
 
 class BiasFilter:

@@ -35,6 +35,12 @@ CLIP_ONSET_LOOK_S = 60.0
 NOISE_CONFIRM = 2
 """Consecutive windows the noise CUSUM must stay over its threshold: a noise increase lasts; a one-window burst on
 several channels (a knock on the mount) is not one."""
+BIAS_FAST_WINDOWS = 3
+BIAS_CONFIRM_WINDOWS = 2
+BIAS_CONFIRM_BEFORE_S = 20.0
+"""A bias CUSUM that crossed within BIAS_FAST_WINDOWS windows of its start waits this many more: a lasting step
+keeps half its size in them, a pulse (the unit turned and came back: ADIS imu4 at 3957 s, gx and gy for 2 s while
+ax and ay tilt) does not. A slow crossing has already shown that the change lasts."""
 LINE_WARMUP_S = 30.0
 LINE_REFERENCE_S = 300.0
 LINE_CONFIRM = 3
@@ -112,11 +118,13 @@ class HealthMonitor:
         chans = list(thr.BIAS_CHANNELS)
         self.bias_filter = BiasFilter(chans, self.thr.bias_sd[chans], self.thr.bias_tau_s[chans] / self.thr.window_s)
         self.bias_hist = []
-        """(t0, t1, motion (C,), used (C,)) of the recent windows: the motion part is taken out of the samples
-        before the change point is looked for."""
+        """(t0, t1, motion (C,), used (C,), mean - motion (C,)) of the recent windows: the motion part is taken out
+        of the samples before the change point is looked for."""
         self.bias_pos, self.bias_neg = np.zeros(6), np.zeros(6)
         self.bias_start = np.full((2, 6), np.nan)
         self.bias_windows = 0
+        self.bias_pending = {}
+        """channel -> a fast crossing waiting for BIAS_CONFIRM_WINDOWS more windows."""
         self.checked_s = [None, None]
         self.windows = 0
         self.active = {}
@@ -369,7 +377,7 @@ class HealthMonitor:
         chans = np.array(thr.BIAS_CHANNELS)
         on = use[chans] & use[[2, 3, 4]].all()
         z, motion = self.bias_filter.step(mean, phi, level, on)
-        self.bias_hist.append((t0, t1, motion, on))
+        self.bias_hist.append((t0, t1, motion, on, mean[chans] - motion))
         while self.bias_hist and self.bias_hist[0][1] < t1 - self.config.history_s:
             self.bias_hist.pop(0)
         self.bias_windows += 1
@@ -379,25 +387,57 @@ class HealthMonitor:
         zz[chans] = z
         on6 = np.zeros(6, bool)
         on6[chans] = on
+        events = self._bias_confirm(t1, on6)
+        on6 &= ~np.isin(np.arange(6), list(self.bias_pending))
         pos = np.where(on6, np.maximum(0.0, self.bias_pos + zz - th.bias_k), self.bias_pos)
         neg = np.where(on6, np.maximum(0.0, self.bias_neg - zz - th.bias_k), self.bias_neg)
         self.bias_start[0] = np.where((self.bias_pos == 0) & (pos > 0), t0, self.bias_start[0])
         self.bias_start[1] = np.where((self.bias_neg == 0) & (neg > 0), t0, self.bias_start[1])
         self.bias_pos, self.bias_neg = pos, neg
         fired = np.flatnonzero(np.maximum(pos, neg) > th.bias_h)
-        events = []
         for c in fired:
             i = int(np.flatnonzero(chans == c)[0])
             start = self.bias_start[0 if pos[c] > neg[c] else 1, c]
             onset, step, sd = self._mean_onset(i, c, start, t1, level[c])
-            events.append(Event(t1, onset, "bias_shift", [CHANNELS[c]], "WARN", step,
-                                [step - Z95 * sd, step + Z95 * sd],
-                                f"{CHANNELS[c]} mean stepped by {step:.3g} ({abs(step) / sd:.1f} sd)",
-                                {"cusum": float(max(pos[c], neg[c])), "threshold": float(th.bias_h[c])}))
-            # the new mean is the bias from here on, relearned from the windows that follow: one event per step
-            self.bias_filter.restart_bias(i, step if np.isfinite(step) else 0.0)
+            event = Event(t1, onset, "bias_shift", [CHANNELS[c]], "WARN", step, [step - Z95 * sd, step + Z95 * sd],
+                          f"{CHANNELS[c]} mean stepped by {step:.3g} ({abs(step) / sd:.1f} sd)",
+                          {"cusum": float(max(pos[c], neg[c])), "threshold": float(th.bias_h[c])})
             self.bias_pos[c] = self.bias_neg[c] = 0.0
+            if np.isfinite(step) and t1 - start <= BIAS_FAST_WINDOWS * th.window_s:
+                # crossed in a few windows: a large step, or a pulse (the mount turned and came back); the next
+                # windows tell them apart
+                self.bias_pending[c] = {"event": event, "i": i, "step": step, "n": 0}
+                continue
+            events.append(event)
+            self._bias_restart(i, step)
         return events
+
+    def _bias_confirm(self, t1, on) -> list:
+        """Pending fast crossings: a step when the mean of the next BIAS_CONFIRM_WINDOWS windows (motion taken out)
+        keeps half the step over the BIAS_CONFIRM_BEFORE_S before the onset; else a pulse, not a bias shift (the
+        bias is relearned)."""
+        events = []
+        for c in list(self.bias_pending):
+            p = self.bias_pending[c]
+            p["n"] += int(on[c])
+            if p["n"] < BIAS_CONFIRM_WINDOWS:
+                continue
+            del self.bias_pending[c]
+            e, i = p["event"], p["i"]
+            before = [r[4][i] for r in self.bias_hist if r[3][i] and e.onset_s - BIAS_CONFIRM_BEFORE_S <= r[0]
+                      and r[1] <= e.onset_s]
+            after = [r[4][i] for r in self.bias_hist[-BIAS_CONFIRM_WINDOWS:] if r[3][i]]
+            held = (np.mean(after) - np.mean(before)) * np.sign(p["step"]) if before and after else np.inf
+            if held >= 0.5 * abs(p["step"]):
+                events.append(replace(e, t_s=t1, statistic=dict(e.statistic, crossed_s=e.t_s)))
+                self._bias_restart(i, p["step"])
+            else:
+                self._bias_restart(i, 0.0)
+        return events
+
+    def _bias_restart(self, i, step):
+        """The new mean is the bias from here on, relearned from the windows that follow: one event per step."""
+        self.bias_filter.restart_bias(i, step if np.isfinite(step) else 0.0)
 
     def _mean_onset(self, i, c, start, t1, level):
         """Change point of channel c's mean, the motion's part taken out, in [min(start - 10 s, t1 - 60 s), t1]:
@@ -407,7 +447,7 @@ class HealthMonitor:
         stretch before the step sharpens the change point of a weak one."""
         lo = min((start if np.isfinite(start) else t1) - max(10.0, 2 * self.thr.window_s), t1 - 60.0)
         sigma = self.thr.sample_sigma[c] * np.sqrt(max(level, 1.0))
-        spans = [(a, b, m[i]) for a, b, m, u in self.bias_hist if u[i] and b >= lo]
+        spans = [(a, b, m[i]) for a, b, m, u, _ in self.bias_hist if u[i] and b >= lo]
         if not spans:
             return float(lo), float("nan"), float("nan")
         sp = np.array(spans)
