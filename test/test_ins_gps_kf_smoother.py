@@ -101,6 +101,10 @@ def test_smoothed_covariance_is_never_larger_and_the_outage_error_shrinks(drive,
     assert np.sqrt(np.mean(h_s**2)) < 0.2 * np.sqrt(np.mean(h_f**2))  # measured 0.06x plain, 0.05x NHC
     # with GNSS the smoothed RMS is lower too (measured 0.83x plain, 0.87x NHC)
     assert np.sqrt(np.mean(h_s[~inside] ** 2)) < np.sqrt(np.mean(h_f[~inside] ** 2))
+    # position NEES beyond its chi-square 99 % point: measured 2.7 % / 1.2 % plain, 4.8 % / 1.1 % NHC (forward /
+    # smoothed; 12.8 % / 5.6 % and 16.2 % / 9.1 % while ZUPTs were applied to a car pulling away)
+    beyond = {k: np.mean(_nees(est, ref) > chi2.ppf(0.99, 3)) for k, est in (("f", forward), ("s", smoothed))}
+    assert beyond["f"] < 0.07 and beyond["s"] < 0.03, beyond
 
 
 @pytest.fixture(scope="module")
