@@ -58,6 +58,13 @@ def evaluate(case: Case, model: SensorModel, resid: np.ndarray, exclude=(), fact
             cand.reason = "the truth has no velocity here (static): Coriolis cannot show"
         if cand.kind == "noise" and reference.moving_file_truth(case):
             cand.identifiable, cand.reason = False, reference.NOT_SEPARABLE
+        if cand.effect == "colored_gps_noise" and cand.significant and reference.moving_file_truth(case):
+            top = max((v for k, v in cand.params.items() if k.startswith("sigma_m")), default=0.0)
+            if top < reference.TRACK_ERROR_M:
+                cand.identifiable = False
+                cand.reason = (f"not separable from the reference on this record: a coloured fix error of "
+                               f"{top:.3g} m is what a truth smoothed from a GNSS track carries itself (up to "
+                               f"{reference.TRACK_ERROR_M:g} m at periods of minutes); not ranked")
         _rank_known_constant(cand)
     rank_low_frequency(ctx, out)
     return out

@@ -13,8 +13,10 @@ from __future__ import annotations
 import numpy as np
 
 NOT_SEPARABLE = "not separable from the reference on this record"
-TILT_EFFECTS = ("axis_misalignment", "scale_factor", "gyro_g_sensitivity", "gravity_model", "earth_rotation")
-"""Effects whose regressors a fixture tilt can reproduce (true rate / specific force on a static segment)."""
+TILT_EFFECTS = ("axis_misalignment", "scale_factor", "gyro_g_sensitivity", "gravity_model", "earth_rotation",
+                "warmup_drift", "temperature_bias")
+"""Effects whose regressors a fixture tilt can reproduce (true rate / specific force on a static segment; a slow
+drift sampled by a sequence of holds, each with its own offset)."""
 
 
 def _weights(case) -> np.ndarray | None:
@@ -24,7 +26,7 @@ def _weights(case) -> np.ndarray | None:
     simulator moves along a smoothstep in rotation-vector space, so its rate magnitude is that profile's slope).
     """
     if getattr(case.scenario, "source", None) != "static_segments":
-        return None
+        return _truth_hold_weights(case)
     t = case.sim_t_abs
     segs = sorted(case.scenario.spec, key=lambda s: float(s["t0"]))
     n, m = case.n, len(segs)
@@ -43,6 +45,28 @@ def _weights(case) -> np.ndarray | None:
         cum = np.cumsum(p) * case.dt
         w[rows, s], w[rows, s + 1] = 1.0 - cum, cum
         wdot[rows, s], wdot[rows, s + 1] = -p, p
+    return np.stack([w, wdot])
+
+
+def _truth_hold_weights(case) -> np.ndarray | None:
+    """Weights of :func:`_weights` for a truth file's holds (:func:`reference.holds`: a tumble or a rate table
+    from a CSV), blended linearly across each move; None with fewer than two holds."""
+    from imu_sim.diagnose.reference import holds
+    spans = holds(case)
+    if len(spans) < 2:
+        return None
+    n, m = case.n, len(spans)
+    w, wdot = np.zeros((n, m)), np.zeros((n, m))
+    for s, (a, b) in enumerate(spans):
+        w[a:b, s] = 1.0
+    w[:spans[0][0], 0] = 1.0
+    w[spans[-1][1]:, m - 1] = 1.0
+    for s in range(m - 1):
+        a, b = spans[s][1], spans[s + 1][0]
+        if b > a:
+            u = (np.arange(a, b) - a + 1) / (b - a + 1)
+            w[a:b, s], w[a:b, s + 1] = 1.0 - u, u
+            wdot[a:b, s], wdot[a:b, s + 1] = -1.0 / ((b - a + 1) * case.dt), 1.0 / ((b - a + 1) * case.dt)
     return np.stack([w, wdot])
 
 

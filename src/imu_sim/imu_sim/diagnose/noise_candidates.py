@@ -5,10 +5,12 @@ filter cannot hold (flicker, a Gauss-Markov bias of its own) falls back to the W
 """
 from __future__ import annotations
 
+from dataclasses import replace
+
 import numpy as np
 from scipy import stats
 
-from imu_sim.diagnose import local_level, noise_tests, robust_noise
+from imu_sim.diagnose import local_level, noise_tests, reference, robust_noise
 from imu_sim.diagnose.candidate import Candidate, Context, threshold
 from imu_sim.diagnose.case import CHANNELS, effective_model
 
@@ -108,7 +110,11 @@ def _whittle_fits(model, resid, m, tb, effect, taus):
 
 
 def noise(ctx: Context, effect: str) -> Candidate:
-    """Gauss-Markov bias or bias random walk beyond the model's noise (exact block-mean likelihood, else Whittle)."""
+    """Gauss-Markov bias or bias random walk beyond the model's noise (exact block-mean likelihood, else Whittle),
+    on the residual less each hold's own offset when the record has several holds (:func:`reference.hold_demeaned`:
+    the fixture's tilt per hold is a nuisance the slow terms must not take)."""
+    if hasattr(ctx.case, "scenario"):
+        ctx = replace(ctx, resid=reference.hold_demeaned(ctx.case, ctx.resid))
     case, model, resid = ctx.case, ctx.model, ctx.resid
     if effect == "bias_random_walk":
         cand = _random_walk(ctx)

@@ -39,6 +39,8 @@ BOUNDS = {
                  "gyro_bias_sigma": 5.0 * 3600.0 * DEG_PER_H},
 }
 """Upper bound of |parameter| per grade (SI)."""
+FAR_OUT = 3.0
+"""A parameter whose whole 95 % interval lies beyond this many bounds is implausible however wide the interval."""
 CONSTANT_SCALE = 0.5
 """A known constant's fitted scale must lie in [1 - this, 1 + this]."""
 KNOWN_CONSTANTS = ("earth_rotation", "gravity_model", "coriolis")
@@ -101,7 +103,9 @@ def violations(cand, grade: str, scale: float | None = None) -> list:
         if cand.effect == "gauss_markov_bias" and not name.startswith("gyro") or "time" in name or "tau" in name:
             continue
         lo, hi = (cand.intervals or {}).get(name, (value, value))
-        determined = 0.5 * (hi - lo) <= bounds[key]
+        # determined to the bound's width, or so far out that even its nearest end is several bounds away (a
+        # truth's attitude error fitted as a gyro scale factor of -1 +- 0.25 on a drive)
+        determined = 0.5 * (hi - lo) <= bounds[key] or min(abs(lo), abs(hi)) > FAR_OUT * bounds[key]
         if np.isfinite(value) and abs(value) > bounds[key] and determined and (lo > bounds[key] or hi < -bounds[key]):
             out.append({"parameter": name, "value": float(value), "bound": bounds[key], "grade": grade})
     return out

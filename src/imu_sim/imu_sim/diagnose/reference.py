@@ -34,6 +34,10 @@ NOT_SEPARABLE = ("not separable from the reference on this record: a moving trut
                  "frequencies with no shape to tell it from a slow noise term; not ranked")
 
 
+TRACK_ERROR_M = 0.3
+"""Slow position error (m) of a truth smoothed from a GNSS track: a coloured fix error no larger is the truth's."""
+
+
 def moving_file_truth(case) -> bool:
     """True when the truth comes from a file and the IMU translates (a tumble or a rate table does not)."""
     if getattr(case.scenario, "source", None) not in FILE_SOURCES:
@@ -120,3 +124,45 @@ def note(case, n_harmonic: int) -> str:
         parts.append("the residual's smooth excess over the model's noise weighted as the reference trajectory's "
                      "error (moving truth file)")
     return "; ".join(parts)
+
+
+HOLD_MIN_S = 2.0
+"""Shortest hold (s) of a truth file's static or constant-rate stretch."""
+HOLD_RATE_STEP = 1e-7
+"""Largest per-sample change of the true rate (rad/s) and of the true specific force over g (1) within a hold."""
+
+
+def holds(case) -> list:
+    """Sample ranges [(a, b)] of the record's holds (static segments, or constant-rate stretches of a truth file
+    that does not translate); [] for a moving truth file or a record that never holds still."""
+    if "holds" in case.cache:
+        return case.cache["holds"]
+    out = []
+    t = case.sim_t_abs
+    if getattr(case.scenario, "source", None) == "static_segments":
+        for seg in sorted(case.scenario.spec, key=lambda s: float(s["t0"])):
+            idx = np.flatnonzero((t > float(seg["t0"])) & (t <= float(seg["t1"])))
+            if len(idx):
+                out.append((int(idx[0]), int(idx[-1]) + 1))
+    elif not moving_file_truth(case):
+        step = np.r_[np.inf, np.max(np.abs(np.diff(case.gyro_true, axis=0)), axis=1)]
+        step_f = np.r_[np.inf, np.max(np.abs(np.diff(case.accel_true, axis=0)), axis=1)] / 9.8
+        still = (step < HOLD_RATE_STEP * 10) & (step_f < HOLD_RATE_STEP * 10)
+        edges = np.flatnonzero(np.diff(np.r_[0, still.astype(int), 0]))
+        min_n = int(HOLD_MIN_S / case.dt)
+        out = [(int(a), int(b)) for a, b in zip(edges[::2], edges[1::2]) if b - a >= min_n]
+    case.cache["holds"] = out
+    return out
+
+
+def hold_demeaned(case, resid: np.ndarray) -> np.ndarray:
+    """The residual with each hold's own mean removed and 0 between holds, on a record of two or more holds (else
+    unchanged): a fixture's tilt (and a truth's attitude error) is constant on each hold, so what remains is what a
+    stochastic term may take; the moves, whose profile the simulator only guesses, carry nothing."""
+    spans = holds(case)
+    if len(spans) < 2:
+        return resid
+    out = np.zeros_like(resid)
+    for a, b in spans:
+        out[a:b] = resid[a:b] - resid[a:b].mean(axis=0)
+    return out
