@@ -58,6 +58,12 @@ def evaluate(case: Case, model: SensorModel, resid: np.ndarray, exclude=(), fact
             cand.reason = "the truth has no velocity here (static): Coriolis cannot show"
         if cand.kind == "noise" and reference.moving_file_truth(case):
             cand.identifiable, cand.reason = False, reference.NOT_SEPARABLE
+        if (cand.effect in KNOWN_CONSTANTS and cand.identifiable and cand.constant_se
+                and 1.96 * cand.constant_se > SEPARABLE_SCALE and reference.moving_file_truth(case)):
+            cand.identifiable = False
+            cand.reason = (f"not separable from the reference on this record: weighted by the truth file's own slow "
+                           f"error, the constant's scale is determined only to +-{1.96 * cand.constant_se:.2g} "
+                           f"(95 %), which cannot tell it from 0; not ranked")
         if cand.effect == "colored_gps_noise" and cand.significant and reference.moving_file_truth(case):
             top = max((v for k, v in cand.params.items() if k.startswith("sigma_m")), default=0.0)
             if top < reference.TRACK_ERROR_M:
@@ -82,6 +88,10 @@ def _rank_known_constant(cand: Candidate) -> None:
                        f"+- {1.96 * cand.constant_se:.2g}): evidence with zero free parameters.")
 
 
+KNOWN_CONSTANTS = ("earth_rotation", "gravity_model", "coriolis")
+SEPARABLE_SCALE = 1.0
+"""On a moving truth file, a known constant whose scale's 95 % half-width exceeds this is not separable from the
+reference's own error (its interval reaches 0)."""
 MOTION_EFFECTS = ("earth_rotation", "gravity_model", "coriolis", "scale_factor", "axis_misalignment",
                   "gyro_g_sensitivity")
 """Effects with a motion or physics regressor: fitted before any stochastic term."""

@@ -48,11 +48,16 @@ def _weights(case) -> np.ndarray | None:
     return np.stack([w, wdot])
 
 
+STILL_RAD_S = 1e-3
+"""A truth file's hold turning slower than this (rad/s; the Earth rate is 7.3e-5) is a static fixture pose."""
+
+
 def _truth_hold_weights(case) -> np.ndarray | None:
-    """Weights of :func:`_weights` for a truth file's holds (:func:`reference.holds`: a tumble or a rate table
-    from a CSV), blended linearly across each move; None with fewer than two holds."""
+    """Weights of :func:`_weights` for a truth file's static holds (:func:`reference.holds` that do not turn: a
+    tumble from a CSV), blended linearly across each move; None with fewer than two. A rate table's spinning holds
+    are left out: its one mounting tilt, common to every hold, is the gyro misalignment it is there to measure."""
     from imu_sim.diagnose.reference import holds
-    spans = holds(case)
+    spans = [(a, b) for a, b in holds(case) if np.max(np.abs(case.gyro_true[a:b])) < STILL_RAD_S]
     if len(spans) < 2:
         return None
     n, m = case.n, len(spans)
