@@ -76,7 +76,9 @@ def _truth_hold_weights(case) -> np.ndarray | None:
 
 
 def _tilt_design(case, weights: np.ndarray) -> np.ndarray:
-    """Stacked design (6 n, 3 per segment + 6 biases): f_b x d on accel, w_b x d + dd/dt on gyro."""
+    """Stacked design (6 n, 3 per segment + 6 biases + 1 per segment): f_b x d on accel, w_b x d + dd/dt on gyro;
+    then each segment's specific-force scale, the tilt's second-order term (a tilt theta shortens the specific force
+    along its nominal direction by 1 - cos theta, up to tolerance^2 / 2)."""
     w, wdot = weights
     n = case.n
     cols = []
@@ -92,6 +94,10 @@ def _tilt_design(case, weights: np.ndarray) -> np.ndarray:
         col = np.zeros((6, n))
         col[c] = 1.0
         cols.append(col.ravel())
+    for s in range(w.shape[1]):
+        col = np.zeros((n, 6))
+        col[:, 3:] = w[:, s:s + 1] * case.accel_true
+        cols.append(col.T.ravel())
     return np.column_stack(cols)
 
 
@@ -130,7 +136,7 @@ def check(case, cand, resid: np.ndarray) -> str | None:
     k = next(iter(cand.columns.values())).shape[1]
     tilt = _tilt_design(case, weights)
     eff = _stack(cand.columns, n, k)
-    bias = tilt[:, 3 * m:]
+    bias = tilt[:, 3 * m:3 * m + 6]
     raw = resid.T.ravel()
     _, th = _rss(np.hstack([tilt, eff]), raw)
     sigma = np.std((raw - np.hstack([tilt, eff]) @ th).reshape(6, n), axis=1)
@@ -141,7 +147,7 @@ def check(case, cand, resid: np.ndarray) -> str | None:
     y, tilt, eff, bias = raw * w, tilt * w[:, None], eff * w[:, None], bias * w[:, None]
     # the tolerance is a Gaussian prior (sd = tolerance) on each tilt: a rotation about the gravity axis, which the
     # specific force cannot see, stays within it instead of fitting the Earth rate's noise with tens of degrees
-    prior = np.eye(3 * m) / tol
+    prior = np.diag(np.r_[np.full(3 * m, 1.0 / tol), np.zeros(6), np.full(m, 2.0 / tol**2)])
     lr_alone = _rss(bias, y)[0] - _rss(np.hstack([bias, eff]), y)[0]
     rss_tilt, _ = _rss(tilt, y, prior)
     rss_joint, theta = _rss(np.hstack([tilt, eff]), y, prior)
