@@ -10,6 +10,11 @@ on one Ethernet segment. Nothing else is reachable from either namespace: no tra
 loses its carrier) at AT_S of simulated time and brings it up FOR_S simulated seconds later (FOR_S / rate of
 wall time: the link's outage is a wall-clock event, and the compute host sees no ``/clock`` through it).
 
+Through a cut nothing is lost: the sensor data crossing the link is reliable and its publishers keep the last
+:data:`STORE_S` of it (:func:`link_qos`, ROS 2 QoS overrides), the nodes run with a Fast DDS profile whose
+participant lease outlasts that and whose writers' heartbeat is short (:data:`FASTDDS_PROFILE`), so DDS delivers
+the cut's samples once the link is back and the filter runs through them in stamp order (docs/two_hosts.md).
+
 Clocks: namespaces share the kernel's clock (a time namespace offsets only CLOCK_MONOTONIC and BOOTTIME, not
 the CLOCK_REALTIME that ROS stamps with), so the two hosts cannot have clocks that differ. What the demo keeps
 apart is what a deployment keeps apart: the sensor host stamps the samples (the driver, on the simulated
