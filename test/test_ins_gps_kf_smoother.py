@@ -190,3 +190,33 @@ def test_replay_smooth_writes_smoothed_and_forward_trajectories(tmp_path, capsys
     code = main(["replay", "--recording", str(imu_csv), "--gnss", str(gnss_csv), "--model", "default", "--out",
                  str(out), "--quiet", "--no-plot", "--smooth"])
     assert code == 2  # existing outputs are refused without --force
+
+
+def test_replay_smooth_writes_the_bytes_of_the_estimate_list_path(tmp_path, monkeypatch, capsys, wheel_drive):
+    """``replay --smooth`` keeps compact rows (offline.EstimateTable) and smooths block by block (spilled to disk
+    here, in blocks of 16 epochs); its CSVs are byte for byte what the Estimate-list path writes (run_smoothed,
+    to_trajectory), with NHC, the odometer (bad speeds included) and scale-factor states on."""
+    from ins_gps_kf import replay
+    from ins_gps_kf.offline import to_trajectory
+
+    imu, gnss, wheel = wheel_drive
+    files = {"imu": recording.write_imu_csv(tmp_path / "imu.csv", imu),
+             "gnss": recording.write_gnss_csv(tmp_path / "gnss.csv", gnss),
+             "odo": recording.write_wheel_speed_csv(tmp_path / "odo.csv", wheel)}
+    params = {"alignment_time_s": 15.0, "nhc_enabled": True, "estimate_scale_factors": True}
+    monkeypatch.setattr(replay, "SMOOTH_BLOCK", 16)
+    out = tmp_path / "traj.csv"
+    code = main(["replay", "--recording", str(files["imu"]), "--gnss", str(files["gnss"]), "--odometry",
+                 str(files["odo"]), "--model", "default", "--out", str(out), "--quiet", "--no-plot", "--smooth"]
+                + [f"--param={k}={str(v).lower()}" for k, v in params.items()])
+    assert code == 0, capsys.readouterr()
+    filt = InsGpsFilter(config.from_params({**config.defaults(), **params, "odometer_enabled": True}),
+                        replay.load_model("default"))
+    odo = recording.read_wheel_speed(files["odo"])
+    forward, smoothed = run_smoothed(filt, run, recording.read_imu(files["imu"]), recording.read_gnss(files["gnss"]),
+                                     odometry=(odo.t, odo.speed_mps))
+    assert len(forward) > 3 * 16 and forward[0].scale_factors is not None and filt.counters.odometer_updates > 0
+    for est, path in ((smoothed, tmp_path / "list.csv"), (forward, tmp_path / "list.forward.csv")):
+        recording.write_trajectory_csv(path, to_trajectory(est, filt.frame))
+    assert (tmp_path / "list.csv").read_bytes() == out.read_bytes()
+    assert (tmp_path / "list.forward.csv").read_bytes() == forward_path(out).read_bytes()

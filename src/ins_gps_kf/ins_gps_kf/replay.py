@@ -30,11 +30,12 @@ from nav_core.params import did_you_mean  # noqa: E402
 from nav_core.outputs import check_out_file, staged_file  # noqa: E402
 from ins_gps_kf import config as kfconfig, track_check  # noqa: E402
 from ins_gps_kf.filter import ALIGNING, InsGpsFilter  # noqa: E402
-from ins_gps_kf.offline import load_model, plot_north_east, run, to_trajectory  # noqa: E402
-from ins_gps_kf.smoother import run_smoothed  # noqa: E402
+from ins_gps_kf.offline import EstimateTable, load_model, plot_north_east, run, table_trajectory  # noqa: E402
+from ins_gps_kf.smoother import ForwardStore, smooth_table  # noqa: E402
 
 
 GNSS_END_WARN_S = 10.0  # fixes this far apart, or ending this long before the IMU, are said (a cut file or outage)
+SMOOTH_BLOCK = 512  # epochs the smoother holds in memory (store rows, a backward block): ~3 MB, not 11
 
 
 def forward_path(out_path) -> Path:
@@ -64,19 +65,24 @@ def replay_files(recording_path, gnss_path, model_path, out_path, params: dict |
     for warning in check_recordings(imu, gnss, cfg, imu_topic or p["imu_topic"]):
         print(f"ins-gps-kf: warning: {warning}", file=sys.stderr)
     filt = InsGpsFilter(cfg, load_model(model_path))
-    if smooth:
-        estimates, smoothed = run_smoothed(filt, run, imu, gnss, progress=progress, odometry=odometry)
-    else:
-        estimates = smoothed = run(filt, imu, gnss, progress=progress, odometry=odometry)
-    if filt.frame is None:
-        raise recording.RecordingError(f"{gnss_src}: no valid GPS fix, so no datum for the local frame")
-    if not estimates:
-        raise recording.RecordingError(f"{imu.source}: no filter epoch, nothing to write: {_why_no_epoch(filt)}")
-    check_fixes_against_ins(imu, gnss, estimates, filt)
-    traj = to_trajectory(smoothed, filt.frame)
+    estimates = EstimateTable()  # compact rows, not Estimate objects: a 2-hour 64-Hz drive held 90 MB of those
+    filt.recorder = ForwardStore(filt.n_states, ram_rows=SMOOTH_BLOCK) if smooth else None
+    try:
+        run(filt, imu, gnss, progress=progress, odometry=odometry, sink=estimates.extend)
+        if filt.frame is None:
+            raise recording.RecordingError(f"{gnss_src}: no valid GPS fix, so no datum for the local frame")
+        if not len(estimates):
+            raise recording.RecordingError(f"{imu.source}: no filter epoch, nothing to write: {_why_no_epoch(filt)}")
+        check_fixes_against_ins(imu, gnss, estimates, filt)
+        smoothed = smooth_table(filt.recorder, estimates, SMOOTH_BLOCK) if smooth else estimates
+    finally:
+        if filt.recorder is not None:
+            filt.recorder.close()
+            filt.recorder = None
+    traj = table_trajectory(smoothed, filt.frame)
     recording.write_trajectory_csv(out_path, traj)
     if smooth:
-        recording.write_trajectory_csv(forward_path(out_path), to_trajectory(estimates, filt.frame))
+        recording.write_trajectory_csv(forward_path(out_path), table_trajectory(estimates, filt.frame))
     if plot and len(traj):
         with staged_file(Path(out_path).with_suffix(".png"), force=True) as tmp:  # checked by the caller
             plot_north_east(tmp, traj, gnss, filt.frame, title=f"ins_gps_kf: {Path(out_path).stem}")
@@ -153,12 +159,14 @@ def check_recordings(imu, gnss, cfg, imu_topic: str) -> list[str]:
     return out
 
 
-def check_fixes_against_ins(imu, gnss, estimates, filt: InsGpsFilter) -> None:
-    """RecordingError naming the GNSS file when its fixes cannot be the motion the IMU measured: their velocity
+def check_fixes_against_ins(imu, gnss, estimates: EstimateTable, filt: InsGpsFilter) -> None:
+    """RecordingError naming the GNSS file when its fixes cannot be the motion the IMU measured (``estimates``: the
+    forward filter's, :class:`ins_gps_kf.offline.EstimateTable`): their velocity
     changes differ from the INS's by a factor of ``TRACK_RATIO`` or more, or the filter rejected most of them."""
     c = filt.counters
     enu = filt.frame.to_enu(gnss.lat / DEG, gnss.lon / DEG, gnss.h)
-    ratio = track_check.track_disagreement(imu.t, imu.accel, estimates, gnss.t, enu)
+    ratio = track_check.track_disagreement(imu.t, imu.accel, estimates.column("t"), estimates.column("quat_xyzw"),
+                                           estimates.column("accel_bias"), gnss.t, enu)
     if ratio is not None and not 1.0 / track_check.TRACK_RATIO < ratio < track_check.TRACK_RATIO:
         unit = " (near 1/57.3: radians read as degrees?)" if abs(np.log(ratio * 180.0 / np.pi)) < np.log(2.0) else ""
         raise recording.RecordingError(

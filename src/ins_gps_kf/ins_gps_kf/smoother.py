@@ -172,12 +172,34 @@ def smooth(store: ForwardStore, forward: list[Estimate]) -> list[Estimate]:
     if not forward:
         return []
     out = [None] * len(forward)
+    for lo, block in smoothed_blocks(store, lambda lo, hi: forward[lo:hi]):
+        out[lo:lo + len(block)] = block
+    return out
+
+
+def smoothed_blocks(store: ForwardStore, forward_at, block_rows: int = RAM_ROWS):
+    """The smoothed estimates block by block, the last first: yields (first epoch index, list of Estimates);
+    ``forward_at(lo, hi)`` gives the forward estimates of epochs ``lo`` to ``hi`` (exclusive). The store's spill
+    file is deleted at the end."""
     try:
-        for lo, e_s, p_s in backward(store):
-            for i in range(len(e_s)):
-                out[lo + i] = _corrected(forward[lo + i], e_s[i], p_s[i])
+        for lo, e_s, p_s in backward(store, block_rows):
+            forward = forward_at(lo, lo + len(e_s))
+            yield lo, [_corrected(forward[i], e_s[i], p_s[i]) for i in range(len(e_s))]
     finally:
         store.close()
+
+
+def smooth_table(store: ForwardStore, forward, block_rows: int = RAM_ROWS):
+    """:func:`smooth` from and to :class:`ins_gps_kf.offline.EstimateTable` (compact rows, not Estimate objects):
+    memory holds one block of ``block_rows`` epochs as objects whatever the drive's length."""
+    from ins_gps_kf.offline import EstimateTable
+
+    if len(store) != len(forward):
+        raise ValueError(f"the store holds {len(store)} epochs, the forward run {len(forward)}")
+    out = EstimateTable(len(forward))
+    if len(forward):
+        for lo, block in smoothed_blocks(store, forward.estimates, block_rows):
+            out.put(lo, block)
     return out
 
 

@@ -18,23 +18,23 @@ LIKELY_CAUSES = ("latitude/longitude in radians (or another unit) where degrees 
                  "longitude columns swapped, positions in another datum or projection, or fixes of another run")
 
 
-def track_disagreement(imu_t, accel, estimates, fixes_t, fixes_enu, min_windows: int = 3) -> float | None:
+def track_disagreement(imu_t, accel, est_t, quats, accel_bias, fixes_t, fixes_enu,
+                       min_windows: int = 3) -> float | None:
     """The median ratio of the fixes' horizontal velocity change to the INS's over ``TRACK_WINDOW_S`` windows.
 
-    ``imu_t`` (n,) s and ``accel`` (n, 3) m/s^2 (body), ``estimates`` the filter's (attitude and accel
-    bias per epoch), ``fixes_t`` (m,) s and ``fixes_enu`` (m, 3) m. The INS side is the specific force
+    ``imu_t`` (n,) s and ``accel`` (n, 3) m/s^2 (body); the filter's epochs ``est_t`` (k,) s with their
+    attitude ``quats`` (k, 4) xyzw and accel bias ``accel_bias`` (k, 3) m/s^2; ``fixes_t`` (m,) s and
+    ``fixes_enu`` (m, 3) m. The INS side is the specific force
     rotated by the estimated attitude and summed (gravity is vertical, so the horizontal sum is the
     velocity change whatever the heading); the GPS side differences the chord velocities. None when
     fewer than ``min_windows`` windows see the INS change velocity by ``TRACK_MIN_DV_MPS`` or more.
     """
     from scipy.spatial.transform import Rotation
 
-    if len(estimates) < 2 or len(fixes_t) < 3:
+    if len(est_t) < 2 or len(fixes_t) < 3:
         return None
-    t_est = np.array([e.t for e in estimates])
+    t_est, bias = est_t, accel_bias
     k = np.clip(np.searchsorted(t_est, imu_t), 0, len(t_est) - 1)
-    quats = np.array([e.quat_xyzw for e in estimates])
-    bias = np.array([e.accel_bias for e in estimates])
     dt = np.diff(imu_t, prepend=imu_t[0])
     dt = np.where((dt > 0) & (dt < 1.0), dt, 0.0)
     dv_ins = np.zeros((len(imu_t) + 1, 2))
