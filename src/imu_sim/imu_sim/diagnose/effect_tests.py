@@ -114,8 +114,7 @@ def regression(ctx: Context, design, statistic: str = "GLS likelihood ratio", se
         return cand
 
     def refit(names):
-        return regression(ctx, design.without([design.names.index(m) for m in names if m in design.names]),
-                          statistic, se_max)
+        return _without(ctx, cand, design, res.theta, [design.names.index(m) for m in names if m in design.names])
     cand.refit = refit if design.effect not in KINEMATIC else None
     ci = res.interval()
     cand.params, cand.intervals = _names_values(design.names, res.theta, ci)
@@ -129,6 +128,29 @@ def regression(ctx: Context, design, statistic: str = "GLS likelihood ratio", se
         cand.constant_scale = float(res.theta[0])
         cand.constant_se = float(np.sqrt(max(res.cov[0, 0], 0.0)))
     return cand
+
+
+def _without(ctx: Context, cand: Candidate, design, theta: np.ndarray, drop: list) -> Candidate:
+    """``cand`` less the parameters ``drop`` (indices), tested given them: the dropped ones stay in the joint fit
+    as a nuisance (their signal is the reference's or the model's error, not left for the rest to absorb), the rest
+    keep their joint estimates, and the statistic is the joint one minus the dropped parameters' alone."""
+    keep = [j for j in range(design.k) if j not in set(drop)]
+    alone = regression(ctx, design.without(keep))
+    out = Candidate(design.effect, float(cand.stat - (alone.stat if alone.identifiable else 0.0)),
+                    threshold(len(keep), ctx.m_tests, 1, ctx.factor(design.effect)),
+                    cand.statistic + " given the dropped parameters", cand.identifiable, cand.reason)
+    theta = np.array(theta, float)
+    theta[drop] = 0.0
+    names = [design.names[j] for j in keep]
+    out.params = {m: cand.params[m] for m in names}
+    out.intervals = {m: cand.intervals[m] for m in names if m in cand.intervals}
+    out.physics = design.to_physics(theta)
+    out.columns = {c: x[:, keep] for c, x in design.columns.items() if np.any(x[:, keep] != 0)}
+    out.contrib = np.zeros((ctx.case.n, 6))
+    for ch, x in design.columns.items():
+        out.contrib[:, ch] = x @ theta
+    out.channels = [c for c in cand.channels]
+    return out
 
 
 def warmup(ctx: Context) -> Candidate:

@@ -13,10 +13,11 @@ import numpy as np
 
 from nav_core.sensor_model import SensorModel
 
-from imu_sim.diagnose import gnss_candidates, local_level, metrics, noise_tests
+from imu_sim.diagnose import gnss_candidates, local_level, metrics, noise_tests, reference
 from imu_sim.diagnose.candidate import Candidate, Context, add_effect
 from imu_sim.diagnose.case import CHANNELS, Case, deterministic
 from imu_sim.diagnose.noise_candidates import noise
+from imu_sim.diagnose.spectral import noise_psd
 
 
 def fit_metric(case: Case, cand: Candidate, model_before: SensorModel, model_after: SensorModel,
@@ -26,8 +27,11 @@ def fit_metric(case: Case, cand: Candidate, model_before: SensorModel, model_aft
         return gnss_candidates.fit_metric(case, cand, model_before, model_after)
     if cand.kind in ("regression", "vibration"):
         cols = {c: x for c, x in cand.columns.items() if CHANNELS[c] in cand.channels} or cand.columns
-        b, a = metrics.heldout_rms(resid, cols, case.dt, cand.block_s)
         what = "1-s block means" if cand.kind == "regression" else "samples"
+        if reference.moving_file_truth(case):
+            resid, cols = _whitened(case, model_before, resid, cols)
+            what += " of the residual whitened by the model's noise plus the reference's error"
+        b, a = metrics.heldout_rms(resid, cols, case.dt, cand.block_s)
         return f"RMS of held-out {what} over their scatter (odd tenths of the run, fit on even tenths)", b, a
     if cand.kind == "quantization":
         half = case.n // 2
@@ -43,6 +47,20 @@ def fit_metric(case: Case, cand: Candidate, model_before: SensorModel, model_aft
     if held is not None:
         return held
     return _whittle_metric(case, cand, model_before, resid)
+
+
+def _whitened(case, model, resid, cols):
+    """Residual (n, 6) and columns whitened by the model's noise PSD plus a moving truth file's reference error
+    (:func:`reference.with_reference_error`), so the held-out fit weights each frequency as the test did."""
+    freqs = np.fft.rfftfreq(case.n, case.dt)
+    psd = reference.with_reference_error(case, resid, noise_psd(model, freqs, case.dt))
+    gain = 1.0 / np.sqrt(psd / psd[:, -1:])  # (6, nf); unit at the top frequency
+    gain[:, 0] = 0.0
+
+    def whiten(x, c):
+        return np.fft.irfft(np.fft.rfft(x, axis=0) * (gain[c][:, None] if x.ndim == 2 else gain[c]), n=case.n, axis=0)
+    out = np.column_stack([whiten(resid[:, c], c) for c in range(6)])
+    return out, {c: whiten(x, c) for c, x in cols.items()}
 
 
 def _filter_metric(case, cand, model_before, resid):
