@@ -170,3 +170,14 @@ def test_span_ties_count_the_samples_at_a_recurring_extreme_only_where_the_windo
     assert st.shape == (3, 6)
     assert st[:, 0].tolist() == [0, 6, 0]  # window 10 reaches the recurring top (4 + 2 samples); 9 and 11 do not
     assert (st[:, 1:] == 1).all()  # a ramp rising window by window: each window holds the span's top once
+
+
+def test_a_two_second_gyro_pulse_is_not_a_bias_shift_but_a_lasting_step_of_the_same_size_is():
+    t, x = _drive(8, 160.0)
+    pulse = (t >= 100.0) & (t < 102.0)
+    x[pulse, 0] += 0.012  # 8 sd of a 1-s mean for 2 s: the unit turned and came back
+    assert [e.effect for e in _run(x, t)] == []
+    x[t >= 102.0, 0] += 0.012
+    ev = _run(x, t)
+    assert [(e.effect, e.channels) for e in ev] == [("bias_shift", ["gx"])]
+    assert abs(ev[0].onset_s - 100.0) <= 2.0 and ev[0].statistic["crossed_s"] < ev[0].t_s <= 106.0
