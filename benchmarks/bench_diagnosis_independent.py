@@ -1,6 +1,6 @@
 """The diagnosis on recordings it did not make: cases from ``independent_gen`` (no imu_sim code), files as users write.
 
-    .venv/bin/python benchmarks/bench_diagnosis_independent.py [--seeds 20] [--null-seeds 20] [--cases ...] [--out DIR] [--quick]
+    .venv/bin/python benchmarks/bench_diagnosis_independent.py [--seeds 20] [--null-seeds 20] [--cases ...] [--out DIR] [--quick] [--realistic]
 
 Each case writes imu.csv (10 significant digits), scenario.yaml (a truth CSV at 100 Hz, or static segments as a
 user types them), model.yaml (what the user believes) and, for drives, gnss.csv; then diagnoses them through

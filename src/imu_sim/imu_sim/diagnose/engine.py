@@ -56,7 +56,7 @@ def evaluate(case: Case, model: SensorModel, resid: np.ndarray, exclude=(), fact
     for cand in out:
         if cand.effect == "coriolis" and cand.identifiable is False and "constant" in cand.reason:
             cand.reason = "the truth has no velocity here (static): Coriolis cannot show"
-        if cand.kind == "noise" and reference.moving_file_truth(case):
+        if cand.effect in ("gauss_markov_bias", "bias_random_walk", "warmup_drift") and reference.moving_file_truth(case):
             cand.identifiable, cand.reason = False, reference.NOT_SEPARABLE
         if (cand.effect in KNOWN_CONSTANTS and cand.identifiable and cand.constant_se
                 and 1.96 * cand.constant_se > SEPARABLE_SCALE and reference.moving_file_truth(case)):

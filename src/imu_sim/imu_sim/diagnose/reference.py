@@ -30,8 +30,9 @@ HARMONIC_RATIO = 100.0
 
 
 NOT_SEPARABLE = ("not separable from the reference on this record: a moving truth file's own slow error (a smoothed "
-                 "track's position and attitude error, the simulator's spline error) puts power at the same low "
-                 "frequencies with no shape to tell it from a slow noise term; not ranked")
+                 "track's position and attitude error, the simulator's spline error and its start-up transient) puts "
+                 "power at the same low frequencies with no shape to tell it from a slow drift or noise term; not "
+                 "ranked")
 
 
 TRACK_ERROR_M = 0.3
