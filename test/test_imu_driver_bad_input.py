@@ -67,6 +67,27 @@ def test_bag_play_refuses_a_topic_the_bag_does_not_have_naming_the_closest(tmp_p
                                        Parameter("topics", value=["imu/data_raw", "gps/fx"])])
 
 
+@pytest.mark.parametrize("entries, match", [
+    (["imu/data_raw"], r"'imu/data_raw' is not 'topic=node"),
+    (["imu/data_raw= , "], r"is not 'topic=node"),
+    (["gps/fx=ins_gps_kf_node"], r"'gps/fx' is not played \(did you mean 'gps/fix'\?\); playing \['gps/fix', 'imu/data_raw'\]"),
+])
+def test_bag_play_refuses_a_reader_entry_it_cannot_wait_for_naming_it(entries, match):
+    from imu_driver.bag_play_node import parse_readers
+    from nav_core.params import ConfigError
+
+    with pytest.raises(ConfigError, match=match):
+        parse_readers(entries, {"imu/data_raw": None, "gps/fix": None})
+
+
+def test_bag_play_reads_readers_per_topic_merging_entries():
+    from imu_driver.bag_play_node import parse_readers
+
+    got = parse_readers(["/imu/data_raw=wmra_node, bag_record", "", "imu/data_raw=sensor_health_node"],
+                        {"imu/data_raw": None, "gps/fix": None})
+    assert got == {"imu/data_raw": {"wmra_node", "bag_record", "sensor_health_node"}}
+
+
 def test_bag_play_of_a_cut_bag_still_brings_the_clock_to_its_last_message(tmp_path, rclpy_context, monkeypatch):
     from rclpy.parameter import Parameter
 

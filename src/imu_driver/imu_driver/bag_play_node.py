@@ -6,8 +6,10 @@ or the ones named in ``topics``. Each topic is offered with the QoS recorded in 
 every recorded publisher was, so ``/tf_static`` stays latched); a bag without them plays sensor
 topics with the sensor-data QoS and the rest reliable. A damaged bag plays every intact message
 (MCAP is read past the damage, a cut sqlite file up to it) and the error names the file and position.
-With ``wait_for_subscribers`` it plays once every topic has that many subscribers, then ``settle_s``
-later: a subscriber this node counts may not count this publisher yet, and would lose the start.
+With ``wait_for_subscribers`` it plays once every topic has that many subscribers; with ``wait_for_readers``
+(``topic=node,node``) once each named node subscribes that topic (a count alone is met early when a topic has
+more readers than another, or by a stray one); then ``settle_s`` later: a subscriber this node counts may not
+count this publisher yet, and would lose the start.
 """
 from __future__ import annotations
 
@@ -35,6 +37,8 @@ PARAMS = (
     Param("clock_rate_hz", 100.0, "/clock messages per wall second (as ros2 bag play --clock)", 1.0, 10000.0),
     Param("start_delay_s", 0.5, "wait this long after start so subscribers can connect, s", 0.0, 60.0),
     Param("wait_for_subscribers", 0, "before playing, wait until every topic has this many subscribers", 0, 100),
+    Param("wait_for_readers", [""], "before playing, wait until these nodes subscribe: 'topic=node,node' "
+          "entries (node names; the topic's other subscribers still count toward wait_for_subscribers)"),
     Param("wait_timeout_s", 30.0, "give up waiting for subscribers after this long, s", 0.0, 3600.0),
     # a subscriber this node counts may not count this publisher yet (DDS discovery is matched on each
     # side apart): what is played before it does is lost to it, never to a recorder that subscribes later
@@ -62,6 +66,7 @@ class BagPlayer(Node):
             raise ConfigError(f"parameter 'bag': {self.p['bag']!r} is not a rosbag2 bag (folder, .db3, .mcap)")
         wanted = [t for t in self.p["topics"] if t]
         self.publishers_by_topic = self._make_publishers(wanted)
+        self.readers = parse_readers(self.p["wait_for_readers"], self.publishers_by_topic)
         self.clock_pub = self.create_publisher(Clock, "/clock", QoSProfile(depth=10))
         self.played = 0
         self.error = ""
@@ -97,20 +102,37 @@ class BagPlayer(Node):
 
     def _wait_for_subscribers(self) -> None:
         want, start = self.p["wait_for_subscribers"], time.monotonic()
-        if not want:
+        if not want and not self.readers:
             return
-        while not all(pub.get_subscription_count() >= want for _, pub in self.publishers_by_topic.values()):
+        while self._missing(want):
             if self._stop.is_set():
                 return
             if time.monotonic() > start + self.p["wait_timeout_s"]:
-                self.get_logger().warning(f"playing without {want} subscriber(s) on every topic after waiting")
+                self.get_logger().warning(f"playing without {self._missing(want)} after waiting")
                 break
             time.sleep(0.05)
         counted = time.monotonic() - start
         self._stop.wait(self.p["settle_s"])  # the subscribers' side of discovery lags ours (seen: 2 s)
         counts = {t: pub.get_subscription_count() for t, (_, pub) in sorted(self.publishers_by_topic.items())}
-        self.get_logger().info(f"playing: subscribers {counts}, counted after {counted:.2f} s, "
+        named = {t: sorted(self._subscriber_names(t)) for t in sorted(self.readers)}
+        self.get_logger().info(f"playing: subscribers {counts}, readers {named}, counted after {counted:.2f} s, "
                                f"then {self.p['settle_s']:.1f} s to settle")
+
+    def _missing(self, want: int) -> list:
+        """What playing still waits for: 'topic: N subscribers' and 'topic: node' entries (empty: nothing)."""
+        missing = []
+        for topic, (_, pub) in sorted(self.publishers_by_topic.items()):
+            names = self.readers.get(topic, set())
+            # a named reader found in the graph but not yet matched to this publisher is not counted yet
+            need = max(want, len(names))
+            if pub.get_subscription_count() < need:
+                missing.append(f"{topic}: {need} subscribers")
+            missing += [f"{topic}: {n}" for n in sorted(names - self._subscriber_names(topic))]
+        return missing
+
+    def _subscriber_names(self, topic: str) -> set:
+        """The names of the nodes subscribing ``topic`` (the graph's view, not yet matched)."""
+        return {info.node_name for info in self.get_subscriptions_info_by_topic("/" + topic)}
 
     def _play(self) -> None:
         if self._stop.wait(self.p["start_delay_s"]):  # Ctrl-C during the delay ends at once
@@ -174,6 +196,22 @@ class BagPlayer(Node):
         """Stop the playback thread."""
         self._stop.set()
         self._thread.join(timeout=2.0)
+
+
+def parse_readers(entries, played) -> dict:
+    """``wait_for_readers`` entries ``topic=node,node`` -> {topic: {node names}}; each topic must be played."""
+    readers = {}
+    for entry in (e for e in entries if e):
+        topic, sep, names = entry.partition("=")
+        nodes = {n.strip() for n in names.split(",") if n.strip()}
+        if not sep or not topic.strip() or not nodes:
+            raise ConfigError(f"parameter 'wait_for_readers': {entry!r} is not 'topic=node[,node...]'")
+        topic = bagio.norm_topic(topic.strip())
+        if topic not in played:
+            raise ConfigError(f"parameter 'wait_for_readers': {topic!r} is not played"
+                              f"{did_you_mean(topic, played)}; playing {sorted(played)}")
+        readers.setdefault(topic, set()).update(nodes)
+    return readers
 
 
 def playback_qos(offered) -> QoSProfile | None:
