@@ -132,8 +132,14 @@ def test_a_recordings_wheel_speeds_are_played_when_the_filters_odometer_is_on(tm
     bag = recording.write_bag(tmp_path / "bag", gnss=recording.GnssRecording([1.0], [0.8], [0.2], [10.0], [[1, 1, 1]]),
                               wheel=recording.WheelSpeedRecording([1.0, 1.1], [2.0, 2.1]))
     params = tmp_path / "p.yaml"
-    for enabled, played in ((False, ["gps/fix"]), (True, ["gps/fix", "odom/wheel"])):
+    gps_readers = "gps/fix=ins_gps_kf_node,bag_record,sensor_health_node"
+    for enabled, played, readers in ((False, ["gps/fix"], [gps_readers]),
+                                     (True, ["gps/fix", "odom/wheel"], [gps_readers, "odom/wheel=ins_gps_kf_node"])):
         params.write_text(f"ins_gps_kf_node:\n  ros__parameters:\n    odometer_enabled: {str(enabled).lower()}\n")
         args = argparse.Namespace(params=params, model=demo.DEFAULT_MODEL, recording=bag, rate=1.0)
-        player = next(s for s in demo.graph_specs(args, tmp_path / "run", None) if s.executable == "bag_play")
+        specs = demo.graph_specs(args, tmp_path / "run", None)
+        player = next(s for s in specs if s.executable == "bag_play")
         assert player.overrides["topics"] == played
+        # the player waits for each reader by name: the topics have 1 to 3 readers, so no one count fits all
+        assert player.overrides["wait_for_readers"] == readers
+        assert "sensor_health_node" in [s.executable for s in specs]

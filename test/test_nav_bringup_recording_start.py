@@ -5,7 +5,11 @@ Before the fix bag_play started playing 0.5 s after it counted one subscriber pe
 subscribed before the player started (wmra_node, ins_gps_kf_node) counted the player's publisher up to
 ~2 s later and lost what was played before, while the recorder (subscribing once it sees the player) had
 it all: the live odometry then differed from the offline replay of the run's own bag by up to 20.6 m.
+Counting subscribers per topic then kept sensor_health_node out of this path (a third reader of imu/data_raw
+met the count early); bag_play now waits for each reader by name, and the monitor runs here too.
 """
+import json
+
 import numpy as np
 import pytest
 from hypothesis import given, settings
@@ -14,7 +18,7 @@ from hypothesis import strategies as st
 from nav_bringup import demo
 from nav_bringup.graph import Graph
 from nav_bringup.report import (BAG_LATE_FIXES, BAG_LATE_IMU, MISSED_FIXES, MISSED_IMU, _from_filter_start,
-                                 last_diagnostics)
+                                 last_diagnostics, write_report)
 from nav_core import recording
 
 SIM_S, RATE = 8.0, 2.0
@@ -70,20 +74,30 @@ def test_input_the_filter_had_before_the_bags_start_is_measured_in_seconds():
 
 @pytest.mark.ros
 @pytest.mark.slow
-def test_the_filter_and_the_denoiser_get_the_replayed_bag_from_its_first_message(tmp_path, ros_env):
+def test_every_reader_gets_the_replayed_bag_from_its_first_message_and_live_equals_offline(tmp_path, ros_env):
     demo.simulate_scenario(demo.DEFAULT_SCENARIO, demo.DEFAULT_MODEL, 5, tmp_path / "sim", duration_s=SIM_S,
                            fmt="bag")
     run_dir = tmp_path / "run"
+    # a 3-s alignment instead of 45 s: the filter publishes odometry within the short drive (live = offline)
+    params = tmp_path / "navigation.yaml"
+    params.write_text(demo.PARAMS_FILE.read_text().replace("alignment_time_s: 45.0", "alignment_time_s: 3.0")
+                      .replace("min_alignment_time_s: 5.0", "min_alignment_time_s: 2.0"))
     args = demo.parse_args(["--recording", str(tmp_path / "sim" / "bag"), "--rate", str(RATE),
-                            "--out", str(tmp_path)])
+                            "--out", str(tmp_path), "--params", str(params)])
     graph = Graph(demo.graph_specs(args, run_dir, None), ros_env, args.params, log_dir=run_dir / "logs")
     try:
         graph.start(timeout_s=60)
         code = graph.wait_for_exit("bag_play", SIM_S / RATE + demo.PLAYER_SETTLE_S + 30)
-        assert code == 0, graph.procs["bag_play"].output[-2000:]
+        player_log = graph.procs["bag_play"].output
+        assert code == 0, player_log[-2000:]
     finally:
         codes = graph.stop()
     assert all(c == 0 for c in codes.values()), codes
+    assert "sensor_health_node" in codes and "playing without" not in player_log, player_log[-2000:]
+    # the player counted each reader by name before playing (a count of 2 or 3 was met by the wrong ones)
+    playing = next(line for line in player_log.splitlines() if "playing: subscribers" in line)
+    for reader in ("wmra_node", "allan_node", "sensor_health_node", "bag_record", "ins_gps_kf_node"):
+        assert f"'{reader}'" in playing, playing
     bag = run_dir / "bag"
     played = recording.read_imu(tmp_path / "sim" / "bag", topic="imu/data_raw")
     raw, den = recording.read_imu(bag, topic="imu/data_raw"), recording.read_imu(bag, topic="imu/data_corrected")
@@ -93,3 +107,12 @@ def test_the_filter_and_the_denoiser_get_the_replayed_bag_from_its_first_message
     assert den.t[0] == raw.t[0], f"wmra_node missed {den.t[0] - raw.t[0]:.3f} s of imu/data_raw"
     assert float(kf["first_fix_stamp_s"]) == pytest.approx(fixes.t[0], abs=1e-6), (kf, fixes.t[:3])
     assert float(kf["first_imu_stamp_s"]) == pytest.approx(den.t[0], abs=1e-6), (kf, den.t[:3])
+    health = last_diagnostics(bag)["sensor_health_node: summary"][2]
+    assert int(health["received"]) > 0 and int(health["gps_fix"]) > 0, health
+    # the monitor on the same input does not change the filter: live = offline on the run's own bag
+    summary = write_report(run_dir, exit_codes=codes, filter_params=demo.filter_params(args.params, graph.specs))
+    assert (run_dir / "summary.json").is_file(), summary
+    off = json.loads((run_dir / "summary.json").read_text())["offline"]
+    assert off[MISSED_IMU] == 0 and off[MISSED_FIXES] == 0 and off["common epochs"] >= 5, off
+    assert off["largest difference (m)"] < 1e-6 and off["largest twist.linear difference (m/s)"] < 1e-6, off
+    assert "sensor health: " in summary and "sensor_health_node" in summary, summary

@@ -167,9 +167,10 @@ def graph_inputs(args, run_dir: Path, sim_dir: Path | None) -> GraphInputs:
     if sim_dir is None:
         section = filter_section(args.params)
         wheel = section.get("odometer_topic", "odom/wheel") if section.get("odometer_enabled") else None
+        gps = section.get("gps_topic", "gps/fix")
         return GraphInputs("recording", recording=str(args.recording.resolve()),
-                           played_topics=played_topics(args.recording, section.get("gps_topic", "gps/fix"), wheel),
-                           **common)
+                           played_topics=played_topics(args.recording, gps, wheel), gps_topic=gps,
+                           wheel_topic=wheel or "", **common)
     return GraphInputs("simulation", sim_dir=str(sim_dir), port=str(run_dir / "bp3010_port"),
                        duration_s=args.duration, reconnect_period_s=0.2, **common)
 

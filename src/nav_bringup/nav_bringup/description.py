@@ -7,8 +7,10 @@ one params file (``config/navigation.yaml``) under these per-run overrides::
     simulation: scenario_player (emulator -> pty, GPS, /clock) -> bp3010_driver -> wmra_node -> ins_gps_kf_node
     recording:  bag_play -> wmra_node -> ins_gps_kf_node
     hardware:   bp3010_driver -> wmra_node -> ins_gps_kf_node
-    always:     allan_node (stationary head), bag_record (everything)
-    not replaying a recording: sensor_health_node (names sensor faults live; events on sensor_health/events)
+    always:     allan_node (stationary head), sensor_health_node (names sensor faults live; events on
+                sensor_health/events), bag_record (everything)
+
+A player starts once every node that reads what it plays has subscribed (bag_play: ``wait_for_readers``).
 
 Per-scenario overrides live here too: a simulation sets the filter's datum to the scenario's, so
 ``map`` is the frame of ``truth/odometry`` under every entry point.
@@ -53,6 +55,8 @@ class GraphInputs:
     allan_dir: str = ""               # allan_node's out_dir ("": the params file's)
     use_sim_time: bool | None = None  # None: true when something is played (the players publish /clock)
     played_topics: tuple = ("imu/data_raw", "gps/fix")  # recording: the bag's topics to play
+    gps_topic: str = "gps/fix"        # the filter's GNSS topic (its params file's gps_topic)
+    wheel_topic: str = ""             # the filter's odometer topic when it is enabled ("": off)
     reconnect_period_s: float | None = None  # driver: faster reconnects to a pty (simulation), s
 
     def __post_init__(self):
@@ -82,9 +86,7 @@ def navigation_graph(inp: GraphInputs) -> list[NodeSpec]:
         specs.append(NodeSpec("bp3010_driver", driver))
     specs += [NodeSpec("wmra_node", dict(sim, **model)), NodeSpec("ins_gps_kf_node", kf),
               NodeSpec("allan_node", allan, ready="collecting")]
-    if inp.source != "recording":  # bag_play counts the readers of imu/data_raw: a third would start it early
-        specs.append(NodeSpec("sensor_health_node", dict(sim, **model)))
-    specs += [
+    specs += [NodeSpec("sensor_health_node", dict(sim, **model)),
               # the report replays the bag: it must hold all the filter received, so the recorder must be
               # subscribed before anything plays (its last subscription: the filter's output)
               NodeSpec("bag_record", dict(sim, output=str(inp.bag_out)), ready="recording /odometry/filtered")]
@@ -98,11 +100,27 @@ def navigation_graph(inp: GraphInputs) -> list[NodeSpec]:
         topics = list(inp.played_topics)
         specs.append(NodeSpec("bag_play", {
             "bag": str(inp.recording), "rate": float(inp.rate), "topics": topics or [""],
-            # played once the node reading each topic and the recorder subscribe, then a settle
-            "wait_for_subscribers": 2 if topics else 1, "settle_s": PLAYER_SETTLE_S}))
+            # played once every node reading a topic subscribes it (by name: the topics have 2 to 4 readers),
+            # then a settle
+            "wait_for_subscribers": 1, "wait_for_readers": recording_readers(inp, topics) or [""],
+            "settle_s": PLAYER_SETTLE_S}))
     for spec in specs:
         spec.package = PACKAGES[spec.executable]
     return specs
+
+
+def recording_readers(inp: GraphInputs, played) -> list:
+    """bag_play's ``wait_for_readers`` (``topic=node,node``): the graph's nodes reading each played topic.
+
+    The recorder subscribes to the raw IMU and the fixes once it sees the player (the report replays them
+    from its bag); the filter's wheel-speed topic is read by the filter alone.
+    """
+    gps = inp.gps_topic.lstrip("/")
+    readers = {"imu/data_raw": ["wmra_node", "allan_node", "sensor_health_node", "bag_record"],
+               gps: ["ins_gps_kf_node", "bag_record"] + (["sensor_health_node"] if gps == "gps/fix" else [])}
+    if inp.wheel_topic:
+        readers.setdefault(inp.wheel_topic.lstrip("/"), []).insert(0, "ins_gps_kf_node")
+    return [f"{t}={','.join(readers[t])}" for t in played if t in readers]
 
 
 def scenario_datum(sim_dir) -> dict:
