@@ -9,6 +9,7 @@ starts, so the demo can show a fault being named live::
       - {effect: stuck_output, channel: gx, start_s: 500}
       - {effect: bias_shift, channel: gx, start_s: 300, step: 0.002}                          # rad/s
       - {effect: saturation, channel: gz, start_s: 100, level: 0.2}                           # rad/s
+      - {effect: scale_factor_change, channel: gz, start_s: 300, change: 0.02}                # +2 %
 
 Amplitudes, steps and levels in SI (rad/s for g*, m/s^2 for a*); ``start_s`` from the start of the scenario,
 ``end_s`` optional. Applied to the rates (increments / dt) after the sensor's own errors.
@@ -21,7 +22,8 @@ import numpy as np
 
 CHANNELS = ("gx", "gy", "gz", "ax", "ay", "az")
 EFFECT_KEYS = {"vibration": ("frequency_hz", "amplitude"), "white_noise_increase": ("factor",),
-               "stuck_output": (), "bias_shift": ("step",), "saturation": ("level",)}
+               "stuck_output": (), "bias_shift": ("step",), "saturation": ("level",),
+               "scale_factor_change": ("change",)}
 """Effects a scenario can inject and the parameters each needs (the monitor's names)."""
 
 
@@ -94,4 +96,6 @@ def apply(faults, t: np.ndarray, rates: np.ndarray, rng: np.random.Generator) ->
             out[on, c] += p["step"]
         elif f.effect == "saturation":
             out[on, c] = np.clip(out[on, c], -p["level"], p["level"])
+        elif f.effect == "scale_factor_change":  # relative: the output is (1 + change) times what it was
+            out[on, c] *= 1.0 + p["change"]
     return out

@@ -28,8 +28,8 @@ def build_parser() -> argparse.ArgumentParser:
         "Name IMU faults in a recording (effect, channel, onset): health.json and health.png.",
         "sensor-health --recording my_bag --model out/my_imu/sensor_model.yaml --out out/health"))
     p.add_argument("--recording", required=True, type=Path, help="rosbag2 bag or recording CSV (imu/data_raw)")
-    p.add_argument("--gnss", type=Path, default=None, help="GNSS CSV or bag (its span is reported; the "
-                   "statistics use the IMU alone)")
+    p.add_argument("--gnss", type=Path, default=None, help="GNSS CSV or bag (the yaw scale factor against "
+                   "the course in turns; without it the scale factor is not observable)")
     p.add_argument("--model", required=True, type=Path, help="sensor-model YAML (imu-calib allan writes one)")
     p.add_argument("--out", required=True, type=Path, help="output folder (new or empty; --force replaces it)")
     p.add_argument("--false-alarms-per-10h", type=number(0, None, low_open=True), default=0.3,
@@ -58,12 +58,15 @@ def run(args) -> int:
     inputs = [args.recording, args.model] + ([args.gnss] if args.gnss else [])
     with staged_dir(args.out, args.force, inputs=inputs) as tmp:
         monitor = HealthMonitor(model, cfg, sample_rate_hz=imu.rate_hz)
-        events = monitor_recording(monitor, imu, args.chunk_s, not args.no_progress)
+        events = monitor.push_gnss(gnss.t, gnss.lat, gnss.lon) if gnss is not None and len(gnss) else []
+        events += monitor_recording(monitor, imu, args.chunk_s, not args.no_progress)
         result = health_document(monitor, events, imu, gnss)
         (tmp / "health.json").write_text(json.dumps(result, indent=1))
         plot_health(monitor, events, tmp / "health.png")
     print(f"sensor-health: {len(events)} events over {result['checked_s'][1] - result['checked_s'][0]:.1f} s "
           f"-> {args.out / 'health.json'}")
+    for name, text in result["observability"].items():
+        print(f"  {name}: {text}")
     for e in events:
         print(f"  t {e.t_s:.3f} s  {e.level:5s} {e.effect} {','.join(e.channels)}: {e.message}")
     return 0
@@ -83,7 +86,8 @@ def health_document(monitor: HealthMonitor, events, imu, gnss=None) -> dict:
     """The health.json content."""
     doc = {"events": [e.to_dict() for e in events], "checked_s": monitor.checked_s,
            "source": str(imu.source), "samples": len(imu), "sample_rate_hz": 1.0 / monitor.dt,
-           "windows": monitor.windows, "thresholds": monitor.thr.to_dict(), "vocabulary": EFFECTS}
+           "windows": monitor.windows, "thresholds": monitor.thr.to_dict(), "vocabulary": EFFECTS,
+           "observability": monitor.observability(), "scale_threshold": monitor.yaw_scale.h}
     if gnss is not None and len(gnss):
         doc["gnss_checked_s"] = [float(gnss.t[0]), float(gnss.t[-1])]
     return _finite(json.loads(json.dumps(doc, default=_plain)))

@@ -15,6 +15,8 @@ EFFECTS = {
     "saturation": "a channel sits at its range or clips (flat tops at one value; estimate: the clip value)",
     "non_finite": "NaN or infinite samples (estimate: how many)",
     "bias_shift": "the channel's mean stepped (estimate: the step, SI), where the motion keeps it observable",
+    "scale_factor_change": "the channel's scale factor changed, where the motion makes it observable (gz: yaw "
+                           "against the GNSS course in turns; estimate: relative change, 0.02 = +2 %)",
     "dropout": "samples missing: a stamp gap above gap_factor sample intervals (estimate: gap s)",
     "sample_rate_change": "the sample interval changed for good (estimate: the new rate, Hz)",
 }

@@ -28,6 +28,7 @@ from sensor_health import thresholds as thr
 from sensor_health.bias_filter import BiasFilter, motion_regressors
 from sensor_health.events import CHANNELS, Event
 from sensor_health.sample_checks import SampleChecks
+from sensor_health.yaw_scale import YawScaleMonitor
 from sensor_health.window_stats import CLIP_SPAN_WINDOWS, WindowGrid, detrend, span_ties, window_stats
 
 Z95 = 1.959964
@@ -125,6 +126,7 @@ class HealthMonitor:
         self.bias_windows = 0
         self.bias_pending = {}
         """channel -> a fast crossing waiting for BIAS_CONFIRM_WINDOWS more windows."""
+        self.yaw_scale = YawScaleMonitor(model, self.thr.budget_per_10h / thr.N_TESTS)
         self.checked_s = [None, None]
         self.windows = 0
         self.active = {}
@@ -142,6 +144,7 @@ class HealthMonitor:
             self.checked_s[0] = float(t[0])
         self.checked_s[1] = float(t[-1])
         events, flags = self.samples.push(t, x)
+        events += self.yaw_scale.push_imu(t, x[:, 2])
         self._remember(t, x)
         self._pending_t = np.concatenate([self._pending_t, t])
         self._pending_x = np.vstack([self._pending_x, x])
@@ -153,6 +156,19 @@ class HealthMonitor:
                                     self._pending_f[:nw * n].reshape(nw, n, 6).any(axis=1))
             self._pending_t, self._pending_x = self._pending_t[nw * n:], self._pending_x[nw * n:]
             self._pending_f = self._pending_f[nw * n:]
+        return self._report(events)
+
+    def push_gnss(self, t, lat_rad, lon_rad) -> list:
+        """GNSS fixes t (m,) s, lat, lon (m,) rad -> events they complete (the yaw scale factor in turns)."""
+        return self._report(self.yaw_scale.push_gnss(t, lat_rad, lon_rad))
+
+    def observability(self) -> dict:
+        """Effect and channel -> whether this record's motion made it observable (scale factor so far)."""
+        return {"scale_factor_change gz": self.yaw_scale.observability(),
+                "scale_factor_change ax ay az": "not observable: not monitored (no reference used yet)"}
+
+    def _report(self, events) -> list:
+        """Events in time order, each fault once (two detectors can name the same fault)."""
         events.sort(key=lambda e: e.t_s)
         kept = []
         for e in events:

@@ -5,7 +5,8 @@ Samples are taken in batches every ``intake_period_s`` (as wmra_node takes them)
 ``sensor-health`` CLI gives. Each event is published once on ``events_topic`` (``std_msgs/String``, one JSON
 object, reliable and transient local: a late subscriber, such as the demo report, still gets every event).
 ``/diagnostics`` carries one status per channel (``gx`` .. ``az``) and a ``summary`` (:mod:`sensor_health.status`).
-``gps/fix`` and ``odometry/filtered`` are counted in the summary (their rates), not used by the statistics yet.
+``gps/fix`` feeds the yaw scale-factor test (gz against the GNSS course in turns) and is counted in the summary;
+``odometry/filtered`` is counted only.
 This module is wiring.
 """
 from __future__ import annotations
@@ -70,7 +71,7 @@ class SensorHealthNode(Node):
         self.counts, self.stats = {}, {"received": 0, "busy_s": 0.0, "gps_fix": 0, "odometry": 0}
         self.events_pub = self.create_publisher(String, values["events_topic"], EVENTS_QOS)
         self.diag_pub = self.create_publisher(DiagnosticArray, "/diagnostics", 10)
-        self.create_subscription(NavSatFix, "gps/fix", lambda _m: self._count("gps_fix"), SENSOR_QOS_IN)
+        self.create_subscription(NavSatFix, "gps/fix", self.on_fix, SENSOR_QOS_IN)
         self.create_subscription(Odometry, "odometry/filtered", lambda _m: self._count("odometry"), 10)
         qos = QoSProfile(depth=values["input_queue_depth"], reliability=ReliabilityPolicy.BEST_EFFORT)
         self.intake = ImuBatchSubscription(self, "imu/data_raw", self.on_batch, None, qos=qos)
@@ -84,17 +85,30 @@ class SensorHealthNode(Node):
     def _count(self, key):
         self.stats[key] += 1
 
+    def on_fix(self, msg) -> None:
+        """A GNSS fix into the monitor (the yaw scale factor against the course); publish what it completes."""
+        self._count("gps_fix")
+        if msg.status.status < 0:  # no fix
+            return
+        t = msg.header.stamp.sec + 1e-9 * msg.header.stamp.nanosec
+        with self.lock:
+            events = self.monitor.push_gnss([t], [float(deg2rad(msg.latitude))], [float(deg2rad(msg.longitude))])
+            self._publish_events(events)
+
     def on_batch(self, batch) -> None:
         """Push a batch into the monitor; publish each event it names."""
         start = time.perf_counter()
         events = self.monitor.push(batch.t_s, batch.gyro, batch.accel)
         self.stats["received"] += len(batch.t_s)
+        self._publish_events(events)
+        self.stats["busy_s"] += time.perf_counter() - start
+
+    def _publish_events(self, events) -> None:
         status.count_events(self.counts, events)
         for e in events:
             self.events_pub.publish(String(data=e.to_json()))
             log = self.get_logger().error if e.level == "ERROR" else self.get_logger().warning
             log(f"{e.effect} {','.join(e.channels)} at t {e.t_s:.3f} s (onset {e.onset_s:.3f} s): {e.message}")
-        self.stats["busy_s"] += time.perf_counter() - start
 
     def _publish_diagnostics_locked(self) -> None:
         with self.lock:
