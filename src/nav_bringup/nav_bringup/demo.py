@@ -5,9 +5,10 @@ the live graph, each node its own process on DDS::
 
     scenario_player (emulator -> pty, GPS, /clock) -> bp3010_driver -> wmra_node -> ins_gps_kf_node
                                                      allan_node (stationary head)   bag_record (everything)
+                                                     sensor_health_node (names sensor faults live)
 
 and ends with a report (HTML with PNG plots, and a summary on the terminal).
-``--recording BAG`` replays a bag through bag_play -> wmra_node -> ins_gps_kf_node instead.
+``--recording BAG`` replays a bag through bag_play -> wmra_node -> ins_gps_kf_node instead (the same side nodes).
 """
 from __future__ import annotations
 
