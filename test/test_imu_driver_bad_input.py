@@ -70,7 +70,8 @@ def test_bag_play_refuses_a_topic_the_bag_does_not_have_naming_the_closest(tmp_p
 @pytest.mark.parametrize("entries, match", [
     (["imu/data_raw"], r"'imu/data_raw' is not 'topic=node"),
     (["imu/data_raw= , "], r"is not 'topic=node"),
-    (["gps/fx=ins_gps_kf_node"], r"'gps/fx' is not played \(did you mean 'gps/fix'\?\); playing \['gps/fix', 'imu/data_raw'\]"),
+    (["gps/fx=ins_gps_kf_node"],
+     r"'gps/fx' is not played \(did you mean 'gps/fix'\?\); playing \['gps/fix', 'imu/data_raw'\]"),
 ])
 def test_bag_play_refuses_a_reader_entry_it_cannot_wait_for_naming_it(entries, match):
     from imu_driver.bag_play_node import parse_readers
