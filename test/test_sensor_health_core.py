@@ -10,7 +10,7 @@ from sensor_health import noise_sim
 from sensor_health.cli import main
 from sensor_health.events import Event
 from sensor_health.monitor import HealthConfig, HealthMonitor
-from nav_core.recording import ImuRecording, write_imu_csv
+from nav_core.recording import GnssRecording, ImuRecording, write_gnss_csv, write_imu_csv
 
 RATE = 64.0
 
@@ -127,9 +127,13 @@ def test_the_cli_writes_health_json_and_a_plot(tmp_path):
     x[t >= 60, 2] = x[t >= 60][0, 2]
     write_imu_csv(tmp_path / "imu.csv", ImuRecording(t, x[:, :3], x[:, 3:]))
     sensor_model.save(_model(), tmp_path / "model.yaml")
+    tg = np.arange(0.0, 120.0)  # a straight at 10 m/s north: the GNSS is read, the scale factor not observable
+    write_gnss_csv(tmp_path / "gnss.csv", GnssRecording(tg, 0.8 + 10 * tg / 6.4e6, np.full(len(tg), 0.1),
+                                                         np.zeros(len(tg)), np.ones((len(tg), 3))))
     assert main(["--recording", str(tmp_path / "imu.csv"), "--model", str(tmp_path / "model.yaml"),
-                 "--out", str(tmp_path / "out"), "--no-progress"]) == 0
+                 "--gnss", str(tmp_path / "gnss.csv"), "--out", str(tmp_path / "out"), "--no-progress"]) == 0
     doc = json.loads((tmp_path / "out" / "health.json").read_text())
+    assert "GNSS segments at speed turned 0.00 rad^2" in doc["observability"]["scale_factor_change gz"]
     assert doc["events"][0]["effect"] == "stuck_output" and doc["events"][0]["channels"] == ["gz"]
     assert doc["checked_s"] == [pytest.approx(t[0]), pytest.approx(t[-1], abs=1e-6)]
     assert (tmp_path / "out" / "health.png").stat().st_size > 10000

@@ -58,7 +58,10 @@ def run(args) -> int:
     inputs = [args.recording, args.model] + ([args.gnss] if args.gnss else [])
     with staged_dir(args.out, args.force, inputs=inputs) as tmp:
         monitor = HealthMonitor(model, cfg, sample_rate_hz=imu.rate_hz)
-        events = monitor.push_gnss(gnss.t, gnss.lat, gnss.lon) if gnss is not None and len(gnss) else []
+        events = []
+        if gnss is not None and len(gnss):
+            fixed = gnss.status >= 0 if gnss.status is not None else np.ones(len(gnss), bool)  # -1: no fix
+            events = monitor.push_gnss(gnss.t[fixed], gnss.lat[fixed], gnss.lon[fixed])
         events += monitor_recording(monitor, imu, args.chunk_s, not args.no_progress)
         result = health_document(monitor, events, imu, gnss)
         (tmp / "health.json").write_text(json.dumps(result, indent=1))
