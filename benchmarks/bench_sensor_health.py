@@ -5,6 +5,8 @@
 The drives come from ``health_drives`` (motion and true IMU output by ``independent_gen``, no imu_sim code); the
 sensor model is fitted by ``imu-calib allan`` from a 1-h static run of the same unit, as a user would. Faults
 start 300 s into 420-s drives; healthy drives are 1 h each, seeds 9000.. (healthy) and 9500.. (faults).
+The gz scale-factor section adds 1-Hz GNSS fixes (5-cm white noise) along the same motion: a +2 % step at 1500 s
+of 2400-s drives (seeds 9700..), and the scale test alone on the healthy drives with GNSS.
 Targets (issue 26): deterministic faults <= 1 s, noise x3 <= 5 s, a 3-sigma line <= 10 s, a 10 x bias-sd step
 <= 30 s; the right effect and channel first in >= 95 %; onset within 2 s for steps; <= 1 false event per 10 h.
 """
@@ -26,7 +28,10 @@ import health_drives as hd  # noqa: E402
 from nav_core import sensor_model  # noqa: E402
 from nav_core.recording import ImuRecording, write_imu_csv  # noqa: E402
 from sensor_health.events import CHANNELS  # noqa: E402
+from nav_core.earth import radii  # noqa: E402
+from sensor_health import thresholds as thr  # noqa: E402
 from sensor_health.monitor import HealthMonitor  # noqa: E402
+from sensor_health.yaw_scale import YawScaleMonitor  # noqa: E402
 
 VENV_BIN = Path(sys.executable).parent
 FAULT_CHANNELS = {"stuck_output": range(6), "non_finite": range(6), "white_noise_increase": range(6),
@@ -76,6 +81,62 @@ def fault_run(model, base, fault, seed):
     return truth, events
 
 
+GNSS_SD_M = 0.05
+"""White position noise of the benchmark's GNSS fixes (1 Hz), m."""
+SCALE_STEP, SCALE_ONSET_S, SCALE_DRIVE_S = 0.02, 1500.0, 2400.0
+
+
+def gnss_fixes(seed: int, duration_s: float, rng):
+    """1-Hz fixes (t, lat, lon rad) along the drive ``hd.drive(seed, duration_s)`` makes (its RoadDrive, ENU)."""
+    motion = hd.RoadDrive(duration_s, np.random.default_rng(seed))  # hd.drive's first draws: the same motion
+    t = np.arange(0.0, duration_s, 1.0)
+    p = motion.position(t)[0][:, :2] + rng.normal(0.0, GNSS_SD_M, (len(t), 2))
+    lat0, lon0 = np.radians(hd.SITE[0]), np.radians(hd.SITE[1])
+    rn, re = radii(lat0)
+    return t, lat0 + p[:, 1] / rn, lon0 + p[:, 0] / (re * np.cos(lat0))
+
+
+def scale_section(model, base, seeds: int, hours: int) -> None:
+    """A +2 % gz scale step at 1500 s of 2400-s drives with GNSS (the whole monitor: delay, named first, estimate),
+    and false scale events on ``hours`` 1-h healthy drives with GNSS (the scale test alone)."""
+    rows = []
+    for seed in range(9700, 9700 + seeds):
+        rng = np.random.default_rng(seed)
+        t, x = hd.drive(seed, SCALE_DRIVE_S)
+        x[t >= SCALE_ONSET_S, 2] *= 1.0 + SCALE_STEP
+        mon = HealthMonitor(model, keep_trace=False, thresholds=base.thr)
+        events = mon.push_gnss(*gnss_fixes(seed, SCALE_DRIVE_S, rng)) + mon.push(t, x[:, :3], x[:, 3:])
+        after = [e for e in events if e.t_s >= SCALE_ONSET_S - 1.0]
+        first = after[0] if after else None
+        good = first is not None and (first.effect, first.channels) == ("scale_factor_change", ["gz"])
+        rows.append((good, first.t_s - SCALE_ONSET_S if good else np.inf,
+                     first.onset_s - SCALE_ONSET_S if good else np.nan, first.estimate if good else np.nan,
+                     sum(e.t_s < SCALE_ONSET_S - 1.0 for e in events),
+                     f"seed {seed}: first after the onset "
+                     f"{(first.effect, first.channels, round(first.t_s, 1)) if first else None}; "
+                     f"{mon.yaw_scale.observability()}"))
+    r = np.array([row[:5] for row in rows], float)
+    d = r[r[:, 0] == 1, 1]
+    print(f"gz scale +{100 * SCALE_STEP:g} % at {SCALE_ONSET_S:g} s ({seeds} drives of {SCALE_DRIVE_S:g} s, GNSS "
+          f"{GNSS_SD_M} m): named first {100 * r[:, 0].mean():.0f} %, delay median/max "
+          f"{np.median(d) if len(d) else np.inf:.0f}/{np.max(d) if len(d) else np.inf:.0f} s, onset error median "
+          f"{np.nanmedian(np.abs(r[:, 2])) if len(d) else np.nan:.0f} s, estimate median "
+          f"{100 * np.nanmedian(r[:, 3]) if len(d) else np.nan:.2f} %, events before the onset {int(r[:, 4].sum())}")
+    for row in rows:
+        if not row[0]:
+            print(f"  missed: {row[5]}")
+    false, observable = 0, 0
+    for seed in range(9000, 9000 + hours):
+        rng = np.random.default_rng(seed + 100000)
+        t, x = hd.drive(seed, 3600.0)
+        mon = YawScaleMonitor(model, base.thr.budget_per_10h / thr.N_TESTS)
+        false += len(mon.push_gnss(*gnss_fixes(seed, 3600.0, rng)) + mon.push_imu(t, x[:, 2]))
+        observable += mon.observability().startswith("observable")
+    print(f"gz scale, healthy drives with GNSS: {hours} h ({observable} observable), {false} false scale events = "
+          f"{10 * false / max(hours, 1):.2f} per 10 h (this test's share of the budget: "
+          f"{base.thr.budget_per_10h / thr.N_TESTS:.3f})")
+
+
 def named(truth, e) -> bool:
     """The right effect, and the right channel where the effect has one."""
     if e.effect != truth["effect"]:
@@ -88,9 +149,12 @@ def main(argv=None) -> int:
     p.add_argument("--healthy-hours", type=int, default=20)
     p.add_argument("--seeds", type=int, default=20)
     p.add_argument("--quick", action="store_true", help="2 h healthy, 4 seeds per fault")
+    p.add_argument("--scale-seeds", type=int, default=10, help="gz scale-step drives (2400 s each)")
+    p.add_argument("--scale-hours", type=int, default=20, help="healthy 1-h drives with GNSS for the scale test")
+    p.add_argument("--only-scale", action="store_true", help="the scale-factor section alone")
     args = p.parse_args(argv)
     if args.quick:
-        args.healthy_hours, args.seeds = 2, 4
+        args.healthy_hours, args.seeds, args.scale_seeds, args.scale_hours = 2, 4, 2, 2
     start = time.time()
     with tempfile.TemporaryDirectory() as tmp:
         model = fitted_model(Path(tmp))
@@ -98,6 +162,9 @@ def main(argv=None) -> int:
     print(f"model: imu-calib allan on a 1-h static run; thresholds {time.time() - start:.1f} s; "
           f"stuck run {base.thr.stuck_run.tolist()} samples, line gate {base.thr.line_h:.1f}, "
           f"noise h {base.thr.noise_h:.2f}, bias h {np.round(base.thr.bias_h, 2).tolist()}")
+    scale_section(model, base, args.scale_seeds, args.scale_hours)
+    if args.only_scale:
+        return 0
     print(f"{'fault':22s} {'runs':>4s} {'named 1st':>9s} {'delay med/max s':>16s} {'target':>6s} "
           f"{'onset err med/max s':>20s}")
     ok_all = True
