@@ -17,8 +17,8 @@ from hypothesis import strategies as st
 
 from nav_bringup import demo
 from nav_bringup.graph import Graph
-from nav_bringup.report import (BAG_LATE_FIXES, BAG_LATE_IMU, MISSED_FIXES, MISSED_IMU, _from_filter_start,
-                                 last_diagnostics, write_report)
+from nav_bringup.offline_runs import BAG_LATE_FIXES, BAG_LATE_IMU, MISSED_FIXES, MISSED_IMU, _from_filter_start
+from nav_bringup.report import last_diagnostics, write_report
 from nav_core import recording
 
 SIM_S, RATE = 8.0, 2.0

@@ -50,7 +50,7 @@ def test_evaluate_scores_forward_and_smoothed_through_an_outage_found_in_the_for
 def test_the_outage_study_cuts_outages_and_the_demo_report_says_each_largest_error(wheel_drive):
     from ins_gps_kf import config
     from ins_gps_kf.error_model import default_mems_model
-    from nav_bringup.report import _outage_lines
+    from nav_bringup.offline_runs import outage_lines
     from nav_eval.outages import outage_study
 
     imu, gnss, wheel = wheel_drive
@@ -62,7 +62,7 @@ def test_the_outage_study_cuts_outages_and_the_demo_report_says_each_largest_err
     assert len(fwd.t) == len(smo.t) > 60
     f, s = figures["forward_largest_per_outage_m"], figures["smoothed_largest_per_outage_m"]
     assert f[1] > 1.0 and s[1] < 0.5 * f[1], figures  # the outage while driving; the first is at rest (ZUPT)
-    lines = _outage_lines(figures)
+    lines = outage_lines(figures)
     assert f"forward {figures['forward_largest_rms_m']:.2f} m, smoothed {figures['smoothed_largest_rms_m']:.2f} m" \
         in lines[0] and f"{f[1]:.1f} / {s[1]:.1f}" in lines[1]
-    assert "not run (why)" in _outage_lines({"not run": "why"})[0]
+    assert "not run (why)" in outage_lines({"not run": "why"})[0]
