@@ -17,15 +17,15 @@ in a window is left out of the statistics of that window (its CUSUMs restart).
 """
 from __future__ import annotations
 
-from dataclasses import dataclass, field, replace
+from dataclasses import replace
 
 import numpy as np
 
 from nav_core import noise_stats
 from nav_core.sensor_model import SensorModel
-from nav_core.units import deg2rad, g2mps2
 from sensor_health import thresholds as thr
 from sensor_health.bias_filter import BiasFilter, motion_regressors
+from sensor_health.config import HealthConfig, Trace
 from sensor_health.events import CHANNELS, Event
 from sensor_health.sample_checks import SampleChecks
 from sensor_health.yaw_scale import YawScaleMonitor
@@ -48,39 +48,6 @@ LINE_CONFIRM = 3
 """Consecutive windows, the first over the line gate and the next over LINE_CONFIRM_FRACTION of it within one bin
 of the first, that name a vibration."""
 LINE_CONFIRM_FRACTION = 0.3
-
-
-@dataclass
-class HealthConfig:
-    """Monitor settings (SI units)."""
-
-    window_s: float = 1.0
-    f_min_hz: float = 2.0
-    """Lines are searched from here to Nyquist (the vehicle's motion lives below)."""
-    false_alarms_per_10h: float = 0.3
-    """Budget of statistical false events on the model's own noise, all detectors and channels together."""
-    baseline_s: float = 600.0
-    """Time constant of the bias baseline, s."""
-    gyro_range_rad_s: float = float(deg2rad(300.0))
-    accel_range_m_s2: float = float(g2mps2(10.0))
-    gap_factor: float = 1.5
-    rate_tolerance: float = 0.1
-    clear_s: float = 10.0
-    """An effect on a channel is reported again only after this long without it."""
-    history_s: float = 120.0
-    mc_windows: int = 8000
-    seed: int = 0
-
-
-@dataclass
-class Trace:
-    """Per-window statistics for the plot (lists of (6,) arrays)."""
-
-    t: list = field(default_factory=list)
-    level: list = field(default_factory=list)
-    line: list = field(default_factory=list)
-    noise_cusum: list = field(default_factory=list)
-    bias_cusum: list = field(default_factory=list)
 
 
 class HealthMonitor:
