@@ -141,37 +141,26 @@ def run(filt: InsGpsFilter, imu: ImuRecording, gnss: GnssRecording | None, progr
 
 def to_trajectory(estimates: list[Estimate], frame) -> Trajectory:
     """Estimates as a :class:`Trajectory` (geodetic via ``frame``) with ENU, std, NIS and status columns."""
-    if not estimates:
-        return Trajectory(*(np.zeros(0) for _ in range(7)), velocity_n=np.zeros((0, 3)))
-    return _trajectory(frame, np.array([e.t for e in estimates]), np.array([e.position_n for e in estimates]),
-                       np.array([e.velocity_n for e in estimates]), np.array([e.quat_xyzw for e in estimates]),
-                       np.sqrt(np.array([np.diag(e.cov) for e in estimates])),
-                       {"nis": np.array([e.nis for e in estimates]),
-                        "gps_used": np.array([e.gps_used for e in estimates], float),
-                        "zupt_used": np.array([e.zupt_used for e in estimates], float),
-                        "status": np.array([STATUS_CODES[e.status] for e in estimates], float)})
+    table = EstimateTable()
+    table.extend(estimates)
+    return table_trajectory(table, frame)
 
 
 def table_trajectory(table: EstimateTable, frame) -> Trajectory:
-    """An :class:`EstimateTable` as a :class:`Trajectory`: :func:`to_trajectory`'s columns, the same bits."""
+    """An :class:`EstimateTable` as a :class:`Trajectory` (geodetic via ``frame``) with ENU, std, NIS and status
+    columns."""
     if not len(table):
         return Trajectory(*(np.zeros(0) for _ in range(7)), velocity_n=np.zeros((0, 3)))
-    return _trajectory(frame, table.column("t"), table.column("position_n"), table.column("velocity_n"),
-                       table.column("quat_xyzw"), np.sqrt(table.column("cov_diag")),
-                       {k: table.column(k) for k in ("nis", "gps_used", "zupt_used", "status")})
-
-
-def _trajectory(frame, t, pos, vel, quat, std, flags: dict) -> Trajectory:
-    """The trajectory columns from per-epoch arrays: ENU position (n, 3) m, velocity, quaternion xyzw, std of the
-    first 9 states (n, >=9), and the flag columns (nis, gps_used, zupt_used, status)."""
-    roll, pitch, yaw = frames.euler_from_quat_xyzw(quat)
+    t, pos, vel = table.column("t"), table.column("position_n"), table.column("velocity_n")
+    std = np.sqrt(table.column("cov_diag"))
+    roll, pitch, yaw = frames.euler_from_quat_xyzw(table.column("quat_xyzw"))
     lat, lon, h = frame.to_geodetic(pos)
     extra = {"e_m": pos[:, 0], "n_m": pos[:, 1], "u_m": pos[:, 2],
              "std_e": std[:, 0], "std_n": std[:, 1], "std_u": std[:, 2],
              "std_ve": std[:, 3], "std_vn": std[:, 4], "std_vu": std[:, 5],
              # phi is an ENU rotation error: east/north ~ roll/pitch at small yaw, up = yaw
              "std_att_e_deg": std[:, 6] / DEG, "std_att_n_deg": std[:, 7] / DEG, "std_yaw_deg": std[:, 8] / DEG,
-             **flags}
+             **{k: table.column(k) for k in ("nis", "gps_used", "zupt_used", "status")}}
     return Trajectory(t, lat * DEG, lon * DEG, h, roll, pitch, yaw, vel, extra)
 
 
