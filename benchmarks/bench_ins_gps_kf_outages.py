@@ -37,6 +37,7 @@ from imu_sim.simulate import simulate
 from nav_core import frames, recording
 from nav_core.workspace import PAPER_DRIVE, workspace_file
 from nav_eval.metrics import drop_fixes, outage_windows, truth_at
+from nav_eval.outages import HorizontalErrors, largest_per_outage
 from ins_gps_kf import config
 from ins_gps_kf import synthetic as syn
 from ins_gps_kf.filter import InsGpsFilter
@@ -99,8 +100,10 @@ def errors(est, truth, frame):
 
 
 def largest_errors(t, horiz, windows) -> list[float]:
-    """Largest horizontal error (m) of the epochs inside each outage window."""
-    return [float(horiz[(t >= a) & (t <= b)].max()) for a, b in windows if np.any((t >= a) & (t <= b))]
+    """Largest horizontal error (m) of the epochs inside each outage window that has epochs
+    (:func:`nav_eval.outages.largest_per_outage`, KF-GINS's score)."""
+    with_epochs = [(a, b) for a, b in windows if np.any((t >= a) & (t <= b))]
+    return largest_per_outage(HorizontalErrors(t, horiz, np.full(len(t), np.nan)), with_epochs)
 
 
 def nees(est, err) -> np.ndarray:
