@@ -320,17 +320,44 @@ def gnss_track_trajectory(path, duration_s: float | None = None, min_std_m: floa
     return traj
 
 
-TRUTH_CSV_POSITION_STD_M = 0.003
-"""Position noise (m, 1 sigma) assumed for truth CSV rows: the CSV writer keeps 10 significant digits (~1 cm of longitude)."""
+EXACT_ROW_STD_M = 1e-6
+"""Row noise (m) below which a truth CSV's positions are interpolated exactly: 1 um at 10 Hz moves 1-s mean
+specific force by about 2e-4 m/s^2 at most, far below any sensor's noise; smoothing at this level only bends the
+path."""
+SIXTH_DIFFERENCE_VAR = 924.0
+"""Variance of the sixth difference of unit white noise (binomial(12, 6))."""
 
 
-def truth_csv_trajectory(truth: Trajectory, frame: LocalFrame | None = None,
-                         position_std_m: float = TRUTH_CSV_POSITION_STD_M) -> TruthTrajectory:
+def row_noise_m(enu_m: np.ndarray) -> np.ndarray:
+    """Per-axis noise (m, 1 sigma) of evenly spaced position rows, from the RMS of their sixth differences.
+
+    A smooth path's sixth difference is h^6 x^(6) (micrometres at 10 Hz even through a 2 m/s^2 quintic speed
+    change), so what is left is the rows' own noise: the CSV's print step, a logger's rounding. It is at most the
+    path's own sixth difference / 30, so over-estimating it on a jerky path costs only micrometres of smoothing.
+    (Not a median: rounding of a steady motion is quasi-periodic, most of its sixth differences near 0.)
+    """
+    d6 = np.diff(np.asarray(enu_m, float), n=6, axis=0)
+    if len(d6) < 8:
+        return np.zeros(np.shape(enu_m)[1])
+    return np.sqrt(np.mean(d6**2, axis=0) / SIXTH_DIFFERENCE_VAR)
+
+
+def _row_spline(t: np.ndarray, x: np.ndarray, noise_m: float):
+    """A quintic spline through rows x(t): exact when their noise is below :data:`EXACT_ROW_STD_M`, else smoothing
+    with chi^2 per row ~ 1 at that noise."""
+    if noise_m <= EXACT_ROW_STD_M:
+        return make_interp_spline(t, x, k=5)
+    return UnivariateSpline(t, x, k=5, s=len(t) * noise_m**2)
+
+
+def truth_csv_trajectory(truth: Trajectory, frame: LocalFrame | None = None) -> TruthTrajectory:
     """A smooth trajectory through a truth trajectory (nav_core :class:`Trajectory`, e.g. a truth CSV).
 
-    Position is a quintic smoothing spline per ENU axis through every row
-    (chi^2 per row ~ 1 at ``position_std_m``, so CSV rounding does not become acceleration
-    noise); attitude a quintic quaternion spline through rows thinned to about 10 Hz.
+    Position is a quintic spline per ENU axis through every row: interpolating when the rows carry no noise of
+    their own (a CSV printed to 15 digits), else a smoothing spline at the rows' noise as :func:`row_noise_m`
+    measures it (a 10-digit CSV's ~2 mm of longitude), so rounding does not become acceleration noise and
+    exact rows keep their acceleration (an assumed 3 mm had smoothed 1-s specific force by up to 0.07 m/s^2 at
+    the end of a quintic speed change). Attitude: a quintic quaternion spline through rows thinned to ~10 Hz.
     """
     if len(truth.t) < 2:
         raise ValueError("truth trajectory needs at least 2 rows")
@@ -341,7 +368,8 @@ def truth_csv_trajectory(truth: Trajectory, frame: LocalFrame | None = None,
     rot = rotation_from_euler(truth.roll[idx], truth.pitch[idx], truth.yaw[idx])
     t = truth.t
     if len(t) > 5:
-        splines = [UnivariateSpline(t, enu[:, i], k=5, s=len(t) * position_std_m**2) for i in range(3)]
+        noise = row_noise_m(enu)
+        splines = [_row_spline(t, enu[:, i], noise[i]) for i in range(3)]
         position = ComponentSplinePosition(splines, t[0], t[-1])
     else:
         position = EnuSplinePosition(t, enu)
