@@ -92,7 +92,10 @@ PARAMETERS = (
          "a filter state (replay --odometry sets it)"),
     Param("odometer_std_mps", 0.05, "wheel speed noise std, m/s", 1e-4, 10.0),
     Param("odometer_scale_std_pct", 2.0, "initial std of the odometer's scale-factor error, %", 0.0, 100.0),
-    Param("odometer_max_age_s", 0.15, "a wheel speed older than this at a filter epoch is not used, s", 0.0, 10.0),
+    Param("odometer_max_age_s", 0.15, "a wheel speed stamped longer than this before a filter epoch is not used "
+          "there (a gap: odometer_gaps; NHC goes on alone), s", 0.0, 10.0),
+    Param("odometer_latency_s", 0.0, "the wheel speed was measured this long before its stamp (a fixed latency of "
+          "the odometer's message), s; the speed is related to the INS state at stamp - latency", 0.0, 5.0),
     Param("odometer_stuck_speed_mps", 2.0, "a wheel speed of exactly 0 while the INS says faster than this is a "
          "stuck wheel (counted as odometer_stuck, not used), m/s", 0.0, 100.0),
     Param("estimate_scale_factors", False, "21 states: also estimate gyro and accel scale-factor errors"),
@@ -171,7 +174,8 @@ class FilterConfig:
     odometer_enabled: bool = False
     odometer_std: float = 0.05
     odometer_scale_std: float = 0.02
-    odometer_max_age: float = 0.15
+    odometer_max_age: float = 0.15  # s
+    odometer_latency: float = 0.0  # s
     odometer_stuck_speed: float = 2.0
     estimate_scale_factors: bool = False
     init_scale_factor_std: float = 0.01
@@ -245,7 +249,8 @@ def from_params(params: dict) -> FilterConfig:
         nhc_lever_arm_b=tuple(float(p[f"nhc_lever_arm_{a}_m"]) for a in "xyz"),
         odometer_enabled=bool(p["odometer_enabled"]), odometer_std=float(p["odometer_std_mps"]),
         odometer_scale_std=float(p["odometer_scale_std_pct"]) / 100.0,
-        odometer_max_age=float(p["odometer_max_age_s"]), odometer_stuck_speed=float(p["odometer_stuck_speed_mps"]),
+        odometer_max_age=float(p["odometer_max_age_s"]), odometer_latency=float(p["odometer_latency_s"]),
+        odometer_stuck_speed=float(p["odometer_stuck_speed_mps"]),
         estimate_scale_factors=bool(p["estimate_scale_factors"]),
         init_scale_factor_std=float(p["init_scale_factor_std_pct"]) / 100.0,
         init_gyro_bias_std=p["init_gyro_bias_std_dph"] * DEG_PER_H,

@@ -63,7 +63,8 @@ class InsGpsFilter:
         self.gnss_model = GnssPosition(self.lever_arm_b)
         self.zupt = ZeroVelocity(cfg)
         self.nhc = NonHolonomic(cfg, self.mounting)
-        self.odometer = WheelOdometer(cfg, self.n_ins, self.input.counter("odometer_stuck"), self.mounting)
+        self.odometer = WheelOdometer(cfg, self.n_ins, self.input.counter("odometer_stuck"), self.mounting,
+                                      self._count_odometer_gap)
         self.bridge = GapBridge(cfg)
         self.last_fix_t = -math.inf
         self.last_nis = math.nan
@@ -90,7 +91,12 @@ class InsGpsFilter:
         self.gyro_scale = np.zeros(3)  # estimated scale-factor errors (unitless), with estimate_scale_factors
         self.odometer.scale = 0.0
         self.odometer.pending, self.odometer.last_t = None, -math.inf  # a restarted clock: wheel stamps start anew
+        self.odometer.in_gap = False
         self.accel_scale = np.zeros(3)
+
+    def _count_odometer_gap(self):
+        """One more odometer gap (an epoch without a recent wheel speed after one with it)."""
+        self.counters.odometer_gaps += 1
 
     def _cut_chain(self):
         """Tell the recorder the state was set anew (not by a linear update): no smoothing across this epoch."""

@@ -56,6 +56,7 @@ class Counters:
     nhc_rejected: int = 0  # constraints the gate refused (a skid, or a vehicle they do not fit)
     odometer_updates: int = 0   # wheel speeds applied
     odometer_rejected: int = 0  # wheel speeds the gate refused (a slipping wheel)
+    odometer_gaps: int = 0  # epochs starting a run without a wheel speed within odometer_max_age_s (NHC alone)
     resets: int = 0
     gps_resets: int = 0
     gaps_bridged: int = 0

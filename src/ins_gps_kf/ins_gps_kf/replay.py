@@ -221,6 +221,7 @@ def _summary(filt: InsGpsFilter) -> dict:
     return {"epochs": c.epochs, "fixes": c.fixes, "fixes_rejected": c.fixes_rejected, "fixes_invalid": c.fixes_invalid,
             "zupts": c.zupts, "nhc_updates": c.nhc_updates, "nhc_rejected": c.nhc_rejected,
             "odometer_updates": c.odometer_updates, "odometer_rejected": c.odometer_rejected,
+            "odometer_gaps": c.odometer_gaps,
             "odometer_scale_pct": 100.0 * filt.odometer.scale if filt.cfg.odometer_enabled else None,
             "nhc_mounting_pitch_yaw_deg": filt.nhc.mounting_deg(), "resets": c.resets, "gps_resets": c.gps_resets,
             "reset_reasons": c.reset_reasons,

@@ -76,6 +76,7 @@ class FilterStatus(NodeStatus):
     wheel_speeds_received: int = 0
     odometer_updates: int = 0
     odometer_rejected: int = 0
+    odometer_gaps: int = 0  # runs of epochs without a wheel speed within odometer_max_age_s (NHC alone)
     late_odometer: int = 0
     bad_odometer_messages: int = 0
     odometer_scale_pct: float | None = None
@@ -104,6 +105,7 @@ def filter_status(filt, intake, first_imu_t=None, first_fix_t=None, bad_imu_mess
     st.wheel_speeds_received, st.late_odometer, st.bad_odometer_messages = (ic.wheel_speeds, ic.late_odometer,
                                                                             bad_odometer_messages)
     st.odometer_updates, st.odometer_rejected = c.odometer_updates, c.odometer_rejected
+    st.odometer_gaps = c.odometer_gaps
     st.odometer_scale_pct = 100.0 * filt.odometer.scale if cfg.odometer_enabled else None
     if cfg.odometer_enabled and not ic.wheel_speeds and filt.status == NAVIGATING:  # a topic or type mistaken
         st.level = "WARN"

@@ -16,7 +16,7 @@ from scipy.spatial.transform import Rotation
 from nav_core import frames
 from nav_core.frames import skew
 from ins_gps_kf import measurements, strapdown
-from ins_gps_kf.error_model import BG, DV, PHI
+from ins_gps_kf.error_model import BA, BG, DV, PHI
 from ins_gps_kf.config import FilterConfig
 from ins_gps_kf.records import Fix
 
@@ -148,18 +148,25 @@ class NonHolonomic(UpdateModel):
 class WheelOdometer(UpdateModel):
     """The wheel odometer: forward speed of the vehicle (m/s) at the constraint point (``nhc_lever_arm_*``), the IMU
     mounted as ``mounting`` (:class:`Mounting`), measured as ``(1 + s) v_fwd + noise``, ``s`` its scale-factor error,
-    a filter state at ``index``. The latest wheel speed no older than ``odometer_max_age_s`` is used at an epoch (a
-    gap: none); a speed of exactly 0 while the INS says the vehicle moves faster than ``odometer_stuck_speed_mps``
-    is a stuck wheel, counted and not used.
+    a filter state at ``index``. The latest wheel speed stamped no longer than ``odometer_max_age_s`` before an epoch
+    is used there; none is a gap (counted once as it starts, by ``count_gap``; NHC goes on alone); a speed of exactly
+    0 while the INS says the vehicle moves faster than ``odometer_stuck_speed_mps`` is a stuck wheel, counted and not
+    used.
 
-    With ``C_est = (I - [phi x]) C_true``: ``z = (1 + s) v_fwd - speed`` has ``H[DV] = (1 + s) r``,
-    ``H[PHI] = -(1 + s) r [v_n x]``, ``H[BG] = (1 + s) C_vb[0] [l x]``, ``H[s] = v_fwd`` (``r`` the vehicle's
-    forward axis in ENU) and the mounting's columns (:meth:`Mounting.jacobian`).
+    Like a fix, a speed is used at its own time: it was measured ``lag = t_epoch - stamp + odometer_latency_s``
+    before the epoch, so the predicted speed is taken back over the lag with the INS acceleration along the
+    vehicle's forward axis ``r`` (the epoch's mean specific force plus gravity, ENU): ``v_fwd - lag r.a`` (the
+    forward axis's own turn adds ``w x v_v``, whose forward part is zero while NHC holds).
+
+    With ``C_est = (I - [phi x]) C_true`` the computed ``a`` has the error ``[f x] phi - C_nb dba``, so
+    ``z = (1 + s) (v_fwd - lag r.a) - speed`` has ``H[DV] = (1 + s) r``, ``H[PHI] = -(1 + s) r ([v_n x] + lag
+    [f x])``, ``H[BA] = (1 + s) lag r C_nb``, ``H[BG] = (1 + s) C_vb[0] [l x]``, ``H[s] = v_fwd - lag r.a`` and the
+    mounting's columns (:meth:`Mounting.jacobian`).
     """
 
     name = "odometer"
 
-    def __init__(self, cfg: FilterConfig, index: int, stuck_counter, mounting: "Mounting"):
+    def __init__(self, cfg: FilterConfig, index: int, stuck_counter, mounting: "Mounting", count_gap=None):
         self.enabled = cfg.odometer_enabled
         self.cfg = cfg
         self.index = index
@@ -167,29 +174,46 @@ class WheelOdometer(UpdateModel):
         self.pending = None  # (t s, speed m/s): the latest wheel speed
         self.last_t = -np.inf
         self.count_stuck = stuck_counter
+        self.count_gap = count_gap if count_gap is not None else (lambda: None)
+        self.in_gap = False  # the last epoch had no wheel speed (a gap already counted)
         self.mounting = mounting
         self.lever_b = np.asarray(cfg.nhc_lever_arm_b, dtype=float)
 
-    def measurement(self, epoch: Epoch):
-        if not self.enabled or self.pending is None or not epoch.heading_known:
-            return None  # with the heading pending the forward axis is not known (as for NHC)
-        t, speed = self.pending
-        self.pending = None
-        if abs(epoch.t - t) > self.cfg.odometer_max_age:
+    def _take(self, t_e: float):
+        """The pending (stamp s, speed m/s) if stamped within ``odometer_max_age_s`` of ``t_e``, else None (a gap,
+        counted as it starts)."""
+        pending, self.pending = self.pending, None
+        if pending is None or t_e - pending[0] > self.cfg.odometer_max_age:
+            if not self.in_gap:
+                self.count_gap()
+            self.in_gap = True
             return None
+        self.in_gap = False
+        return pending
+
+    def measurement(self, epoch: Epoch):
+        if not self.enabled or not epoch.heading_known:
+            return None  # with the heading pending the forward axis is not known (as for NHC)
+        taken = self._take(epoch.t)
+        if taken is None:
+            return None
+        t, speed = taken
+        lag = epoch.t - t + self.cfg.odometer_latency  # s the speed was measured before the epoch
         mat_vb = self.mounting.mat_vb
-        mat_bn = epoch.mat_nb.T
+        mat_nb = epoch.mat_nb
         vel_n = epoch.nav[strapdown.V]
-        vel_v = mat_vb @ (mat_bn @ vel_n + np.cross(epoch.rate_b, self.lever_b))
-        v_fwd = float(vel_v[0])
+        vel_v = mat_vb @ (mat_nb.T @ vel_n + np.cross(epoch.rate_b, self.lever_b))
+        row = mat_vb[0] @ mat_nb.T  # the vehicle's forward axis in ENU
+        accel_n = epoch.f_n + np.array([0.0, 0.0, -epoch.gravity])
+        v_fwd = float(vel_v[0]) - lag * float(row @ accel_n)  # m/s at the speed's own time
         if speed == 0.0 and abs(v_fwd) > self.cfg.odometer_stuck_speed:
             self.count_stuck(f"wheel speed at t={t:.3f} s is 0 while the INS says {v_fwd:.1f} m/s: stuck, not used")
             return None
         gain = 1.0 + self.scale
-        row = mat_vb[0] @ mat_bn
         h = np.zeros((1, epoch.n_states))
         h[0, DV] = row
-        h[0, PHI] = -row @ skew(vel_n)
+        h[0, PHI] = -row @ (skew(vel_n) + lag * skew(epoch.f_n))
+        h[0, BA] = lag * row @ mat_nb
         h[0, BG] = mat_vb[0] @ skew(self.lever_b)
         self.mounting.jacobian(h, vel_v, slice(0, 1))
         h *= gain
