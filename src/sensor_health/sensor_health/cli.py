@@ -90,7 +90,8 @@ def health_document(monitor: HealthMonitor, events, imu, gnss=None) -> dict:
     doc = {"events": [e.to_dict() for e in events], "checked_s": monitor.checked_s,
            "source": str(imu.source), "samples": len(imu), "sample_rate_hz": 1.0 / monitor.dt,
            "windows": monitor.windows, "thresholds": monitor.thr.to_dict(), "vocabulary": EFFECTS,
-           "observability": monitor.observability(), "scale_threshold": monitor.yaw_scale.h}
+           "observability": monitor.observability(), "scale_threshold": monitor.yaw_scale.h,
+           "cleared": monitor.cleared}
     if gnss is not None and len(gnss):
         doc["gnss_checked_s"] = [float(gnss.t[0]), float(gnss.t[-1])]
     return _finite(json.loads(json.dumps(doc, default=_plain)))

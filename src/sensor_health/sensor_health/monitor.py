@@ -27,6 +27,7 @@ from sensor_health import thresholds as thr
 from sensor_health.bias_filter import BiasFilter, motion_regressors
 from sensor_health.config import HealthConfig, Trace
 from sensor_health.events import CHANNELS, Event
+from sensor_health.line_track import LineTrack
 from sensor_health.sample_checks import SampleChecks
 from sensor_health.yaw_scale import YawScaleMonitor
 from sensor_health.window_stats import CLIP_SPAN_WINDOWS, WindowGrid, detrend, span_ties, window_stats
@@ -76,13 +77,15 @@ class HealthMonitor:
         self.noise_quiet = np.zeros(6, int)
         self.noise_over = np.zeros(6, int)
         self.noise_warm, self.noise_ref = [], np.zeros(6)
-        self.line_last = np.full(6, -np.inf)
         self.clip_last = np.full(6, -np.inf)
         self.clip_lattice_done = False
         self.clip_buf = np.full((CLIP_SPAN_WINDOWS - 1, self.grid.n, 6), np.nan)
         """The windows before the next one (NaN before the first: ignored by the clip statistic)."""
         self.line_ref, self.line_n, self.line_now = None, 0, np.zeros(6)
         self.line_run, self.line_prev_bin = np.zeros(6, int), np.full(6, -10)
+        self.line_track = LineTrack(int(self.grid.line_bins.sum()), self.thr.window_s, self.thr.line_h)
+        self.cleared = []
+        """Faults that went away: {"effect", "channels", "t_s" (cleared), "since_s" (named)}."""
         chans = list(thr.BIAS_CHANNELS)
         self.bias_filter = BiasFilter(chans, self.thr.bias_sd[chans], self.thr.bias_tau_s[chans] / self.thr.window_s)
         self.bias_hist = []
@@ -260,12 +263,14 @@ class HealthMonitor:
             self.line_ref = np.zeros_like(p)
         stat = None
         warm = int(round(LINE_WARMUP_S / self.thr.window_s))
+        ratio = p * 2.0 / np.maximum(self.line_ref, 2.0)
         if self.line_n >= warm:
-            ratio = p * 2.0 / np.maximum(self.line_ref, 2.0)
             k = np.argmax(ratio, axis=1)
-            stat = (ratio[np.arange(6), k], np.flatnonzero(self.grid.line_bins)[k])
+            stat = (ratio[np.arange(6), k], k, ratio)
         alpha = max(1.0 / (self.line_n + 1), self.thr.window_s / LINE_REFERENCE_S)
-        self.line_ref = np.where(use[:, None], self.line_ref + alpha * (p - self.line_ref), self.line_ref)
+        # a held line stays out of the reference: it would join it and look gone while it is still there
+        update = use[:, None] & ~self.line_track.reference_mask()
+        self.line_ref = np.where(update, self.line_ref + alpha * (p - self.line_ref), self.line_ref)
         self.line_n += 1
         return stat
 
@@ -274,8 +279,10 @@ class HealthMonitor:
         stat = self._line_statistic(w, ws, use)
         if stat is None:
             return []
-        line, line_bin = stat
+        line, line_k, ratio = stat
+        line_bin = np.flatnonzero(self.grid.line_bins)[line_k]
         self.line_now = line
+        self._line_cleared(self.line_track.update(ratio, use, t1), t1)
         # a line persists at one frequency; the bumps of rough ground come and go and wander. The first window must
         # pass the gate; the next ones, within one bin of it, a fraction of it (a line between two bins, or
         # beating with the noise, swings from window to window)
@@ -285,10 +292,10 @@ class HealthMonitor:
         self.line_run = np.where(kept, self.line_run + 1, np.where(over, 1, 0))
         self.line_prev_bin = np.where(kept | over, np.where(kept, self.line_prev_bin, line_bin), -10)
         hit = self.line_run >= LINE_CONFIRM
-        fired = np.flatnonzero(hit & (t1 - self.line_last > self.config.clear_s))
-        self.line_last = np.where(hit, t1, self.line_last)
+        fired = np.flatnonzero(hit & ~self.line_track.active)
         if len(fired) == 0:
             return []
+        self.line_track.start(fired, int(line_k[fired[np.argmax(line[fired])]]), t1)
         wh = noise_stats.Whitener(self.grid.n, self.dt, self.grid.weights, ws.level[w])
         resid = detrend(np.where(np.isfinite(xwin), xwin, 0.0))
         c0 = fired[np.argmax(line[fired])]
@@ -303,6 +310,12 @@ class HealthMonitor:
         return [Event(t1, float(t1 - LINE_CONFIRM * th.window_s), "vibration", names, "WARN", estimate, interval,
                       f"line at {f_hat:.3g} Hz, amplitude {msg}",
                       {"chi2": line[fired].tolist(), "threshold": th.line_h})]
+
+    def _line_cleared(self, chans, t1) -> None:
+        """Note the held lines that went away (the channel's status returns to OK with a 'cleared' message)."""
+        if chans:
+            self.cleared.append({"effect": "vibration", "channels": [CHANNELS[c] for c in chans], "t_s": t1,
+                                 "since_s": float(np.nanmin(self.line_track.since_s[chans]))})
 
     def _line_amplitude(self, x, f_hz, level, chans):
         """Amplitude (k,) of a line at f_hz in x (n, k), corrected for interval means (sinc), and its sd."""
@@ -458,15 +471,16 @@ class HealthMonitor:
         for c in CHANNELS:
             evs = [e for (eff, ch), e in self.active.items() if ch == c]
             latest = max(evs, key=lambda e: e.t_s) if evs else None
+            tracked = latest is not None and latest.effect == "vibration"  # held while the line lasts
             live = latest is not None and (self._still_active(latest, c, now_s)
-                                           or now_s - latest.t_s <= self.config.clear_s)
+                                           or (not tracked and now_s - latest.t_s <= self.config.clear_s))
             out[c] = (latest.level if live else "OK", latest)
         return out
 
     def _still_active(self, e: Event, ch: str, now_s: float) -> bool:
         c = CHANNELS.index(ch)
-        if e.effect == "vibration":  # the line still passes the gate
-            return bool(now_s - self.line_last[c] <= self.config.clear_s)
+        if e.effect == "vibration":  # the line's power still holds (LineTrack)
+            return bool(self.line_track.active[c])
         if e.effect == "white_noise_increase":
             return bool(self.noise_active[c])
         if e.effect == "stuck_output":

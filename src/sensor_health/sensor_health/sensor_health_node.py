@@ -68,7 +68,7 @@ class SensorHealthNode(Node):
             self.monitor = HealthMonitor(model, cfg, values["sample_rate_hz"], keep_trace=False)
         except ValueError as err:
             raise ConfigError(f"sensor_health: {err}") from None
-        self.counts, self.stats = {}, {"received": 0, "busy_s": 0.0, "gps_fix": 0, "odometry": 0}
+        self.counts, self.stats = {}, {"received": 0, "busy_s": 0.0, "gps_fix": 0, "odometry": 0, "cleared": 0}
         self.events_pub = self.create_publisher(String, values["events_topic"], EVENTS_QOS)
         self.diag_pub = self.create_publisher(DiagnosticArray, "/diagnostics", 10)
         self.create_subscription(NavSatFix, "gps/fix", self.on_fix, SENSOR_QOS_IN)
@@ -101,6 +101,7 @@ class SensorHealthNode(Node):
         events = self.monitor.push(batch.t_s, batch.gyro, batch.accel)
         self.stats["received"] += len(batch.t_s)
         self._publish_events(events)
+        self._log_cleared()
         self.stats["busy_s"] += time.perf_counter() - start
 
     def _publish_events(self, events) -> None:
@@ -109,6 +110,13 @@ class SensorHealthNode(Node):
             self.events_pub.publish(String(data=e.to_json()))
             log = self.get_logger().error if e.level == "ERROR" else self.get_logger().warning
             log(f"{e.effect} {','.join(e.channels)} at t {e.t_s:.3f} s (onset {e.onset_s:.3f} s): {e.message}")
+
+    def _log_cleared(self) -> None:
+        """Log each fault that went away (its channel's status says so too)."""
+        for c in self.monitor.cleared[self.stats["cleared"]:]:
+            self.get_logger().info(f"cleared: {c['effect']} {','.join(c['channels'])} at t {c['t_s']:.3f} s "
+                                   f"(named at {c['since_s']:.3f} s)")
+        self.stats["cleared"] = len(self.monitor.cleared)
 
     def _publish_diagnostics_locked(self) -> None:
         with self.lock:
