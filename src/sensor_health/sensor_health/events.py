@@ -17,6 +17,8 @@ EFFECTS = {
     "bias_shift": "the channel's mean stepped (estimate: the step, SI), where the motion keeps it observable",
     "scale_factor_change": "the channel's scale factor changed, where the motion makes it observable (gz: yaw "
                            "against the GNSS course in turns; estimate: relative change, 0.02 = +2 %)",
+    "turn_on_bias": "at an unaccelerated start, a channel's bias lies outside the model's stated turn-on bounds "
+                    "(estimate: the bias less the model's, SI; accelerometer: along gravity)",
     "dropout": "samples missing: a stamp gap above gap_factor sample intervals (estimate: gap s)",
     "sample_rate_change": "the sample interval changed for good (estimate: the new rate, Hz)",
 }

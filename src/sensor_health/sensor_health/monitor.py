@@ -29,6 +29,7 @@ from sensor_health.config import HealthConfig, Trace
 from sensor_health.events import CHANNELS, Event
 from sensor_health.line_track import LineTrack
 from sensor_health.sample_checks import SampleChecks
+from sensor_health.startup import StartupCheck, startup_thresholds
 from sensor_health.yaw_scale import YawScaleMonitor
 from sensor_health.window_stats import CLIP_SPAN_WINDOWS, WindowGrid, detrend, span_ties, window_stats
 
@@ -97,6 +98,8 @@ class HealthMonitor:
         self.bias_pending = {}
         """channel -> a fast crossing waiting for BIAS_CONFIRM_WINDOWS more windows."""
         self.yaw_scale = YawScaleMonitor(model, self.thr.budget_per_10h / thr.N_TESTS)
+        self.startup = StartupCheck(self, startup_thresholds(model, self.grid, self.thr.noise_mu, self.thr.noise_sd,
+                                                             self.thr.bias_sd, self.thr.window_s, seed=cfg.seed))
         self.checked_s = [None, None]
         self.windows = 0
         self.active = {}
@@ -134,7 +137,7 @@ class HealthMonitor:
 
     def observability(self) -> dict:
         """Effect and channel -> whether this record's motion made it observable (scale factor so far)."""
-        return {"scale_factor_change gz": self.yaw_scale.observability(),
+        return {"scale_factor_change gz": self.yaw_scale.observability(), "turn_on_bias": self.startup.bias_note,
                 "scale_factor_change ax ay az": "not observable: not monitored (no reference used yet)"}
 
     def _report(self, events) -> list:
@@ -175,6 +178,7 @@ class HealthMonitor:
         for w in range(len(tw)):
             self.windows += 1
             t0, t1 = float(tw[w, 0]), float(tw[w, -1])
+            events += self.startup.window(t1, y[w], ws, w, use[w], xw[w])
             events += self._noise(w, t0, t1, y[w], ws, use[w])
             events += self._line(w, t1, ws, use[w], xw[w])
             events += self._bias(t0, t1, ws.mean[w], ws.level[w], use[w], phi[w])
@@ -280,7 +284,6 @@ class HealthMonitor:
         if stat is None:
             return []
         line, line_k, ratio = stat
-        line_bin = np.flatnonzero(self.grid.line_bins)[line_k]
         self.line_now = line
         self._line_cleared(self.line_track.update(ratio, use, t1), t1)
         # a line persists at one frequency; the bumps of rough ground come and go and wander. The first window must
@@ -288,28 +291,33 @@ class HealthMonitor:
         # beating with the noise, swings from window to window)
         over = use & (line > th.line_h)
         kept = use & (self.line_run > 0) & (line > LINE_CONFIRM_FRACTION * th.line_h) \
-            & (np.abs(line_bin - self.line_prev_bin) <= 1)
+            & (np.abs(line_k - self.line_prev_bin) <= 1)
         self.line_run = np.where(kept, self.line_run + 1, np.where(over, 1, 0))
-        self.line_prev_bin = np.where(kept | over, np.where(kept, self.line_prev_bin, line_bin), -10)
+        self.line_prev_bin = np.where(kept | over, np.where(kept, self.line_prev_bin, line_k), -10)
         hit = self.line_run >= LINE_CONFIRM
         fired = np.flatnonzero(hit & ~self.line_track.active)
         if len(fired) == 0:
             return []
-        self.line_track.start(fired, int(line_k[fired[np.argmax(line[fired])]]), t1)
-        wh = noise_stats.Whitener(self.grid.n, self.dt, self.grid.weights, ws.level[w])
+        k0 = int(line_k[fired[np.argmax(line[fired])]])
+        self.line_track.start(fired, k0, t1)
+        return [self._line_event(t1, float(t1 - LINE_CONFIRM * th.window_s), fired, k0, ws.level[w], xwin,
+                                 {"chi2": line[fired].tolist(), "threshold": th.line_h})]
+
+    def _line_event(self, t1, onset, fired, line_k, level, xwin, statistic) -> Event:
+        """The vibration event of a line near searched bin ``line_k`` on channels ``fired`` of window xwin (n, 6):
+        its frequency (maximum likelihood) and amplitude per channel, with 95 % intervals."""
+        wh = noise_stats.Whitener(self.grid.n, self.dt, self.grid.weights, level)
         resid = detrend(np.where(np.isfinite(xwin), xwin, 0.0))
-        c0 = fired[np.argmax(line[fired])]
-        f0 = float(self.grid.freqs[line_bin[c0]])
+        f0 = float(self.grid.freqs[np.flatnonzero(self.grid.line_bins)[line_k]])
         f_hat, f_lo, f_hi = noise_stats.fit_line_frequency(wh, resid * np.isin(np.arange(6), fired), f0)
-        amp, sd = self._line_amplitude(resid[:, fired], f_hat, ws.level[w, fired], fired)
+        amp, sd = self._line_amplitude(resid[:, fired], f_hat, level[fired], fired)
         names = [CHANNELS[c] for c in fired]
         estimate = {"frequency_hz": f_hat, "amplitude": dict(zip(names, amp.tolist()))}
         interval = {"frequency_hz": [f_lo, f_hi],
                     "amplitude": {n: [float(a - Z95 * s), float(a + Z95 * s)] for n, a, s in zip(names, amp, sd)}}
         msg = ", ".join(f"{n} {a:.3g}" for n, a in zip(names, amp))
-        return [Event(t1, float(t1 - LINE_CONFIRM * th.window_s), "vibration", names, "WARN", estimate, interval,
-                      f"line at {f_hat:.3g} Hz, amplitude {msg}",
-                      {"chi2": line[fired].tolist(), "threshold": th.line_h})]
+        return Event(t1, onset, "vibration", names, "WARN", estimate, interval,
+                     f"line at {f_hat:.3g} Hz, amplitude {msg}", statistic)
 
     def _line_cleared(self, chans, t1) -> None:
         """Note the held lines that went away (the channel's status returns to OK with a 'cleared' message)."""
@@ -482,7 +490,7 @@ class HealthMonitor:
         if e.effect == "vibration":  # the line's power still holds (LineTrack)
             return bool(self.line_track.active[c])
         if e.effect == "white_noise_increase":
-            return bool(self.noise_active[c])
+            return bool(self.noise_active[c] or self.startup.noise_held[c])
         if e.effect == "stuck_output":
             return bool(self.samples.run[c] >= self.thr.stuck_run[c])
         return False

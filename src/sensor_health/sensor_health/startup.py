@@ -1,0 +1,261 @@
+"""Faults present from the first sample, against the sensor model (there is no healthy stretch of the run to compare
+with): the first ``STARTUP_S`` of windows are tested against the model's own noise.
+
+* noise: the mean standardised log noise level of the first k windows (k >= 2), with each of the last 2 windows'
+  variance factor at least ``NOISE_IGNORED_RATIO`` (3: below it a vehicle's own level is taken as healthy, as the
+  running test does) -> ``white_noise_increase``;
+* spectrum: the whitened power per bin summed over the first k windows (k >= 3; chi-square(2k) under the model),
+  its largest bin -> ``vibration``; the line is then held (:mod:`sensor_health.line_track`) and kept out of the
+  run's reference spectrum;
+* turn-on bias, where the motion allows it (an **unaccelerated start**: standing, or a constant-velocity
+  straight, every channel's window means steady) and **the model states a turn-on repeatability**
+  (``info: {turn_on_bias_repeatability: [..]}`` in a triad of model.yaml, 1 sd, SI; the calibrated ``bias`` and
+  its ``interval_95`` are the centre and add their uncertainty): each gyro axis' mean minus the model's bias
+  (allowing the Earth's rate), and the accelerometer's specific force along gravity minus normal gravity
+  (allowing 9.78-9.83 m/s^2 for an unknown site) -> ``turn_on_bias``.
+
+Thresholds: Monte Carlo of ``MC_RUNS`` starts of the model's noise (:mod:`sensor_health.noise_sim`, the same window
+statistics as the monitor), an exponential tail per look and channel for the stated ``FALSE_ALARMS_PER_START``
+(split over the tests and looks); the turn-on gate is the Gaussian quantile on the simulated sd of a start's mean
+plus the stated bounds. Cached per model (the Monte Carlo is seeded: the CLI and the node get the same).
+
+No ROS. SI units; times s.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from scipy import stats
+
+from nav_core.sensor_model import SensorModel
+from sensor_health import noise_sim
+from sensor_health.events import CHANNELS, Event
+from sensor_health.thresholds import NOISE_IGNORED_RATIO, exp_tail_threshold
+from sensor_health.window_stats import WindowGrid, window_stats
+
+STARTUP_S = 5.0
+FALSE_ALARMS_PER_START = 1e-3
+"""Budget of false start-up events per start of a healthy unit, all start-up tests together."""
+N_STARTUP_TESTS = 6 + 6 + 4
+"""Noise and spectrum on every channel, turn-on bias on gx gy gz and the specific force along gravity."""
+NOISE_LOOK_MIN, LINE_LOOK_MIN = 2, 3
+"""A one-window burst (a knock) is not a noise increase; a line lasts (the running detector confirms over 3)."""
+MC_RUNS = 1500
+REPEATABILITY_KEY = "turn_on_bias_repeatability"
+EARTH_RATE_RAD_S = 7.292115e-5
+G_NORMAL_M_S2, G_ALLOWANCE_M_S2 = 9.806, 0.03
+"""Normal gravity 9.780 (equator) to 9.832 (poles) at sea level, less 3e-6 per m of height: an unknown site."""
+STEADY_P, STEADY_MARGIN = 1e-3, 2.0
+"""The start counts as unaccelerated when every channel's window means scatter less than STEADY_MARGIN x their
+simulated 1 - STEADY_P quantile (normalised by the window's noise level)."""
+Z95 = 1.959964
+_CACHE = {}
+
+
+@dataclass
+class StartupThresholds:
+    """Gates of the start-up tests; (looks, 6) arrays are per look k = 1..looks and channel."""
+
+    looks: int
+    noise_h: np.ndarray
+    line_h: np.ndarray
+    mean_sd: np.ndarray
+    """(6,) sd of the mean of the first ``looks`` windows of the model's noise (GM, random walk, quantization)."""
+    steady_h: np.ndarray
+    """(6,) largest scatter of window means (sum of squares over level x window-mean variance) of a steady start."""
+    p_look: float
+
+
+def startup_thresholds(model: SensorModel, grid: WindowGrid, noise_mu, noise_sd, window_mean_sd, window_s: float,
+                       runs: int = MC_RUNS, seed: int = 0) -> StartupThresholds:
+    """Monte Carlo of ``runs`` starts (seeded; cached per model and grid)."""
+    looks = max(LINE_LOOK_MIN, int(round(STARTUP_S / window_s)))
+    key = (_model_key(model), grid.n, grid.dt, looks, runs, seed, np.asarray(noise_mu).tobytes())
+    if key in _CACHE:
+        return _CACHE[key]
+    rng = np.random.default_rng(seed + 7919)
+    x = np.stack([noise_sim.model_noise(model, looks * grid.n, grid.dt, rng) for _ in range(runs)])
+    ws = window_stats(grid, x.reshape(runs * looks, grid.n, 6))
+    y = ((np.log(ws.level) - noise_mu) / noise_sd).reshape(runs, looks, 6)
+    power = ws.power.reshape(runs, looks, 6, -1)
+    p_look = FALSE_ALARMS_PER_START / N_STARTUP_TESTS / looks
+    k = np.arange(1, looks + 1)[None, :, None]
+    noise_stat = np.cumsum(y, axis=1) / np.sqrt(k)
+    line_stat = np.cumsum(power, axis=1).max(axis=-1)
+    noise_h = np.array([[exp_tail_threshold(noise_stat[:, j, c], p_look) for c in range(6)] for j in range(looks)])
+    line_h = np.array([[exp_tail_threshold(line_stat[:, j, c], p_look) for c in range(6)] for j in range(looks)])
+    means = ws.mean.reshape(runs, looks, 6)
+    mean_sd = means.mean(axis=1).std(axis=0)
+    scatter = _scatter(means, ws.level.reshape(runs, looks, 6), window_mean_sd)
+    steady_h = STEADY_MARGIN * np.quantile(scatter, 1 - STEADY_P, axis=0)
+    out = StartupThresholds(looks, noise_h, line_h, mean_sd, steady_h, p_look)
+    _CACHE[key] = out
+    return out
+
+
+def _model_key(model: SensorModel) -> bytes:
+    parts = [getattr(tri, f) for tri in (model.gyro, model.accel) for f in
+             ("white_noise", "bias_instability", "bias_correlation_time", "rate_random_walk", "quantization")]
+    return np.concatenate([np.asarray(p, float).ravel() for p in parts]).tobytes()
+
+
+def _scatter(means, levels, window_mean_sd):
+    """Sum over windows of (window mean - their mean)^2 / (level x window-mean variance): (..., 6)."""
+    d = means - means.mean(axis=-2, keepdims=True)
+    return np.sum(d**2 / (np.maximum(levels, 1.0) * window_mean_sd**2), axis=-2)
+
+
+def turn_on_bounds(model: SensorModel) -> tuple:
+    """(centre (6,), stated sd (6,) or NaN where the model states no repeatability) of the turn-on bias, SI."""
+    centre, sd = np.zeros(6), np.full(6, np.nan)
+    for k, tri in enumerate((model.gyro, model.accel)):
+        centre[3 * k:3 * k + 3] = tri.bias
+        rep = tri.info.get(REPEATABILITY_KEY)
+        if rep is None:
+            continue
+        rep = np.broadcast_to(np.asarray(rep, float), (3,))
+        interval = np.asarray(tri.intervals.get("bias", np.column_stack([tri.bias, tri.bias])), float)
+        cal_sd = (interval[:, 1] - interval[:, 0]) / (2 * Z95)
+        sd[3 * k:3 * k + 3] = np.sqrt(rep**2 + cal_sd**2 + tri.bias_instability**2)
+    return centre, sd
+
+
+class StartupCheck:
+    """The start-up tests of one monitor; :meth:`window` is called with each window until the first STARTUP_S."""
+
+    def __init__(self, monitor, sth: StartupThresholds):
+        self.mon, self.sth = monitor, sth
+        self.n = np.zeros(6, int)
+        self.windows = 0
+        self.sum_y = np.zeros(6)
+        self.sum_p = None
+        self.levels, self.means, self.ys = [], [], []
+        self.noise_done = np.zeros(6, bool)
+        self.line_done = np.zeros(6, bool)
+        self.noise_held = np.zeros(6, bool)
+        self.centre, self.bound_sd = turn_on_bounds(monitor.model)
+        self.bias_note = ("not tested: the model states no turn-on repeatability (info: "
+                          f"{REPEATABILITY_KEY} in model.yaml)") if np.isnan(self.bound_sd).all() else "pending"
+
+    def window(self, t1, y, ws, w, use, xwin) -> list:
+        """One window: its standardised log level y (6,), statistics ``ws`` row w, usable channels -> events."""
+        self._hold_noise(t1, ws.level[w])
+        self.windows += 1
+        if self.windows > 4 * self.sth.looks:  # a channel unusable at the start is not tested from the start
+            return []
+        events = []
+        if self.sum_p is None:
+            self.sum_p = np.zeros_like(ws.power[w])
+        fresh = use & (self.n < self.sth.looks)
+        self.n += fresh
+        self.sum_y += np.where(fresh, y, 0.0)
+        self.sum_p += np.where(fresh[:, None], ws.power[w], 0.0)
+        self.levels.append(np.where(use, ws.level[w], np.nan))
+        self.means.append(np.where(use, ws.mean[w], np.nan))
+        events += self._noise(t1, fresh)
+        events += self._line(t1, fresh, ws, w, xwin)
+        if len(self.means) == self.sth.looks:
+            events += self._turn_on(t1)
+        return events
+
+    def _noise(self, t1, fresh) -> list:
+        k = np.maximum(self.n, 1) - 1
+        stat = self.sum_y / np.sqrt(np.maximum(self.n, 1))
+        recent = np.array(self.levels[-NOISE_LOOK_MIN:])
+        high = (len(recent) >= NOISE_LOOK_MIN) & np.all(recent >= NOISE_IGNORED_RATIO, axis=0)
+        gate = self.sth.noise_h[k, np.arange(6)]
+        fired = np.flatnonzero(fresh & ~self.noise_done & (self.n >= NOISE_LOOK_MIN) & (stat > gate) & high)
+        if len(fired) == 0:
+            return []
+        self.noise_done[fired] = self.noise_held[fired] = True
+        onset = float(self.mon.checked_s[0])
+        factor, lo, hi = self.mon._noise_factor(fired, onset, t1)
+        names = [CHANNELS[c] for c in fired]
+        msg = ", ".join(f"{n} x{f:.3g}" for n, f in zip(names, factor))
+        return [Event(t1, onset, "white_noise_increase", names, "WARN", factor.tolist(),
+                      np.column_stack([lo, hi]).tolist(), f"noise sd from the start: {msg} of the model's",
+                      {"startup_stat": stat[fired].tolist(), "threshold": gate[fired].tolist()})]
+
+    def _hold_noise(self, t1, level) -> None:
+        """A start-up noise increase is held while the window's variance factor stays over NOISE_IGNORED_RATIO
+        (the running test takes the start's level as the run's own and would not see it go)."""
+        quiet = self.noise_held & (level < NOISE_IGNORED_RATIO)
+        if quiet.any():
+            self.noise_held &= ~quiet
+            self.mon.cleared.append({"effect": "white_noise_increase", "channels": [CHANNELS[c] for c in
+                                                                                    np.flatnonzero(quiet)],
+                                     "t_s": t1, "since_s": float(self.mon.checked_s[0])})
+
+    def _line(self, t1, fresh, ws, w, xwin) -> list:
+        k = np.maximum(self.n, 1) - 1
+        best = np.argmax(self.sum_p, axis=1)
+        stat = self.sum_p[np.arange(6), best]
+        gate = self.sth.line_h[k, np.arange(6)]
+        fired = np.flatnonzero(fresh & ~self.line_done & (self.n >= LINE_LOOK_MIN) & (stat > gate))
+        if len(fired) == 0:
+            return []
+        self.line_done[fired] = True
+        c0 = fired[np.argmax(stat[fired] / gate[fired])]
+        line_k = int(best[c0])
+        self.mon.line_track.start(fired, line_k, t1)
+        # the windows so far went into the run's reference spectrum: at the held line's bins it is the model's
+        mask = self.mon.line_track.reference_mask()
+        if self.mon.line_ref is not None:
+            self.mon.line_ref[mask] = np.minimum(self.mon.line_ref[mask], 2.0)
+        return [self.mon._line_event(t1, float(self.mon.checked_s[0]), fired, line_k, ws.level[w], xwin,
+                                     {"startup_chi2": stat[fired].tolist(), "threshold": gate[fired].tolist(),
+                                      "windows": self.n[fired].tolist()})]
+
+    def _turn_on(self, t1) -> list:
+        """At the end of the first STARTUP_S: the turn-on bias against the model's stated bounds, if the start was
+        unaccelerated."""
+        if np.isnan(self.bound_sd).all():
+            return []
+        means, levels = np.array(self.means), np.array(self.levels)
+        if np.isnan(means).any():
+            self.bias_note = "not tested: a channel was unusable at the start"
+            return []
+        scatter = _scatter(means, levels, self.mon.thr.bias_sd)
+        if np.any(scatter > self.sth.steady_h):
+            worst = CHANNELS[int(np.argmax(scatter / self.sth.steady_h))]
+            self.bias_note = f"not observable on this record: the start was not unaccelerated ({worst} moved)"
+            return []
+        self.bias_note = f"tested at an unaccelerated start ({len(means)} windows)"
+        mean = means.mean(axis=0)
+        noise_sd = self.sth.mean_sd * np.sqrt(np.maximum(levels.mean(axis=0), 1.0))
+        z = stats.norm.isf(self.sth.p_look * self.sth.looks / 2)
+        events = []
+        for c in range(3):
+            if np.isnan(self.bound_sd[c]):
+                continue
+            est = float(mean[c] - self.centre[c])
+            sd = float(np.hypot(self.bound_sd[c], noise_sd[c]))
+            gate = z * sd + EARTH_RATE_RAD_S
+            if abs(est) > gate:
+                events.append(self._event(t1, [c], est, float(noise_sd[c]), EARTH_RATE_RAD_S, gate,
+                                          f"{CHANNELS[c]} turn-on bias {est:.3g} rad/s = {abs(est) / sd:.1f} sd of "
+                                          f"the model's stated repeatability"))
+        if not np.isnan(self.bound_sd[3:]).all():
+            events += self._turn_on_accel(t1, mean, noise_sd, z)
+        return events
+
+    def _turn_on_accel(self, t1, mean, noise_sd, z) -> list:
+        """The specific force along gravity minus normal gravity (the bias across gravity is the tilt's)."""
+        f = mean[3:] - self.centre[3:]
+        u = f / np.linalg.norm(f)
+        est = float(np.linalg.norm(f) - G_NORMAL_M_S2)
+        sd = float(np.sqrt(np.sum(u**2 * (np.nan_to_num(self.bound_sd[3:]) ** 2 + noise_sd[3:] ** 2))))
+        gate = z * sd + G_ALLOWANCE_M_S2
+        if abs(est) <= gate:
+            return []
+        c = 3 + int(np.argmax(np.abs(u)))
+        return [self._event(t1, [c], est, float(np.sqrt(np.sum(u**2 * noise_sd[3:] ** 2))), G_ALLOWANCE_M_S2, gate,
+                            f"{CHANNELS[c]} turn-on bias {est:.3g} m/s^2 along gravity = {abs(est) / sd:.1f} sd of "
+                            f"the model's stated repeatability (normal gravity {G_NORMAL_M_S2} "
+                            f"+/- {G_ALLOWANCE_M_S2} m/s^2)")]
+
+    def _event(self, t1, chans, est, noise_sd, allowance, gate, msg) -> Event:
+        half = Z95 * noise_sd + allowance
+        return Event(t1, float(self.mon.checked_s[0]), "turn_on_bias", [CHANNELS[c] for c in chans], "WARN", est,
+                     [est - half, est + half], msg, {"estimate": est, "threshold": gate})
