@@ -1,5 +1,6 @@
 """GNSS-side diagnosis on synthetic fix residuals: latency recovered, coloured noise not taken for latency."""
 import numpy as np
+import pytest
 from scipy import stats
 from scipy.spatial.transform import Rotation
 
@@ -72,3 +73,62 @@ def test_colored_fit_finds_the_correlation_time():
     gr = _residual(5, colored_sigma=1.0)
     col = gt.colored_fit(gr.r, gr)
     assert col.tau_ci[0] <= 30.0 <= col.tau_ci[1] * 1.5 and col.lr > 100
+
+
+def test_drop_one_share_is_what_the_joint_fit_loses_without_each_finding(monkeypatch):
+    """Two findings that explain the same part of the residual each get only what the other cannot explain; a
+    noise finding (no deterministic output) keeps its own energy; shares follow the drop-one energies."""
+    from types import SimpleNamespace
+
+    from nav_core.sensor_model import SensorModel, TriadModel
+
+    from imu_sim.diagnose import case as case_mod, share
+    from imu_sim.diagnose.candidate import Candidate
+
+    rng = np.random.default_rng(3)
+    n = 4000
+    noise = rng.standard_normal((n, 6))
+    step = np.zeros((n, 6))
+    step[n // 2:, 0] = 0.5  # what both "effects" explain
+    own = np.zeros((n, 6))
+    own[:, 3] = 0.3 * np.sin(np.arange(n) / 50.0)  # what only the misalignment explains
+
+    def fake_residual(case, model):
+        phys = model.physics or {}
+        out = noise + step + own
+        if "scale_factor" in phys or "axis_misalignment" in phys:
+            out = out - step  # either one alone explains the step
+        if "axis_misalignment" in phys:
+            out = out - own
+        return out
+
+    monkeypatch.setattr(case_mod, "residual", fake_residual)
+    base = SensorModel(gyro=TriadModel(), accel=TriadModel(), sample_rate_hz=50.0, physics={})
+    final = base.with_physics("scale_factor").with_physics("axis_misalignment").with_physics("gauss_markov_bias")
+    cands = [Candidate("scale_factor", 1, 0, ""), Candidate("axis_misalignment", 1, 0, ""),
+             Candidate("gauss_markov_bias", 1, 0, "", kind="noise")]
+    findings = [{"mismatch_energy": 1000.0}, {"mismatch_energy": 400.0}, {"mismatch_energy": 50.0}]
+    drops = share.drop_one(SimpleNamespace(), final, base, findings, cands)
+    own_energy = np.sum(own[:, 3] ** 2)  # unit noise variance
+    assert drops[0] == pytest.approx(0.0, abs=1e-6)  # the misalignment still explains the step without it
+    assert drops[1] == pytest.approx(own_energy, rel=0.1)  # only its own part: the step is the scale factor's too
+    assert drops[2] == 50.0
+    assert share.shares(drops)[0] == 0.0 and share.shares(drops)[1] == pytest.approx(drops[1] / (drops[1] + 50.0))
+
+
+def test_coloured_fix_error_a_smoothed_truth_can_carry_is_not_separable_and_motion_regressors_go_first():
+    from imu_sim.diagnose import reference
+    from imu_sim.diagnose.candidate import Candidate
+    from imu_sim.diagnose.engine import _deterministic_first
+
+    def coloured(lows):
+        c = Candidate("colored_gps_noise", 100.0, 20.0, "", kind="gnss")
+        for a, lo in zip("enu", lows):
+            c.params[f"sigma_m[{a}]"], c.intervals[f"sigma_m[{a}]"] = lo + 0.1, [lo, lo + 0.2]
+        return c
+
+    # 0.5 m vertical at 95 % is inside a smoothed track's own height error (2 x 0.3 m); 0.4 m east is not
+    assert "not separable from the reference" in reference.colored_fix_note(coloured([0.2, 0.25, 0.5]))
+    assert reference.colored_fix_note(coloured([0.4, 0.1, 0.1])) == ""
+    latency = Candidate("gps_latency", 30.0, 8.7, "", kind="gnss")
+    assert _deterministic_first([coloured([1.0, 1.0, 1.0]), latency]) is latency

@@ -35,9 +35,11 @@ MIN_GAIN = 2e-4
 to 0.96579 (1e-5) is not a finding; the independent suite's concealed temperature coefficient gains 0.083 %."""
 MIN_DEVIANCE_GAIN = 1e-3
 """Smallest held-out gain of a deviance metric, per held-out block (absolute)."""
-SHARE_SCALE = ("findings ordered by share_of_mismatch: each finding's energy in the residual over the per-sample "
-               "noise variance (sum of contrib^2 / sigma^2 over samples and channels; for noise terms their "
-               "variance times the samples), over the sum for all findings")
+SHARE_SCALE = ("findings ordered by share_of_mismatch: each finding's drop-one contribution in the joint fit "
+               "(drop_one_energy: how much the final model's residual energy, over the per-sample noise variance, "
+               "grows when that finding alone is removed and the others keep their fitted values; for noise terms "
+               "their variance times the samples), over the sum for all findings; mismatch_energy is the finding's "
+               "own energy when it was fitted")
 
 
 def evaluate(case: Case, model: SensorModel, resid: np.ndarray, exclude=(), factors: dict | None = None) -> list:
@@ -65,12 +67,9 @@ def evaluate(case: Case, model: SensorModel, resid: np.ndarray, exclude=(), fact
                            f"error, the constant's scale is determined only to +-{1.96 * cand.constant_se:.2g} "
                            f"(95 %), which cannot tell it from 0; not ranked")
         if cand.effect == "colored_gps_noise" and cand.significant and reference.moving_file_truth(case):
-            top = max((v for k, v in cand.params.items() if k.startswith("sigma_m")), default=0.0)
-            if top < reference.TRACK_ERROR_M:
-                cand.identifiable = False
-                cand.reason = (f"not separable from the reference on this record: a coloured fix error of "
-                               f"{top:.3g} m is what a truth smoothed from a GNSS track carries itself (up to "
-                               f"{reference.TRACK_ERROR_M:g} m at periods of minutes); not ranked")
+            note = reference.colored_fix_note(cand)
+            if note:
+                cand.identifiable, cand.reason = False, note
         _rank_known_constant(cand)
     rank_low_frequency(ctx, out)
     return out
@@ -93,15 +92,15 @@ SEPARABLE_SCALE = 1.0
 """On a moving truth file, a known constant whose scale's 95 % half-width exceeds this is not separable from the
 reference's own error (its interval reaches 0)."""
 MOTION_EFFECTS = ("earth_rotation", "gravity_model", "coriolis", "scale_factor", "axis_misalignment",
-                  "gyro_g_sensitivity")
-"""Effects with a motion or physics regressor: fitted before any stochastic term."""
+                  "gyro_g_sensitivity", "gps_latency", "gps_lever_arm")
+"""Effects with a motion or physics regressor (the GNSS ones: -v and C_nb): fitted before any stochastic term."""
 
 
 def _deterministic_first(sig: list) -> Candidate:
     """The candidate to fit next from the significant ones (best evidence first): a significant effect with a motion
     or physics regressor goes before any stochastic term, which only takes what remains once it is fitted (a
     Gauss-Markov bias can mimic the step response of a rate table's scale factor)."""
-    if sig[0].kind == "noise":
+    if sig[0].kind == "noise" or sig[0].effect == "colored_gps_noise":
         motion = [c for c in sig if c.effect in MOTION_EFFECTS]
         if motion:
             motion[0].caveat = " ".join(filter(None, [motion[0].caveat, (
@@ -231,6 +230,9 @@ def diagnose(case: Case, max_effects: int = 4, seed: int = 0, progress=None, fac
             "mismatch_energy": rounded(share.energy(case, best, model, reference.clean(case, resid)))})
         details.append((best, resid, new_resid))
         model, resid = new_model, new_resid
+    drops = share.drop_one(case, model, case.model, findings, [d[0] for d in details])
+    for f, e in zip(findings, drops):
+        f["drop_one_energy"] = rounded(e)
     _rank_by_share(findings, details)
     tested_out = [c.tested_entry() for c in tested]
     for entry in tested_out:
@@ -261,7 +263,8 @@ def diagnose(case: Case, max_effects: int = 4, seed: int = 0, progress=None, fac
 def _rank_by_share(findings: list, details: list) -> None:
     """Order findings (and their details) by their share of the mismatch, largest first, except that a known
     constant matching its value (zero free parameters, the strongest evidence) comes first; write the share."""
-    for f, sh in zip(findings, share.shares([f["mismatch_energy"] or 0.0 for f in findings])):
+    for f, sh in zip(findings, share.shares([f.get("drop_one_energy", f["mismatch_energy"]) or 0.0
+                                             for f in findings])):
         f["share_of_mismatch"] = round(sh, 4)
     order = sorted(range(len(findings)), key=lambda i: (findings[i].get("free_parameters") != 0,
                                                          -findings[i]["share_of_mismatch"]))

@@ -36,7 +36,31 @@ NOT_SEPARABLE = ("not separable from the reference on this record: a moving trut
 
 
 TRACK_ERROR_M = 0.3
-"""Slow position error (m) of a truth smoothed from a GNSS track: a coloured fix error no larger is the truth's."""
+"""Slow horizontal position error (m) of a truth smoothed from a GNSS track: a coloured fix error no larger is the
+truth's."""
+TRACK_VERTICAL_RATIO = 2.0
+"""A GNSS track's vertical error over its horizontal one (satellites above only: VDOP ~ 1.5-2 HDOP), so a truth
+smoothed from it carries about twice the slow error in height."""
+
+
+def track_error_m() -> np.ndarray:
+    """Slow ENU position error (m) a truth smoothed from a GNSS track may carry itself, per axis."""
+    return TRACK_ERROR_M * np.array([1.0, 1.0, TRACK_VERTICAL_RATIO])
+
+
+def colored_fix_note(cand) -> str:
+    """'' when the coloured fix error is larger than a smoothed track's own slow error on some axis at 95 % (the
+    lower end of its sigma interval above :func:`track_error_m`); else why it is not separable from the
+    reference. The fix residual is fix minus truth: a truth's slow error and a receiver's coloured error are the
+    same signal there, so only a coloured error the truth cannot carry is the receiver's."""
+    bound = track_error_m()
+    low = np.array([cand.intervals.get(f"sigma_m[{a}]", [0.0, 0.0])[0] for a in "enu"])
+    if np.any(low > bound):
+        return ""
+    fit = ", ".join(f"{a} {cand.params.get(f'sigma_m[{a}]', 0.0):.3g}" for a in "enu")
+    return (f"not separable from the reference on this record: a coloured fix error of {fit} m (95 % lower ends "
+            f"{', '.join(f'{v:.3g}' for v in low)}) is what a truth smoothed from a GNSS track carries itself (up to "
+            f"{bound[0]:g} m horizontal, {bound[2]:g} m vertical at periods of minutes); not ranked")
 
 
 def moving_file_truth(case) -> bool:

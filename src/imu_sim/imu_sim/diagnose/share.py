@@ -61,3 +61,61 @@ def shares(energies) -> list:
     """Each energy's fraction of their sum (0 each when the sum is 0)."""
     total = float(np.sum(energies))
     return [float(e / total) if total > 0 else 0.0 for e in energies]
+
+
+def _without(model, base, effect: str):
+    """The final model less one finding: its physics entry removed (or back to the input model's own entry)."""
+    out = model.copy()
+    out.physics = dict(out.physics or {})
+    if base.physics and effect in base.physics:
+        out.physics[effect] = base.physics[effect]
+    else:
+        out.physics.pop(effect, None)
+    return out
+
+
+def _imu_drop(case, full: np.ndarray, dropped: np.ndarray) -> float:
+    """Increase of the IMU residual's energy (per-sample noise variance units, turn-on bias per channel a
+    nuisance) from the full model's residual to the residual without one finding."""
+    from imu_sim.diagnose import reference
+    full, dropped = (reference.clean(case, r) for r in (full, dropped))
+    full, dropped = full - full.mean(axis=0), dropped - dropped.mean(axis=0)
+    sigma2 = np.array([max(metrics.robust_var(full[:, c]), 1e-300) for c in range(6)])
+    return float(np.sum((dropped**2 - full**2) / sigma2))
+
+
+def _gnss_drop(case, model, without) -> float:
+    """The same on the fix residual (datum offset per axis a nuisance), in units of the fixes' white variance."""
+    from imu_sim.diagnose import gnss_tests as gt
+    full, dropped = gt.gnss_residual(case, model), gt.gnss_residual(case, without)
+    if full is None or dropped is None:
+        return 0.0
+    sw2 = np.maximum(np.asarray(full.sigma_w, float) ** 2, 1e-300) * np.ones(3)
+    a, b = full.r - full.r.mean(axis=0), dropped.r - dropped.r.mean(axis=0)
+    return float(np.sum((b**2 - a**2) / sw2))
+
+
+DROP_ONE_FLOOR = 1e-9
+"""Relative residual change below which dropping a finding changes no deterministic output (a stochastic term:
+its energy is its variance, :func:`energy`)."""
+STOCHASTIC_KINDS = ("noise", "quantization")
+
+
+def drop_one(case, model, base, findings: list, cands: list) -> list:
+    """Each finding's drop-one contribution in the joint fit: how much the final model's residual energy grows when
+    that finding alone is removed, the others kept at their fitted values (same scale as :func:`energy`). A
+    finding that changes no deterministic output (a noise term) keeps its own energy. Effects that explain the same
+    part of the residual (a lever arm and a latency on a car) each get only what the other cannot explain."""
+    from imu_sim.diagnose.case import residual
+    full = residual(case, model)
+    out = []
+    for f, cand in zip(findings, cands):
+        without = _without(model, base, cand.effect)
+        if cand.kind == "gnss":
+            gain = _gnss_drop(case, model, without) if cand.effect != "colored_gps_noise" else None
+        else:
+            dropped = residual(case, without)
+            moved = np.abs(dropped - full).max() > DROP_ONE_FLOOR * max(np.abs(full).max(), 1e-300)
+            gain = _imu_drop(case, full, dropped) if moved or cand.kind not in STOCHASTIC_KINDS else None
+        out.append(max(gain, 0.0) if gain is not None else float(f.get("mismatch_energy") or 0.0))
+    return out
