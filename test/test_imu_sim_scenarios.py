@@ -91,8 +91,12 @@ class _QuinticSpeedChange:
         return np.column_stack([east, np.zeros_like(t), np.zeros_like(t)])
 
 
-@pytest.mark.parametrize("rate_hz", [10.0, 50.0])
-def test_truth_csv_of_a_quintic_speed_change_resimulates_its_analytic_specific_force(tmp_path, rate_hz):
+def _rounded(x, digits):
+    return np.array([float(f"{v:.{digits}g}") for v in np.ravel(x)]).reshape(np.shape(x))
+
+
+@pytest.mark.parametrize("rate_hz,digits", [(10.0, 15), (50.0, 15), (10.0, 10)])
+def test_truth_csv_of_a_quintic_speed_change_resimulates_its_analytic_specific_force(tmp_path, rate_hz, digits):
     from scipy.spatial.transform import Rotation
 
     from nav_core.earth import LocalFrame
@@ -104,14 +108,19 @@ def test_truth_csv_of_a_quintic_speed_change_resimulates_its_analytic_specific_f
     exact = trajectory.TruthTrajectory(frame, _QuinticSpeedChange(2.0, 7.0, 10.0, 3.0), None, 0.0, 30.0)  # 2.1 m/s^2
     rows = np.arange(0.0, 30.0 + 1e-9, 1.0 / rate_hz)
     exact.attitude = QuatSplineAttitude(rows, Rotation.from_euler("z", np.zeros((len(rows), 1))))
-    recording.write_trajectory_csv(tmp_path / "truth.csv", exact.sample(rows))
+    rows_out = exact.sample(rows)
+    if digits < 15:  # a user's CSV: ~7 mm steps of longitude, so its velocity columns give the acceleration
+        rows_out.lat, rows_out.lon = (_rounded(x / DEG, digits) * DEG for x in (rows_out.lat, rows_out.lon))
+        rows_out.h, rows_out.velocity_n = _rounded(rows_out.h, digits), _rounded(rows_out.velocity_n, digits)
+    recording.write_trajectory_csv(tmp_path / "truth.csv", rows_out)
     again = trajectory.truth_csv_trajectory(recording.read_trajectory_csv(tmp_path / "truth.csv"), frame)
     t = np.arange(0.5, 29.5, 0.01)
     error = true_rates(again, t, FULL)[1] - true_rates(exact, t, FULL)[1]
     one_s = error.reshape(-1, 100, 3).mean(axis=1)
     # 2 Omega v at 7 m/s is 1e-3 m/s^2: the reference must be far better (the 3-mm smoothing spline was 0.07 off
-    # in 1-s means, 0.14 at single instants). At 10 Hz the step's ends (a jump in the path's 4th derivative)
-    # read as ~1 um of row noise, so the spline smooths by that much: 2e-5 in 1-s means, 9e-3 for an instant.
+    # in 1-s means, 0.14 at single instants; from the 10-digit positions alone, 0.04). At 10 Hz the step's ends (a
+    # jump in the path's 4th derivative) read as ~1 um of row noise, so the spline smooths by that much: 3e-5 in
+    # 1-s means, 9e-3 for an instant.
     assert np.abs(one_s).max() < 1e-4
     assert np.abs(error).max() < 0.015
 

@@ -350,6 +350,43 @@ def _row_spline(t: np.ndarray, x: np.ndarray, noise_m: float):
     return UnivariateSpline(t, x, k=5, s=len(t) * noise_m**2)
 
 
+class RowsPosition:
+    """Position from a truth file's position rows, its derivatives from the velocity rows when those are the better
+    source (:func:`truth_csv_trajectory`): ``enu(t, 0)`` the position splines, ``enu(t, nu)`` the (nu-1)-th
+    derivative of the velocity splines (tangent-plane ENU, m/s^nu)."""
+
+    def __init__(self, position: ComponentSplinePosition, velocity: ComponentSplinePosition):
+        self.position, self.velocity = position, velocity
+        self.t0, self.t1 = position.t0, position.t1
+
+    def enu(self, t, nu: int = 0) -> np.ndarray:
+        """nu-th time derivative of the ENU position, shape (n, 3)."""
+        return self.position.enu(t) if nu == 0 else self.velocity.enu(t, nu - 1)
+
+
+VELOCITY_AGREEMENT_M = 1.0
+"""Velocity rows whose integral leaves the position rows by more than this (RMS about a constant, m) are not the
+same motion (another frame, another antenna) and are not used; a smoothed track's slow error is 5-60 cm."""
+
+
+def _velocity_rows_spline(truth: Trajectory, frame: LocalFrame, t: np.ndarray, position) -> object | None:
+    """Splines through the velocity rows in the tangent-plane ENU frame, when they agree with the position rows
+    (their integral within :data:`VELOCITY_AGREEMENT_M`); else None. A velocity row is a direct sample of the
+    derivative: differentiating it once for acceleration amplifies its print step far less than differentiating
+    positions twice."""
+    v_n = getattr(truth, "velocity_n", None)
+    if v_n is None or len(t) <= 7 or not np.all(np.isfinite(v_n)):
+        return None
+    m = earth.mat_ne(frame.lat0_deg * DEG, frame.lon0_deg * DEG)
+    v = np.einsum("ij,njk,nk->ni", m, np.transpose(earth.mat_ne(truth.lat, truth.lon), (0, 2, 1)), v_n)
+    noise = row_noise_m(v)
+    velocity = ComponentSplinePosition([_row_spline(t, v[:, i], noise[i]) for i in range(3)], t[0], t[-1])
+    drift = np.column_stack([s.antiderivative()(t) for s in velocity.splines]) - position.enu(t)
+    if np.sqrt(np.mean((drift - drift.mean(axis=0)) ** 2)) > VELOCITY_AGREEMENT_M:
+        return None
+    return velocity
+
+
 def truth_csv_trajectory(truth: Trajectory, frame: LocalFrame | None = None) -> TruthTrajectory:
     """A smooth trajectory through a truth trajectory (nav_core :class:`Trajectory`, e.g. a truth CSV).
 
@@ -357,7 +394,10 @@ def truth_csv_trajectory(truth: Trajectory, frame: LocalFrame | None = None) -> 
     their own (a CSV printed to 15 digits), else a smoothing spline at the rows' noise as :func:`row_noise_m`
     measures it (a 10-digit CSV's ~2 mm of longitude), so rounding does not become acceleration noise and
     exact rows keep their acceleration (an assumed 3 mm had smoothed 1-s specific force by up to 0.07 m/s^2 at
-    the end of a quintic speed change). Attitude: a quintic quaternion spline through rows thinned to ~10 Hz.
+    the end of a quintic speed change). When the position rows are noisy, velocity and acceleration come from the
+    velocity rows instead if the file has them and they agree with the positions (a 10-digit CSV at 10 Hz: 1-s specific force 3e-5 m/s^2 off
+    from them, 0.04 from its positions). Attitude: a quintic quaternion spline through rows
+    thinned to ~10 Hz.
     """
     if len(truth.t) < 2:
         raise ValueError("truth trajectory needs at least 2 rows")
@@ -371,6 +411,9 @@ def truth_csv_trajectory(truth: Trajectory, frame: LocalFrame | None = None) -> 
         noise = row_noise_m(enu)
         splines = [_row_spline(t, enu[:, i], noise[i]) for i in range(3)]
         position = ComponentSplinePosition(splines, t[0], t[-1])
+        velocity = _velocity_rows_spline(truth, frame, t, position) if np.max(noise) > EXACT_ROW_STD_M else None
+        if velocity is not None:
+            position = RowsPosition(position, velocity)
     else:
         position = EnuSplinePosition(t, enu)
     return TruthTrajectory(frame, position, QuatSplineAttitude(t[idx], rot), float(t[0]), float(t[-1]))
