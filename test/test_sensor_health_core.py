@@ -185,3 +185,29 @@ def test_a_two_second_gyro_pulse_is_not_a_bias_shift_but_a_lasting_step_of_the_s
     ev = _run(x, t)
     assert [(e.effect, e.channels) for e in ev] == [("bias_shift", ["gx"])]
     assert abs(ev[0].onset_s - 100.0) <= 2.0 and ev[0].statistic["crossed_s"] < ev[0].t_s <= 106.0
+
+
+def _turns(seed, duration_s=90.0):
+    """_drive plus 4-s turns every 20 s from 5 s (peak yaw rate 0.6 rad/s) that the lateral acceleration follows
+    (10 m/s)."""
+    t, x = _drive(seed, duration_s)
+    u = np.clip(((t - 5.0) % 20.0) / 4.0, 0.0, 1.0) * (t >= 5.0)
+    rate = 0.6 * np.sin(np.pi * u) ** 2
+    x[:, 2] += rate
+    x[:, 4] += 10.0 * rate
+    return t, x
+
+
+def test_a_long_flat_top_in_a_turn_is_a_clip_when_the_lateral_acceleration_goes_on_and_a_freeze_when_it_comes_back():
+    t, x = _turns(9)
+    clip = x.copy()
+    after = t >= 60.0
+    clip[after, 2] = np.minimum(clip[after, 2], 0.48)  # the rate exceeds 0.48 for 1.8 s of each turn: long flat tops
+    onset = t[after & (clip[:, 2] >= 0.48)][0]
+    first = _run(clip, t)[0]
+    assert (first.effect, first.channels) == ("saturation", ["gz"]) and 0 <= first.t_s - onset <= 1.0
+    frozen = x.copy()
+    at = np.argmax(after & (x[:, 2] >= 0.55))  # frozen near a turn's peak: the extreme of the last 2 s
+    frozen[at:, 2] = frozen[at, 2]
+    first = _run(frozen, t)[0]
+    assert (first.effect, first.channels) == ("stuck_output", ["gz"]) and first.t_s - t[at] <= 1.5

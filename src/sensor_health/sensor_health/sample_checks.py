@@ -15,6 +15,20 @@ hit there, is a frozen output; one that is their extreme and was hit there as of
 needs (``clip_ties``: flat tops recur) is a clip (saturation below the configured range). In between it is
 unsure until the run ends (a clip) or goes on UNSURE_WAIT_S longer (a freeze)."""
 UNSURE_WAIT_S = 0.5
+MOTION_FIT_S = 30.0
+"""The other channels' samples of this many seconds before a repeat predict the repeating channel (least squares on
+them: a yaw rate from the lateral acceleration, at the vehicle's speed) while it repeats."""
+MOTION_SPAN = 16
+"""Samples of the hold whose mean prediction is compared with the held value (a turn's rate moves on)."""
+MOTION_MARGIN = 2.5
+"""A repeat at an extreme whose value the motion's prediction passes by this many residual sd (median over the
+run) is a clip: the true value went on beyond it. One the prediction leaves inside by as much is a frozen output."""
+MOTION_HOLD_MARGIN = 1.0
+"""An unsure hold past UNSURE_WAIT_S waits on (up to UNSURE_MAX_S) while the motion puts the true value beyond it by
+this many sd: a long flat top in a turn is a clip until the motion comes back inside it."""
+UNSURE_MAX_S = 10.0
+MOTION_MODEL_ERROR = 0.02
+"""Relative error of that prediction (the motion's dynamics, speed changes), as extra sd."""
 RATE_CONFIRM = 8
 """Consecutive intervals at one new value that make a sample-rate change (fewer, followed by the old one:
 dropouts)."""
@@ -22,6 +36,36 @@ dropouts)."""
 
 def _names(chs) -> list:
     return [CHANNELS[c] for c in chs]
+
+
+def motion_fit(context: np.ndarray, c: int):
+    """Least squares of channel c on the other five over ``context`` (k, 6), the samples before a hold: (coef (6,),
+    residual variance), or None with under 2 s of finite samples. A yaw rate in a turn follows the lateral
+    acceleration; without motion the prediction is the context's mean."""
+    ctx = context[np.isfinite(context).all(axis=1)]
+    if len(ctx) < 128:
+        return None
+    a = np.column_stack([np.ones(len(ctx)), np.delete(ctx, c, axis=1)])
+    coef, *_ = np.linalg.lstsq(a, ctx[:, c], rcond=None)
+    return coef, float(np.var(ctx[:, c] - a @ coef))
+
+
+def motion_margins(fit, rows: np.ndarray, c: int, value: float) -> np.ndarray:
+    """After each sample of a hold (rows (r, 6)): how far beyond the held ``value`` the other channels put channel
+    c's true value, mean over the last MOTION_SPAN samples of the hold, in sd (the prediction's residual sd, which
+    carries c's own noise in the held value, and MOTION_MODEL_ERROR). > 0 outward (a clip), < 0 inward (a frozen
+    output); 0 without a fit."""
+    if fit is None or len(rows) == 0:
+        return np.zeros(len(rows))
+    coef, var = fit
+    others = np.delete(rows, c, axis=1)
+    pred = np.column_stack([np.ones(len(rows)), others]) @ coef
+    excess = np.where(np.isfinite(pred), np.sign(value) * (pred - value), 0.0)
+    cs = np.r_[0.0, np.cumsum(excess)]
+    i = np.arange(1, len(rows) + 1)
+    r = np.minimum(i, MOTION_SPAN)
+    sd = np.sqrt(var * (1 + 1 / r) + (MOTION_MODEL_ERROR * value) ** 2)
+    return (cs[i] - cs[i - r]) / r / sd
 
 
 @dataclass
@@ -53,7 +97,7 @@ class SampleChecks:
         self.dt_s, self.ranges, self.stuck_run = dt_s, np.asarray(ranges, float), np.asarray(stuck_run, int)
         self.clip_ties = np.asarray(clip_ties, int)
         self.recent = np.zeros((0, 6))
-        """The samples before this push (CLIP_LOOK_S), for telling a clip from a freeze."""
+        """The samples before this push (MOTION_FIT_S), for telling a clip from a freeze."""
         self.gap_factor, self.rate_tolerance, self.clear_s = gap_factor, rate_tolerance, clear_s
         self.nonfinite = Episodes(clear_s)
         self.saturated = Episodes(clear_s)
@@ -83,7 +127,7 @@ class SampleChecks:
         stuck_events, stuck = self._stuck(t, x)
         events += stuck_events
         flags = ~finite | sat | stuck
-        keep = int(round(CLIP_LOOK_S / self.dt_s))
+        keep = int(round(MOTION_FIT_S / self.dt_s))
         self.recent = np.vstack([self.recent, x])[-keep:]
         return sorted(events, key=lambda e: e.t_s), flags
 
@@ -102,9 +146,10 @@ class SampleChecks:
             for i in np.flatnonzero(run == self.stuck_run[c]):
                 start = i - self.stuck_run[c] + 1
                 onset = float(t[start]) if start >= 0 else float(self.run_start_t[c])
-                kind = self._repeat_kind(c, float(x[i, c]), x[:max(start, 0), c])
+                kind, fit, rows = self._repeat_kind(c, float(x[i, c]), x[:max(start, 0)], x[max(start, 0):i + 1],
+                                                    max(-start, 0))
                 if kind == "unsure":
-                    self.unsure[c] = {"onset": onset, "value": float(x[i, c])}
+                    self.unsure[c] = {"onset": onset, "value": float(x[i, c]), "fit": fit, "rows": rows}
                     events += self._resolve_pending(c, t, x, run, i + 1)
                 else:
                     events.append(self._repeat_event(c, kind, float(t[i]), onset, float(x[i, c])))
@@ -116,29 +161,53 @@ class SampleChecks:
         return events, flags
 
     def _resolve_pending(self, c, t, x, run, j0):
-        """An unsure repeat: a freeze if the run goes on UNSURE_WAIT_S more, a clip if it ends first."""
+        """An unsure repeat, sample by sample: a clip if it ends, or the other channels put the true value beyond it
+        (MOTION_MARGIN); a freeze if they put it inside, or the run goes on UNSURE_WAIT_S longer without them
+        putting it beyond (MOTION_HOLD_MARGIN), or UNSURE_MAX_S longer in any case."""
         p = self.unsure[c]
         if p is None:
             return []
         rest = run[j0:]
+        ends = np.flatnonzero(rest == 1)
+        held = np.arange(j0, j0 + (int(ends[0]) if len(ends) else len(rest)))
+        rows = np.vstack([p["rows"], x[held]])
+        m = motion_margins(p["fit"], rows, c, p["value"])[len(p["rows"]):]
+        p["rows"] = rows
         longer = self.stuck_run[c] + int(round(UNSURE_WAIT_S / self.dt_s))
-        ends = np.flatnonzero((rest == 1) | (rest == longer))
-        if len(ends) == 0:
-            return []
-        j = j0 + int(ends[0])
-        self.unsure[c] = None
-        kind = "stuck_output" if run[j] == longer else "saturation"
-        return [self._repeat_event(c, kind, float(t[j]), p["onset"], p["value"])]
+        cap = self.stuck_run[c] + int(round(UNSURE_MAX_S / self.dt_s))
+        r = run[held]
+        clip = m >= MOTION_MARGIN
+        freeze = (m <= -MOTION_MARGIN) | ((r >= longer) & (m < MOTION_HOLD_MARGIN)) | (r >= cap)
+        decided = np.flatnonzero(clip | freeze)
+        if len(decided):
+            j = int(decided[0])
+            kind = "saturation" if clip[j] else "stuck_output"
+            self.unsure[c] = None
+            return [self._repeat_event(c, kind, float(t[held[j]]), p["onset"], p["value"])]
+        if len(ends):
+            self.unsure[c] = None
+            return [self._repeat_event(c, "saturation", float(t[j0 + ends[0]]), p["onset"], p["value"])]
+        return []
 
-    def _repeat_kind(self, c, value, before):
-        """saturation, stuck_output or unsure: see CLIP_LOOK_S."""
-        look = np.concatenate([self.recent[:, c], before])[-int(round(CLIP_LOOK_S / self.dt_s)):]
+    def _repeat_kind(self, c, value, before, run_rows, run_before):
+        """saturation, stuck_output or unsure: see CLIP_LOOK_S and MOTION_MARGIN. ``before`` (k, 6): this push's
+        samples before the run; ``run_rows`` (r, 6): the run's samples in this push, ``run_before`` more of it at
+        the end of ``before`` / the previous pushes."""
+        context = np.vstack([self.recent, before])
+        if run_before:
+            run_rows = np.vstack([context[-run_before:], run_rows])
+            context = context[:-run_before]
+        look = context[-int(round(CLIP_LOOK_S / self.dt_s)):, c]
         look = look[np.isfinite(look)]
         extreme = len(look) > 0 and (value >= look.max() or value <= look.min())
-        hits = np.count_nonzero(look == value)
-        if not extreme:
-            return "stuck_output"
-        return "saturation" if hits >= self.clip_ties[c] else "unsure"
+        fit = motion_fit(context, c)
+        margin = motion_margins(fit, run_rows, c, value)[-1]
+        if margin >= MOTION_MARGIN:  # the motion went on beyond the held value: a clip, also where it set in mid-turn
+            return "saturation", fit, run_rows
+        if not extreme or margin <= -MOTION_MARGIN:
+            return "stuck_output", fit, run_rows
+        kind = "saturation" if np.count_nonzero(look == value) >= self.clip_ties[c] else "unsure"
+        return kind, fit, run_rows
 
     def _repeat_event(self, c, kind, t_s, onset, value):
         name = CHANNELS[c]
