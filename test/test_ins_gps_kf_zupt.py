@@ -17,3 +17,34 @@ def test_no_zero_velocity_update_once_the_vehicle_pulls_away(outage_drive):
     assert zupt[speed < 1e-3].mean() > 0.8  # at rest they are applied
     # before: 0.08-0.55 m/s at each departure (46, 46.5, 224, 226.5 s ...); now one epoch at 0.08 m/s (406 s)
     assert not np.any(zupt & (speed > 0.1)), np.round(np.column_stack([t, speed])[zupt & (speed > 0.1)], 2)
+
+
+def test_a_stop_inside_a_gnss_outage_gets_zero_velocity_updates_when_asked():
+    """``zupt_max_ins_speed_outage_mps``: without fresh fixes the stale GPS chord no longer vetoes rest and the INS
+    speed may drift up to its 3 sigma (at most the parameter) before it does; off by default (a slow rover's cruise
+    looks like rest to the IMU). A car with NHC stops for 15 s inside a 40-s outage."""
+    from ins_gps_kf import config
+    from ins_gps_kf import synthetic as syn
+    from ins_gps_kf.filter import InsGpsFilter
+    from ins_gps_kf.offline import run
+    from nav_eval.metrics import drop_fixes
+
+    motion = syn.Motion((20, 5, 5, 4, 10, 5, 15, 5, 5, 6), (0, 2, 0, 0, 0, -2, 0, 2, 0, 0),
+                        (0, 0, 0, 0.1, 0, 0, 0, 0, 0.1, 0), 0.2)
+    outage, rng = (40.0, 80.0), np.random.default_rng(2)
+    imu = syn.add_imu_errors(syn.ideal_imu(motion, 32.0), rng, 1e-4, 0.01, 1e-3, 1e-3)
+    gnss = drop_fixes(syn.gnss(motion, 32.0, 1.0, rng), [outage])
+    t_true, pos, vel, _ = syn.truth(motion, 32.0)
+    out = {}
+    for limit in (0.0, 1.0):
+        filt = InsGpsFilter(config.from_params({"alignment_time_s": 15.0, "imu_rate_hz": 32.0, "nhc_enabled": True,
+                                                "zupt_max_ins_speed_outage_mps": limit}), None)
+        est = [e for e in run(filt, imu, gnss) if e.t >= outage[0]]
+        t = np.array([e.t for e in est])
+        err = np.array([e.position_n for e in est]) - np.column_stack([np.interp(t, t_true, c) for c in pos.T])
+        speed = np.interp(t, t_true, np.linalg.norm(vel, axis=1))
+        zupt = np.array([e.zupt_used for e in est])
+        out[limit] = (int(zupt.sum()), int(np.sum(zupt & (speed > 0.1))), float(np.max(np.hypot(*err[:, :2].T))))
+    assert out[0.0][0] == 0  # off: the stale chord (10 m/s before the outage) vetoes the stop
+    assert out[1.0][0] >= 25 and out[1.0][1] == 0, out  # measured 30 of the stop's 30 epochs, none moving
+    assert out[1.0][2] < 0.5 * out[0.0][2], out  # measured 7.35 m against 28.6 m

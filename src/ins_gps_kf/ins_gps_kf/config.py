@@ -68,6 +68,9 @@ PARAMETERS = (
     Param("zupt_max_gps_speed_mps", 0.1, "no ZUPT while the GPS speed (less 3 sigma of its noise) exceeds this, "
          "m/s", 0.0, 100.0),
     Param("zupt_max_ins_speed_mps", 0.2, "no ZUPT while the INS speed exceeds this, m/s", 0.0, 100.0),
+    Param("zupt_max_ins_speed_outage_mps", 0.0, "ZUPT in GNSS outages (a car, 1.0; 0 = off: a slow rover's cruise "
+          "looks like rest to the IMU): without a fresh fix the stale GPS speed does not veto and the INS speed limit "
+          "rises to 3 sigma of the INS's own horizontal speed, at most this, m/s", 0.0, 100.0),
     Param("zupt_std_mps", 0.02, "zero-velocity measurement std, m/s", 1e-4, 10.0),
     Param("zupt_gate_probability", 0.99, "chi-square gate of the zero-velocity update: a vehicle pulling away gently, "
           "which the IMU and the GPS chord cannot yet tell from rest, fails it", 0.5, 1.0),
@@ -164,6 +167,7 @@ class FilterConfig:
     zupt_gate_probability: float = 0.99
     zupt_max_gps_speed: float = 0.1
     zupt_max_ins_speed: float = 0.2
+    zupt_max_ins_speed_outage: float = 0.0  # m/s, 0: off
     nhc_enabled: bool = False
     nhc_std: float = 0.1
     nhc_gate_probability: float = 0.999
@@ -242,6 +246,7 @@ def from_params(params: dict) -> FilterConfig:
         zupt_gate_probability=float(p["zupt_gate_probability"]),
         zupt_max_gps_speed=float(p["zupt_max_gps_speed_mps"]),
         zupt_max_ins_speed=float(p["zupt_max_ins_speed_mps"]),
+        zupt_max_ins_speed_outage=float(p["zupt_max_ins_speed_outage_mps"]),
         nhc_enabled=bool(p["nhc_enabled"]), nhc_std=float(p["nhc_std_mps"]),
         nhc_gate_probability=float(p["nhc_gate_probability"]),
         mounting_rpy=tuple(float(p[f"mounting_{a}_deg"]) * DEG for a in ("roll", "pitch", "yaw")),

@@ -345,11 +345,12 @@ class InsGpsFilter:
         gps_used, nis = self._gps_update(epoch)
         # after the GNSS update: a heading from the course moves the state and so the gravity used next
         epoch.gps_speed, epoch.gravity = self.gnss.gps_speed, self.gravity
+        epoch.gnss_fresh = t_e - self.last_fix_t <= 1.5 / self.cfg.gps_rate_hz
+        epoch.vel_std_h = float(np.sqrt(np.trace(self.cov[em.DV, em.DV][:2, :2])))
         stationary = self.zupt.stationary(epoch)
         zupt_used = self._update(self.zupt, epoch)
         self.counters.zupts += zupt_used
         epoch.stationary, epoch.rate_b, epoch.heading_known = stationary, w_mean_b, self.status == NAVIGATING
-        epoch.gnss_fresh = t_e - self.last_fix_t <= 1.5 / self.cfg.gps_rate_hz
         epoch.yaw_std = float(np.sqrt(self.cov[em.YAW, em.YAW][0, 0]))
         self._update(self.nhc, epoch, self.counters, "nhc_updates", "nhc_rejected")
         self._update(self.odometer, epoch, self.counters, "odometer_updates", "odometer_rejected")

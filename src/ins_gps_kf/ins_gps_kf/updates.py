@@ -38,6 +38,7 @@ class Epoch:
         self.heading_known = False  # navigating with a heading (not pending one from the GNSS course)
         self.gnss_fresh = False  # a fix was used within 1.5 GNSS periods (the velocity is GNSS-aided, not drifting)
         self.yaw_std = float("inf")  # rad, the heading's std from the covariance
+        self.vel_std_h = 0.0  # m/s, the horizontal velocity's std from the covariance (before this epoch's updates)
 
     @property
     def mat_nb(self) -> np.ndarray:
@@ -89,13 +90,31 @@ class ZeroVelocity(UpdateModel):
         # rms catches vibration, the mean catches a steady turn; GPS and INS speed veto smooth cruising and
         # braking, which a MEMS IMU cannot tell from rest. A car pulling away gently barely changes |f| and the GPS
         # chord cannot see it, while each ZUPT clamps the INS speed under its veto: the horizontal specific force
-        # (ENU) can, and a vehicle accelerating by more than 3 ZUPT sigmas within the epoch is not at rest
+        # (ENU) can, and a vehicle accelerating by more than 3 ZUPT sigmas within the epoch is not at rest. In a GNSS
+        # outage the last chord is stale: it vetoes every stop of the outage, and the INS speed drifts past its limit
+        # (paper drive, NHC: 0.3-0.9 m/s over a 20-s stop, then a 15-m jump as the car turned away); opt-in, as a
+        # slow rover's cruise looks like rest to the IMU (zupt_max_ins_speed_outage_mps)
         return bool(epoch.w_rms < cfg.stationary_gyro and epoch.w_mean < 0.25 * cfg.stationary_gyro
                     and epoch.f_std < cfg.stationary_accel
                     and abs(epoch.f_mean - epoch.gravity) < 3 * cfg.stationary_accel
                     and float(np.hypot(epoch.f_n[0], epoch.f_n[1])) < 3.0 * cfg.zupt_std * cfg.filter_rate_hz
-                    and epoch.gps_speed < cfg.zupt_max_gps_speed
-                    and float(np.linalg.norm(epoch.nav[strapdown.V])) < cfg.zupt_max_ins_speed)
+                    and (epoch.gps_speed < cfg.zupt_max_gps_speed or self.in_outage(epoch))
+                    and float(np.linalg.norm(epoch.nav[strapdown.V])) < self.ins_speed_limit(epoch))
+
+    def in_outage(self, epoch: Epoch) -> bool:
+        """Whether rest is judged as in a GNSS outage (``zupt_max_ins_speed_outage_mps`` > 0 and no fresh fix): the
+        last GPS chord is stale then and does not veto."""
+        return self.cfg.zupt_max_ins_speed_outage > 0.0 and not epoch.gnss_fresh
+
+    def ins_speed_limit(self, epoch: Epoch) -> float:
+        """The INS speed (m/s) above which the epoch is not rest: ``zupt_max_ins_speed_mps``; in an outage
+        (:meth:`in_outage`) the INS speed drifts (NHC does not hold the forward speed), so up to 3 sigma of it, at
+        most ``zupt_max_ins_speed_outage_mps``."""
+        cfg = self.cfg
+        if not self.in_outage(epoch):
+            return cfg.zupt_max_ins_speed
+        return min(max(cfg.zupt_max_ins_speed, 3.0 * epoch.vel_std_h), max(cfg.zupt_max_ins_speed_outage,
+                                                                          cfg.zupt_max_ins_speed))
 
     def measurement(self, epoch: Epoch):
         if not (self.cfg.zupt_enabled and self.stationary(epoch)):
