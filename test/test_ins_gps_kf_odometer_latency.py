@@ -48,9 +48,16 @@ def outage_errors(drive, odometry, **params) -> tuple:
             float(np.sqrt(np.mean(np.sum(d_vel[:, :2] ** 2, axis=1)))), filt)
 
 
+@pytest.fixture(scope="module")
+def undelayed(hard_drive):
+    """:func:`outage_errors` with undelayed wheel speeds."""
+    return outage_errors(hard_drive, wheel_speeds(0.0))
+
+
 @pytest.mark.parametrize("delay_s", [0.1, 0.3])
-def test_delayed_wheel_speeds_bridge_an_outage_as_undelayed_ones_with_the_latency_compensated(hard_drive, delay_s):
-    pos_0, vel_0, _ = outage_errors(hard_drive, wheel_speeds(0.0))
+def test_delayed_wheel_speeds_bridge_an_outage_as_undelayed_ones_with_the_latency_compensated(hard_drive, undelayed,
+                                                                                               delay_s):
+    pos_0, vel_0, _ = undelayed
     pos_c, vel_c, filt = outage_errors(hard_drive, wheel_speeds(delay_s), odometer_latency_s=delay_s)
     pos_u, vel_u, filt_u = outage_errors(hard_drive, wheel_speeds(delay_s))
     # measured (0.1 s / 0.3 s): undelayed 2.54 m, 0.117 m/s; compensated 2.48 / 2.60 m, 0.118 / 0.112 m/s, none gated;
@@ -62,11 +69,11 @@ def test_delayed_wheel_speeds_bridge_an_outage_as_undelayed_ones_with_the_latenc
     assert filt_u.counters.odometer_rejected >= 15
 
 
-def test_an_odometer_gap_is_counted_once_and_the_filter_goes_on_with_nhc(hard_drive):
+def test_an_odometer_gap_is_counted_once_and_the_filter_goes_on_with_nhc(hard_drive, undelayed):
     t, speed = wheel_speeds(0.0)
     keep = (t < 50.0) | (t > 60.0)  # 10 s without wheel speeds inside the GNSS outage
     pos_gap, _, filt = outage_errors(hard_drive, (t[keep], speed[keep]))
-    pos_all, _, full = outage_errors(hard_drive, (t, speed))
+    pos_all, _, full = undelayed
     pos_nhc, _, nhc_only = outage_errors(hard_drive, None, odometer_enabled=False)
     assert filt.counters.odometer_gaps == 1 and full.counters.odometer_gaps == 0
     assert full.counters.odometer_updates - filt.counters.odometer_updates == 20  # 2-Hz epochs of the 10 s
