@@ -21,7 +21,8 @@ SENSOR = {
     "accel": dict(white=2e-3, gm_sd=2e-3, gm_tau=200.0, rrw=2e-5, lsb=5e-5),
 }
 FAULTS = ("stuck_output", "saturation", "dropout", "non_finite", "white_noise_increase", "vibration",
-          "bias_shift_gyro", "bias_shift_accel", "sample_rate_change")
+          "bias_shift_gyro", "bias_shift_accel", "sample_rate_change", "bias_shift_gyro_z", "bias_shift_accel_x",
+          "bias_shift_accel_y")
 
 
 def sensor_noise(rng, n: int, dt: float) -> np.ndarray:

@@ -37,3 +37,17 @@ class Trace:
     line: list = field(default_factory=list)
     noise_cusum: list = field(default_factory=list)
     bias_cusum: list = field(default_factory=list)
+
+
+UNMONITORED = {
+    "scale_factor_change az": "not observable on this record: a land vehicle stays near level, where a scale change "
+                              "of az moves its mean by the change times g, exactly as a bias does (named bias_shift "
+                              "az); telling them apart needs attitudes a few degrees apart",
+    "scale_factor_change ax": "not monitored: observable against the GNSS track only while the vehicle accelerates "
+                              "(a 1 % change of 1 m/s^2 is 0.01 m/s^2); the along-track test carries the bias only",
+    "scale_factor_change ay": "not monitored: the lateral acceleration against speed x GNSS course rate, in turns",
+    "scale_factor_change gx gy": "not observable: a land vehicle's roll and pitch rates have no reference",
+    "bias_shift gz ay": "not monitored: the IMU alone sees only ay - v gz (a step of either moves it alike); naming "
+                        "the channel needs the GNSS course, whose 1-Hz noise takes 30-60 s for a 10-sd gz step",
+}
+"""Effects and channels this package does not test, and why (health.json ``observability``)."""

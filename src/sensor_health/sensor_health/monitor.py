@@ -24,8 +24,9 @@ import numpy as np
 from nav_core import noise_stats
 from nav_core.sensor_model import SensorModel
 from sensor_health import thresholds as thr
+from sensor_health.along_track import AlongTrackMonitor
 from sensor_health.bias_filter import BiasFilter, motion_regressors
-from sensor_health.config import HealthConfig, Trace
+from sensor_health.config import UNMONITORED, HealthConfig, Trace
 from sensor_health.events import CHANNELS, Event
 from sensor_health.line_track import LineTrack
 from sensor_health.sample_checks import SampleChecks
@@ -98,6 +99,7 @@ class HealthMonitor:
         self.bias_pending = {}
         """channel -> a fast crossing waiting for BIAS_CONFIRM_WINDOWS more windows."""
         self.yaw_scale = YawScaleMonitor(model, self.thr.budget_per_10h / thr.N_TESTS)
+        self.along_track = AlongTrackMonitor(self.thr.budget_per_10h / thr.N_TESTS)
         self.startup = StartupCheck(self, startup_thresholds(model, self.grid, self.thr.noise_mu, self.thr.noise_sd,
                                                              self.thr.bias_sd, self.thr.window_s, seed=cfg.seed))
         self.checked_s = [None, None]
@@ -118,6 +120,7 @@ class HealthMonitor:
         self.checked_s[1] = float(t[-1])
         events, flags = self.samples.push(t, x)
         events += self.yaw_scale.push_imu(t, x[:, 2])
+        events += self.along_track.push_imu(t, x[:, 3], x[:, 2])
         self._remember(t, x)
         self._pending_t = np.concatenate([self._pending_t, t])
         self._pending_x = np.vstack([self._pending_x, x])
@@ -131,14 +134,16 @@ class HealthMonitor:
             self._pending_f = self._pending_f[nw * n:]
         return self._report(events)
 
-    def push_gnss(self, t, lat_rad, lon_rad) -> list:
-        """GNSS fixes t (m,) s, lat, lon (m,) rad -> events they complete (the yaw scale factor in turns)."""
-        return self._report(self.yaw_scale.push_gnss(t, lat_rad, lon_rad))
+    def push_gnss(self, t, lat_rad, lon_rad, h_m=None) -> list:
+        """GNSS fixes t (m,) s, lat, lon (m,) rad, height h (m,) m or None -> events they complete (the yaw scale
+        factor in turns, an ax bias against the track where the fixes carry a height)."""
+        return self._report(self.yaw_scale.push_gnss(t, lat_rad, lon_rad)
+                            + self.along_track.push_gnss(t, lat_rad, lon_rad, h_m))
 
     def observability(self) -> dict:
         """Effect and channel -> whether this record's motion made it observable (scale factor so far)."""
         return {"scale_factor_change gz": self.yaw_scale.observability(), "turn_on_bias": self.startup.bias_note,
-                "scale_factor_change ax ay az": "not observable: not monitored (no reference used yet)"}
+                "bias_shift ax": self.along_track.observability(), **UNMONITORED}
 
     def _report(self, events) -> list:
         """Events in time order, each fault once (two detectors can name the same fault)."""

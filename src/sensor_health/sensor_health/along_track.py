@@ -1,0 +1,257 @@
+"""The forward accelerometer against the GNSS track: ``bias_shift`` on ax, where the vehicle moves and the fixes
+carry an altitude.
+
+Twice integrated, ax is the distance travelled along the track plus the grade's share of gravity, plus half the
+bias times the time squared; the GNSS gives the distance (3-D chords between fixes, each lengthened to its arc by
+the heading change the gyro saw) and the altitude (the grade term, g Δh / v integrated). Over a window of
+``WINDOW_EPOCHS`` fixes the difference is fitted by a quadratic: the unknown start and speed take the constant and
+linear terms, the bias the quadratic one. A bias step of 0.02 m/s^2 moves the quadratic term by 14 sd of it on 5-cm
+fixes in 15 s, where a 1-s mean of ax (the vehicle's own accelerations in it) shows nothing.
+
+The test: the window's bias estimate against the bias learned over the drive (its slow average), standardised by
+the fit's own sd (the fixes' noise from the median absolute residual of the recent windows); the gate on |z| comes
+from Monte Carlo on white fix noise with the same windows and the same noise estimate, for the package's budget
+per test (one test per fix, the overlap of the windows only makes it stricter).
+
+Assumes x forward (the vehicle's axis) and a mount without yaw misalignment: a mount yawed by δ adds δ times the
+lateral acceleration in turns, not modelled here. Below ``V_MIN_M_S`` (standstill, creeping) the chords are noise
+and the window restarts. No ROS, no simulator. Times s, distances m, accelerations m/s^2.
+"""
+from __future__ import annotations
+
+import functools
+
+import numpy as np
+
+from nav_core.earth import radii
+from sensor_health import thresholds as thr
+from sensor_health.events import Event
+
+WINDOW_EPOCHS = 25
+"""Fixes per window (1 Hz: 25 s). The grade comes from the altitude's slope over the window, whose noise falls as
+the window's length to the 1.5."""
+WARMUP_EPOCHS = 45
+"""Fixes at speed before the test starts: the learned bias needs a few windows."""
+REFERENCE_EPOCHS = 120.0
+"""Time constant of the learned bias, in fixes (the accelerometer's bias drifts slowly)."""
+V_MIN_M_S = 3.0
+MAX_FIX_GAP_S = 2.5
+NOISE_WINDOWS = 60
+"""The fixes' noise sd is the MAD of the residuals of the last this many windows."""
+SIGMA_FLOOR_M = 0.005
+ONSET_SPAN_EPOCHS = 60
+G = 9.80665
+Z95 = 1.959964
+NOT_OBSERVABLE = "not observable on this record"
+
+
+def poly_filter(n: int, degree: int) -> tuple[np.ndarray, float, np.ndarray]:
+    """Least squares of y (n,) at 1-s epochs on [1, tau] (degree 1) or [1, tau, tau^2 / 2] (degree 2): (weights of
+    the last coefficient (n,), its sd per unit noise sd, the residual-maker matrix (n, n))."""
+    tau = np.arange(n, dtype=float)
+    a = np.column_stack([np.ones(n), tau, 0.5 * tau**2][:degree + 1])
+    pinv = np.linalg.pinv(a)
+    return pinv[-1], float(np.sqrt(pinv[-1] @ pinv[-1])), np.eye(n) - a @ pinv
+
+
+def robust_sd(abs_resid_medians: list, dof_fraction: float) -> float:
+    """Noise sd from the median absolute residuals of the recent windows (their median, as a Gaussian MAD), over
+    the share of degrees of freedom the fit leaves."""
+    return 1.4826 * float(np.median(abs_resid_medians)) / np.sqrt(dof_fraction)
+
+
+def _running_sd(y, resid_maker, dof_fraction):
+    win = np.lib.stride_tricks.sliding_window_view(y, resid_maker.shape[0])
+    mad = np.median(np.abs(win @ resid_maker.T), axis=1)
+    return win, np.array([robust_sd(mad[max(0, k - NOISE_WINDOWS + 1):k + 1], dof_fraction) for k in range(len(mad))])
+
+
+@functools.lru_cache(maxsize=8)
+def z_gate(budget_per_test_10h: float, epochs: int = 20000, seed: int = 0) -> float:
+    """|z| gate for ``budget_per_test_10h`` false events per 10 h at one test per 1-s fix: Monte Carlo on white track
+    and altitude noise (equal shares of the bias' variance) through the same windows, the same learned bias and
+    the same noise estimates (exponential tail)."""
+    rng = np.random.default_rng(seed)
+    n = WINDOW_EPOCHS
+    w2, sd2, r2 = poly_filter(n, 2)
+    w1, sd1, r1 = poly_filter(n, 1)
+    win_d, sig_d = _running_sd(rng.normal(size=epochs + n), r2, (n - 3) / n)
+    win_h, sig_h = _running_sd(rng.normal(size=epochs + n), r1, (n - 2) / n)
+    scale = sd2 / sd1  # the altitude's share of the bias' variance equals the track's
+    b = win_d @ w2 - scale * (win_h @ w1)
+    sd = np.sqrt((sd2 * sig_d) ** 2 + (scale * sd1 * sig_h) ** 2)
+    ref = np.zeros(len(b))
+    for k in range(1, len(b)):
+        ref[k] = ref[k - 1] + (b[k - 1] - ref[k - 1]) / min(k, REFERENCE_EPOCHS)
+    z = np.abs((b - ref) / sd)[WARMUP_EPOCHS:]
+    return thr.exp_tail_threshold(z, budget_per_test_10h / thr.SECONDS_PER_10H)
+
+
+class AlongTrackMonitor:
+    """Streaming: :meth:`push_gnss` fixes (with altitude), :meth:`push_imu` ax and gz samples; both return events."""
+
+    def __init__(self, budget_per_test_10h: float):
+        self.gate = z_gate(budget_per_test_10h)
+        n = WINDOW_EPOCHS
+        self.w2, self.sd2, self.r2 = poly_filter(n, 2)
+        self.w1, self.sd1, self.r1 = poly_filter(n, 1)
+        self.imu_t = np.zeros(0)
+        self.imu_v = np.zeros(0)
+        self.imu_s = np.zeros(0)
+        self.imu_psi = np.zeros(0)
+        self._last = None
+        self.origin = None
+        self.fix = None
+        self.queue = []
+        self.epochs = []
+        """(t, s along the track, h, IMU S, IMU V) of the fixes at speed since the last restart."""
+        self.ref = None
+        self.n_ref = 0
+        self.mad_d, self.mad_h = [], []
+        self.fixes = self.with_altitude = self.windows = 0
+        self.trace_t, self.trace_z = [], []
+
+    # ------------------------------------------------------------------ input
+
+    def push_imu(self, t, ax, gz) -> list:
+        """ax (m/s^2) and gz (rad/s) samples at t (m,) s -> events of the fixes they now cover."""
+        t = np.asarray(t, float)
+        if len(t) == 0:
+            return []
+        x = np.column_stack([np.asarray(ax, float), np.asarray(gz, float)])
+        if self._last is None:
+            self._last = (t[0], x[0], 0.0, 0.0, 0.0)
+        t0, x0, v0, s0, p0 = self._last
+        tt, xx = np.r_[t0, t], np.vstack([x0, x])
+        dt = np.diff(tt)
+        inc = 0.5 * (xx[1:] + xx[:-1]) * dt[:, None]  # non-finite samples make the integrals NaN: windows skipped
+        v = v0 + np.cumsum(inc[:, 0])
+        s = s0 + np.cumsum(0.5 * (np.r_[v0, v[:-1]] + v) * dt)
+        psi = p0 + np.cumsum(inc[:, 1])
+        self._last = (t[-1], x[-1], v[-1], s[-1], psi[-1])
+        self.imu_t, self.imu_v = np.r_[self.imu_t, t], np.r_[self.imu_v, v]
+        self.imu_s, self.imu_psi = np.r_[self.imu_s, s], np.r_[self.imu_psi, psi]
+        keep = self.imu_t >= self.imu_t[-1] - 30.0
+        if (~keep).sum() > len(t):
+            self.imu_t, self.imu_v = self.imu_t[keep], self.imu_v[keep]
+            self.imu_s, self.imu_psi = self.imu_s[keep], self.imu_psi[keep]
+        return self._process()
+
+    def push_gnss(self, t, lat_rad, lon_rad, h_m=None) -> list:
+        """Fixes t (m,) s, lat, lon (m,) rad, ellipsoidal height h (m,) m (None: unknown, the test does not run)."""
+        t = np.atleast_1d(np.asarray(t, float))
+        h = np.full(len(t), np.nan) if h_m is None else np.atleast_1d(np.asarray(h_m, float))
+        for tk, la, lo, hk in zip(t, np.atleast_1d(lat_rad), np.atleast_1d(lon_rad), h):
+            if np.isfinite(la) and np.isfinite(lo):
+                self.fixes += 1
+                self.with_altitude += int(np.isfinite(hk))
+                self.queue.append((float(tk), float(la), float(lo), float(hk)))
+        return self._process()
+
+    # ------------------------------------------------------------------ epochs
+
+    def _process(self) -> list:
+        events = []
+        while self.queue and len(self.imu_t) and self.imu_t[-1] >= self.queue[0][0]:
+            tk, la, lo, hk = self.queue.pop(0)
+            if self.imu_t[0] > tk or not np.isfinite(hk):
+                self._restart()
+                continue
+            events += self._epoch(tk, la, lo, hk)
+        return events
+
+    def _restart(self):
+        self.epochs, self.fix = [], None
+
+    def _epoch(self, tk, la, lo, hk) -> list:
+        if self.origin is None:
+            self.origin = (la, lo, *radii(la))
+        lat0, lon0, rn, re = self.origin
+        p = np.array([(lo - lon0) * re * np.cos(lat0), (la - lat0) * rn, hk])
+        imu = [float(np.interp(tk, self.imu_t, a)) for a in (self.imu_s, self.imu_v, self.imu_psi)]
+        last, self.fix = self.fix, (tk, p, imu[2])
+        if last is None:
+            return []
+        dt = tk - last[0]
+        chord = float(np.linalg.norm(p - last[1]))
+        if dt <= 0 or dt > MAX_FIX_GAP_S or chord / dt < V_MIN_M_S or not all(np.isfinite(imu)):
+            self.epochs = []
+            return []
+        half = 0.5 * (imu[2] - last[2])
+        arc = chord * (half / np.sin(half) if abs(half) > 1e-9 else 1.0)
+        if not self.epochs:
+            self.epochs.append((last[0], 0.0, float(last[1][2]), *self._imu_at(last[0])))
+        self.epochs.append((tk, self.epochs[-1][1] + arc, hk, imu[0], imu[1]))
+        self.epochs = self.epochs[-ONSET_SPAN_EPOCHS:]
+        if len(self.epochs) < WINDOW_EPOCHS:
+            return []
+        return self._window(tk)
+
+    def _imu_at(self, t):
+        return float(np.interp(t, self.imu_t, self.imu_s)), float(np.interp(t, self.imu_t, self.imu_v))
+
+    def _excess(self, ep):
+        """Times from the first epoch of ``ep`` (k, 5), twice-integrated ax minus the track (m), the altitude (m) and
+        the mean speed (m/s)."""
+        t, s, h, imu_s, imu_v = np.asarray(ep).T
+        tau = t - t[0]
+        speed = max((s[-1] - s[0]) / max(tau[-1], 1e-9), V_MIN_M_S)
+        return tau, (imu_s - imu_s[0] - imu_v[0] * tau) - (s - s[0]), h - h[0], speed
+
+    def _window(self, tk) -> list:
+        """The window's bias: the quadratic term of the track excess less the grade's gravity, g (dh/dt) / v (the
+        altitude's least-squares slope: a constant grade adds g sin(grade) tau^2 / 2 to the excess, like a bias)."""
+        n = WINDOW_EPOCHS
+        tau, d, h, speed = self._excess(self.epochs[-n:])
+        if np.max(np.abs(np.diff(tau) - 1.0)) > 0.2:  # the filters assume 1-s epochs
+            return []
+        self.windows += 1
+        b = float(self.w2 @ d) - G / speed * float(self.w1 @ h)
+        self.mad_d = (self.mad_d + [float(np.median(np.abs(self.r2 @ d)))])[-NOISE_WINDOWS:]
+        self.mad_h = (self.mad_h + [float(np.median(np.abs(self.r1 @ h)))])[-NOISE_WINDOWS:]
+        sig_d = max(robust_sd(self.mad_d, (n - 3) / n), SIGMA_FLOOR_M)
+        sig_h = max(robust_sd(self.mad_h, (n - 2) / n), SIGMA_FLOOR_M)
+        sigma = float(np.hypot(self.sd2 * sig_d, G / speed * self.sd1 * sig_h))
+        if self.ref is None:
+            self.ref = b
+        z = (b - self.ref) / sigma
+        self.n_ref += 1
+        self.trace_t.append(tk)
+        self.trace_z.append(z)
+        if self.n_ref > WARMUP_EPOCHS - WINDOW_EPOCHS and abs(z) > self.gate:
+            return [self._event(tk, z, sigma)]
+        self.ref += (b - self.ref) / min(self.n_ref, REFERENCE_EPOCHS)
+        return []
+
+    def _event(self, tk, z, sigma) -> Event:
+        """Change point: least squares of the stored span's excess (the learned bias and a constant grade taken out)
+        with a step of the bias at each epoch; the step and its sd from the best."""
+        tau, d, h, speed = self._excess(self.epochs)
+        y = d - 0.5 * G * np.polyfit(tau, h, 1)[0] / speed * tau**2
+        best = None
+        for j in range(3, len(tau) - 2):
+            a = np.column_stack([np.ones(len(tau)), tau, 0.5 * tau**2, 0.5 * np.maximum(tau - tau[j], 0.0) ** 2])
+            coef, *_ = np.linalg.lstsq(a, y, rcond=None)
+            sse = float(np.sum((y - a @ coef) ** 2))
+            if best is None or sse < best[0]:
+                best = (sse, j, float(coef[3]), a)
+        _, j, step, a = best
+        sig_d = max(robust_sd(self.mad_d, (WINDOW_EPOCHS - 3) / WINDOW_EPOCHS), SIGMA_FLOOR_M)
+        sd = float(sig_d * np.sqrt(np.linalg.pinv(a.T @ a)[3, 3]))
+        self.ref, self.n_ref = None, 0  # relearned from the windows after the step: one event per step
+        self.epochs = []
+        self.fix = None
+        return Event(tk, float(tk - tau[-1] + tau[j]), "bias_shift",
+                     ["ax"], "WARN", step, [step - Z95 * sd, step + Z95 * sd],
+                     f"ax mean stepped by {step:.3g} m/s^2 (against the GNSS track, {abs(z):.1f} sd)",
+                     {"z": float(z), "gate": self.gate})
+
+    def observability(self) -> str:
+        """Whether this record made an ax bias step observable against the GNSS track, in words."""
+        if self.fixes == 0:
+            return f"{NOT_OBSERVABLE}: no GNSS fixes"
+        if self.with_altitude == 0:
+            return f"{NOT_OBSERVABLE}: the GNSS fixes carry no altitude (the grade's gravity is unknown)"
+        if self.windows == 0:
+            return f"{NOT_OBSERVABLE}: no {WINDOW_EPOCHS} successive fixes at {V_MIN_M_S:g} m/s or more"
+        return f"observable: {self.windows} windows of {WINDOW_EPOCHS} fixes at speed"

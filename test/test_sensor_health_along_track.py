@@ -1,0 +1,39 @@
+"""sensor_health's ax bias test against the GNSS track: a step is named with its onset, a healthy drive and a
+climbing one give none, fixes without a height say not observable (core only, small synthetic drives)."""
+import numpy as np
+
+from sensor_health.along_track import AlongTrackMonitor
+from test_sensor_health_scale import _drive
+
+BUDGET = 0.3 / 23
+
+
+def _run(t, x, gnss, h):
+    mon = AlongTrackMonitor(BUDGET)
+    events = mon.push_gnss(*gnss, h)
+    for a in range(0, len(t), 64 * 30):
+        events += mon.push_imu(t[a:a + 64 * 30], x[a:a + 64 * 30, 3], x[a:a + 64 * 30, 2])
+    return mon, events
+
+
+def test_an_ax_bias_step_is_named_against_the_gnss_track_and_a_climb_is_not_one():
+    t, x, gnss = _drive(11, duration_s=300.0)
+    rng = np.random.default_rng(12)
+    tg = gnss[0]
+    climb = 100.0 + 0.1 * np.maximum(tg - 100.0, 0.0)  # a 1 % grade from 100 s: ax reads 0.098 m/s^2 more
+    x[t >= 100.0, 3] += 9.80665 * 0.1 / np.hypot(10.0, 0.1)
+    h = climb + rng.normal(0, 0.1, len(tg))
+    mon, events = _run(t, x, gnss, h)
+    assert events == [] and mon.observability().startswith("observable")
+    x[t >= 200.0, 3] += 0.02
+    _, events = _run(t, x, gnss, h)
+    assert [(e.effect, e.channels) for e in events] == [("bias_shift", ["ax"])]
+    assert 0 < events[0].t_s - 200.0 <= 30.0 and abs(events[0].onset_s - 200.0) <= 3.0
+    assert abs(events[0].estimate - 0.02) < 0.01
+
+
+def test_fixes_without_a_height_leave_the_ax_bias_not_observable():
+    t, x, gnss = _drive(13, duration_s=120.0)
+    x[t >= 60.0, 3] += 0.05
+    mon, events = _run(t, x, gnss, None)
+    assert events == [] and "carry no altitude" in mon.observability()
