@@ -13,7 +13,8 @@ Seeds 7000.. (effects) and 8000.. (nulls): neither the calibration (5000..) nor 
 noise level only to within +-10 %; the bias instability is flicker noise (two-sided PSD B^2 / (2 pi f)), stated in
 the model (to +-10 %); fixtures (tumble poses, the static and up/down holds) are off their nominal attitude by up
 to ATTITUDE_TOL_DEG while the user's truth states the nominal one; a drive's truth.csv is at 10 Hz and carries a
-slow position error (5-30 cm, periods 30-600 s) and a slow attitude error, as from smoothing a noisy GNSS track;
+slow position error (5-30 cm horizontal, twice that vertical, periods 30-600 s) and a slow attitude error (roll and
+pitch 0.005-0.03 deg, yaw 0.02-0.1 deg), as from smoothing a noisy GNSS track;
 the rate table is typed as static_segments (its holds), so the simulator's own ramp shape differs from the table's.
 """
 from __future__ import annotations
@@ -212,12 +213,15 @@ def _table_holds(table) -> list:
 
 
 def _smoothed_gnss_truth(site, motion, real) -> dict:
-    """A drive's truth at 10 Hz with the slow errors of a track smoothed from noisy GNSS: position 5-30 cm and
-    attitude 0.05-0.3 deg, periods 30-600 s (velocity the position error's derivative)."""
+    """A drive's truth at 10 Hz with the slow errors of a track smoothed from noisy GNSS: position 5-30 cm
+    horizontal and twice that vertical, roll and pitch 0.005-0.03 deg, yaw 0.02-0.1 deg, periods 30-600 s
+    (velocity the position error's derivative)."""
     rows = site.truth_rows(motion, 10.0)
     t = rows["t"]
     pos, vel, _ = gen.slow_wander(real, t, (0.05, 0.30), (30.0, 600.0))
-    att, _, _ = gen.slow_wander(real, t, (0.05, 0.30), (30.0, 600.0))
+    pos[:, 2], vel[:, 2] = 2.0 * pos[:, 2], 2.0 * vel[:, 2]
+    att, _, _ = gen.slow_wander(real, t, (0.005, 0.03), (30.0, 600.0))
+    att[:, 2] *= 0.1 / 0.03  # a track's heading is known worse than its level: 0.017-0.1 deg
     enu = site.enu_offset(np.radians(rows["lat_deg"]), np.radians(rows["lon_deg"]), rows["h_m"]) + pos
     lat, lon, h = gen.geodetic_from_ecef(site.r0 + enu @ site.c_e_enu0.T)
     rows.update(lat_deg=np.degrees(lat), lon_deg=np.degrees(lon), h_m=h, ve=rows["ve"] + vel[:, 0],
