@@ -26,6 +26,7 @@ from nav_core.sensor_model import SensorModel
 from sensor_health import thresholds as thr
 from sensor_health.along_track import AlongTrackMonitor
 from sensor_health.bias_filter import BiasFilter, motion_regressors
+from sensor_health.cross_track import CrossTrackMonitor
 from sensor_health.config import UNMONITORED, HealthConfig, Trace
 from sensor_health.events import CHANNELS, Event
 from sensor_health.line_track import LineTrack
@@ -85,7 +86,7 @@ class HealthMonitor:
         """The windows before the next one (NaN before the first: ignored by the clip statistic)."""
         self.line_ref, self.line_n, self.line_now = None, 0, np.zeros(6)
         self.line_run, self.line_prev_bin = np.zeros(6, int), np.full(6, -10)
-        self.line_track = LineTrack(int(self.grid.line_bins.sum()), self.thr.window_s, self.thr.line_h)
+        self.line_track = LineTrack(int(self.grid.line_bins.sum()))
         self.cleared = []
         """Faults that went away: {"effect", "channels", "t_s" (cleared), "since_s" (named)}."""
         chans = list(thr.BIAS_CHANNELS)
@@ -99,7 +100,10 @@ class HealthMonitor:
         self.bias_pending = {}
         """channel -> a fast crossing waiting for BIAS_CONFIRM_WINDOWS more windows."""
         self.yaw_scale = YawScaleMonitor(model, self.thr.budget_per_10h / thr.N_TESTS)
-        self.along_track = AlongTrackMonitor(self.thr.budget_per_10h / thr.N_TESTS)
+        per_test = self.thr.budget_per_10h / thr.N_TESTS
+        self.along_track = AlongTrackMonitor(per_test, float(model.accel.bias_instability[0]))
+        self.cross_track = CrossTrackMonitor(float(model.gyro.white_noise[2]), per_test,
+                                             float(model.gyro.bias_instability[2]))
         self.startup = StartupCheck(self, startup_thresholds(model, self.grid, self.thr.noise_mu, self.thr.noise_sd,
                                                              self.thr.bias_sd, self.thr.window_s, seed=cfg.seed))
         self.checked_s = [None, None]
@@ -120,7 +124,7 @@ class HealthMonitor:
         self.checked_s[1] = float(t[-1])
         events, flags = self.samples.push(t, x)
         events += self.yaw_scale.push_imu(t, x[:, 2])
-        events += self.along_track.push_imu(t, x[:, 3], x[:, 2])
+        events += self.along_track.push_imu(t, x[:, 3], x[:, 2]) + self.cross_track.push_imu(t, x[:, 2])
         self._remember(t, x)
         self._pending_t = np.concatenate([self._pending_t, t])
         self._pending_x = np.vstack([self._pending_x, x])
@@ -136,14 +140,16 @@ class HealthMonitor:
 
     def push_gnss(self, t, lat_rad, lon_rad, h_m=None) -> list:
         """GNSS fixes t (m,) s, lat, lon (m,) rad, height h (m,) m or None -> events they complete (the yaw scale
-        factor in turns, an ax bias against the track where the fixes carry a height)."""
+        factor in turns, a gz bias against the track, an ax bias against the track where the fixes carry a height)."""
         return self._report(self.yaw_scale.push_gnss(t, lat_rad, lon_rad)
+                            + self.cross_track.push_gnss(t, lat_rad, lon_rad)
                             + self.along_track.push_gnss(t, lat_rad, lon_rad, h_m))
 
     def observability(self) -> dict:
         """Effect and channel -> whether this record's motion made it observable (scale factor so far)."""
         return {"scale_factor_change gz": self.yaw_scale.observability(), "turn_on_bias": self.startup.bias_note,
-                "bias_shift ax": self.along_track.observability(), **UNMONITORED}
+                "bias_shift ax": self.along_track.observability(), "bias_shift gz": self.cross_track.observability(),
+                **UNMONITORED}
 
     def _report(self, events) -> list:
         """Events in time order, each fault once (two detectors can name the same fault)."""

@@ -4,9 +4,9 @@ with): the first ``STARTUP_S`` of windows are tested against the model's own noi
 * noise: the mean standardised log noise level of the first k windows (k >= 2), with each of the last 2 windows'
   variance factor at least ``NOISE_IGNORED_RATIO`` (3: below it a vehicle's own level is taken as healthy, as the
   running test does) -> ``white_noise_increase``;
-* spectrum: the whitened power per bin summed over the first k windows (k >= 3; chi-square(2k) under the model),
-  its largest bin -> ``vibration``; the line is then held (:mod:`sensor_health.line_track`) and kept out of the
-  run's reference spectrum;
+* spectrum: per bin, the least whitened power of the last 3 of the first k windows (k >= 3: a line lasts, a knock
+  in one window does not), its largest bin -> ``vibration``; the line is then held
+  (:mod:`sensor_health.line_track`) and kept out of the run's reference spectrum;
 * turn-on bias, where the motion allows it (an **unaccelerated start**: standing, or a constant-velocity
   straight, every channel's window means steady) and **the model states a turn-on repeatability**
   (``info: {turn_on_bias_repeatability: [..]}`` in a triad of model.yaml, 1 sd, SI; the calibrated ``bias`` and
@@ -82,9 +82,12 @@ def startup_thresholds(model: SensorModel, grid: WindowGrid, noise_mu, noise_sd,
     p_look = FALSE_ALARMS_PER_START / N_STARTUP_TESTS / looks
     k = np.arange(1, looks + 1)[None, :, None]
     noise_stat = np.cumsum(y, axis=1) / np.sqrt(k)
-    line_stat = np.cumsum(power, axis=1).max(axis=-1)
+    line_stat = np.zeros((runs, looks, 6))
+    for j in range(LINE_LOOK_MIN - 1, looks):
+        line_stat[:, j] = power[:, j - LINE_LOOK_MIN + 1:j + 1].min(axis=1).max(axis=-1)
     noise_h = np.array([[exp_tail_threshold(noise_stat[:, j, c], p_look) for c in range(6)] for j in range(looks)])
-    line_h = np.array([[exp_tail_threshold(line_stat[:, j, c], p_look) for c in range(6)] for j in range(looks)])
+    line_h = np.array([[exp_tail_threshold(line_stat[:, j, c], p_look) if j >= LINE_LOOK_MIN - 1 else np.inf
+                        for c in range(6)] for j in range(looks)])
     means = ws.mean.reshape(runs, looks, 6)
     mean_sd = means.mean(axis=1).std(axis=0)
     scatter = _scatter(means, ws.level.reshape(runs, looks, 6), window_mean_sd)
@@ -129,7 +132,7 @@ class StartupCheck:
         self.n = np.zeros(6, int)
         self.windows = 0
         self.sum_y = np.zeros(6)
-        self.sum_p = None
+        self.powers = []
         self.levels, self.means, self.ys = [], [], []
         self.noise_done = np.zeros(6, bool)
         self.line_done = np.zeros(6, bool)
@@ -145,12 +148,10 @@ class StartupCheck:
         if self.windows > 4 * self.sth.looks:  # a channel unusable at the start is not tested from the start
             return []
         events = []
-        if self.sum_p is None:
-            self.sum_p = np.zeros_like(ws.power[w])
         fresh = use & (self.n < self.sth.looks)
         self.n += fresh
         self.sum_y += np.where(fresh, y, 0.0)
-        self.sum_p += np.where(fresh[:, None], ws.power[w], 0.0)
+        self.powers = (self.powers + [np.where(use[:, None], ws.power[w], 0.0)])[-LINE_LOOK_MIN:]
         self.levels.append(np.where(use, ws.level[w], np.nan))
         self.means.append(np.where(use, ws.mean[w], np.nan))
         events += self._noise(t1, fresh)
@@ -189,8 +190,9 @@ class StartupCheck:
 
     def _line(self, t1, fresh, ws, w, xwin) -> list:
         k = np.maximum(self.n, 1) - 1
-        best = np.argmax(self.sum_p, axis=1)
-        stat = self.sum_p[np.arange(6), best]
+        lasting = np.min(self.powers, axis=0)  # (6, nb): a line lasts, a knock is in one window
+        best = np.argmax(lasting, axis=1)
+        stat = lasting[np.arange(6), best]
         gate = self.sth.line_h[k, np.arange(6)]
         fired = np.flatnonzero(fresh & ~self.line_done & (self.n >= LINE_LOOK_MIN) & (stat > gate))
         if len(fired) == 0:
@@ -204,7 +206,7 @@ class StartupCheck:
         if self.mon.line_ref is not None:
             self.mon.line_ref[mask] = np.minimum(self.mon.line_ref[mask], 2.0)
         return [self.mon._line_event(t1, float(self.mon.checked_s[0]), fired, line_k, ws.level[w], xwin,
-                                     {"startup_chi2": stat[fired].tolist(), "threshold": gate[fired].tolist(),
+                                     {"startup_least_chi2": stat[fired].tolist(), "threshold": gate[fired].tolist(),
                                       "windows": self.n[fired].tolist()})]
 
     def _turn_on(self, t1) -> list:
