@@ -36,6 +36,10 @@ import independent_gen as gen  # noqa: E402
 SITE = (51.0784, -114.13, 1100.0)
 REALISTIC = False
 """Set by ``--realistic`` (see the module docstring)."""
+DRIVE = "figure8"
+"""``--drive town``: the drive cases run on a 240-s town drive (stops, quintic speed changes <= 2 m/s^2, turns with
+lateral acceleration <= 2.5 m/s^2, hills, body roll; ``independent_gen.StopAndGo``) instead of the 1200-s
+figure-eight."""
 NOISE_MISSTATED = 0.10
 """Largest relative error of a noise level the user's model states (realistic cases)."""
 GYRO_FLICKER, ACCEL_FLICKER = 2e-5, 1e-4
@@ -101,7 +105,7 @@ def motion_of(kind: str):
     if kind == "table":
         return gen.RateTable(TABLE_RATES, 30.0, 2.0), 50.0, 100.0
     if kind == "drive":
-        return gen.FigureEight(1200.0), 50.0, 100.0
+        return (gen.StopAndGo(240.0) if DRIVE == "town" else gen.FigureEight(1200.0)), 50.0, 100.0
     if kind == "updown":
         return None, 64.0, None
     return gen.Poses([(0, 0, 0)], 7200.0, 1.0), 5.0, None
@@ -369,12 +373,16 @@ def main(argv=None) -> int:
     parser.add_argument("--out", default="/tmp/diag_independent")
     parser.add_argument("--resume", default=None, help="rows.json of an earlier run of the same code to reuse")
     parser.add_argument("--quick", action="store_true", help="1 seed of one effect and one null (a smoke run)")
+    parser.add_argument("--drive", choices=("figure8", "town"), default="figure8",
+                        help="drive of the GNSS, coriolis and null_drive cases (town: 240 s with stops, see DRIVE)")
     parser.add_argument("--realistic", action="store_true",
                         help="misstated noise, flicker bias instability, off-nominal fixtures, a 10-Hz drive truth with "
                              "slow error, the rate table typed as its holds (module docstring)")
     args = parser.parse_args(argv)
     global REALISTIC
     REALISTIC = args.realistic
+    global DRIVE
+    DRIVE = args.drive
     if args.quick:
         args.seeds, args.null_seeds, args.cases = 1, 1, args.cases or ["gravity_model", "null_tumble"]
     names = args.cases or list(NULLS) + list(CASES)

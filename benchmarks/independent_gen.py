@@ -201,6 +201,94 @@ class FigureEight(Motion):
         return (z, z.copy(), yaw), (z.copy(), z.copy(), dyaw)
 
 
+def _quintic(u):
+    """Quintic step 0 -> 1 on u in [0, 1] with its first two derivatives (zero at both ends)."""
+    u = np.clip(u, 0.0, 1.0)
+    return u**3 * (10 - 15 * u + 6 * u**2), 30 * u**2 * (1 - u) ** 2, 60 * u * (1 - u) * (1 - 2 * u)
+
+
+STOP_AND_GO = [("stand", 8, 0), ("speed", 12, 12), ("cruise", 12, 0), ("turn", 15, 90), ("cruise", 8, 0),
+               ("speed", 12, 0), ("stand", 6, 0), ("speed", 15, 15), ("cruise", 10, 0), ("turn", 24, -120),
+               ("cruise", 6, 0), ("speed", 9, 6), ("turn", 6, 60), ("speed", 8, 14), ("cruise", 10, 0),
+               ("speed", 14, 0), ("stand", 5, 0)]
+"""A town drive's legs: (kind, duration s, target speed m/s or turn angle deg); quintic speed and heading steps."""
+
+
+class StopAndGo(Motion):
+    """A town drive: stops, quintic speed changes (<= 2 m/s^2) and turns (lateral <= 2.5 m/s^2), hills (grade
+    +-3 %, periods 90 and 37 s, only while moving), body roll 0.5 deg per m/s^2 of lateral acceleration, nose on
+    the course and the grade. The legs repeat to fill ``duration_s``. Speed, heading, grade, their derivatives and
+    the attitude are closed form; position is their velocity integrated by 8-node Gauss-Legendre per 10 ms."""
+
+    ROLL_PER_MPS2 = np.radians(0.5)
+
+    def __init__(self, duration_s: float, legs=STOP_AND_GO):
+        super().__init__(duration_s)
+        starts, t0, v, yaw = [], 0.0, 0.0, 0.0
+        while t0 < duration_s + 1.0:
+            for kind, dur, val in legs:
+                v_end = float(val) if kind == "speed" else v
+                d_yaw = np.radians(val) if kind == "turn" else 0.0
+                starts.append((t0, float(dur), v, v_end, yaw, d_yaw))
+                t0, v, yaw = t0 + dur, v_end, yaw + d_yaw
+        self.legs = starts
+        self.grid = np.arange(0.0, duration_s + 1.0, 0.01)
+        x, w = np.polynomial.legendre.leggauss(8)
+        mid, half = (self.grid[1:] + self.grid[:-1]) / 2, 0.005
+        nodes = (mid[:, None] + half * x[None, :]).ravel()
+        vel = self._vel_acc(nodes)[0].reshape(len(mid), 8, 3)
+        steps = half * np.einsum("nkj,k->nj", vel, w)
+        self.p_grid = np.vstack([np.zeros((1, 3)), np.cumsum(steps, axis=0)])
+        self._gl = (x, w)
+
+    def _profiles(self, t):
+        """Speed, heading, grade and their first two time derivatives, each (n,)."""
+        sp, ds, dds = np.zeros_like(t), np.zeros_like(t), np.zeros_like(t)
+        yaw, dy, ddy = np.zeros_like(t), np.zeros_like(t), np.zeros_like(t)
+        for t0, dur, v0, v1, y0, dyaw in self.legs:
+            m = (t >= t0) & (t < t0 + dur)
+            if not np.any(m):
+                continue
+            f, f1, f2 = _quintic((t[m] - t0) / dur)
+            sp[m], ds[m], dds[m] = v0 + (v1 - v0) * f, (v1 - v0) * f1 / dur, (v1 - v0) * f2 / dur**2
+            yaw[m], dy[m], ddy[m] = y0 + dyaw * f, dyaw * f1 / dur, dyaw * f2 / dur**2
+        w1, w2 = 2 * np.pi / 90.0, 2 * np.pi / 37.0
+        g = 0.02 * np.sin(w1 * t) + 0.01 * np.sin(w2 * t + 1.0)
+        dg = 0.02 * w1 * np.cos(w1 * t) + 0.01 * w2 * np.cos(w2 * t + 1.0)
+        return sp, ds, dds, yaw, dy, ddy, g, dg
+
+    def _vel_acc(self, t):
+        sp, ds, _, yaw, dy, _, g, dg = self._profiles(t)
+        c, s = np.cos(yaw), np.sin(yaw)
+        v = np.stack([sp * c, sp * s, sp * g], axis=-1)
+        a = np.stack([ds * c - sp * s * dy, ds * s + sp * c * dy, ds * g + sp * dg], axis=-1)
+        return v, a
+
+    def position(self, t):
+        """Plane position, velocity and acceleration (n, 3)."""
+        t = np.asarray(t, float)
+        k = np.clip(np.searchsorted(self.grid, t, side="right") - 1, 0, len(self.grid) - 2)
+        lo = self.grid[k]
+        x, w = self._gl
+        half = (t - lo) / 2
+        nodes = (lo + half)[:, None] + half[:, None] * x[None, :]
+        vel = self._vel_acc(nodes.ravel())[0].reshape(len(t), len(x), 3)
+        p = self.p_grid[k] + half[:, None] * np.einsum("nkj,k->nj", vel, w)
+        v, a = self._vel_acc(t)
+        return p, v, a
+
+    def attitude(self, t):
+        """Yaw on the heading, pitch on the grade (nose up: negative about body y in Rz Ry Rx), roll from the
+        lateral acceleration; with their rates."""
+        t = np.asarray(t, float)
+        sp, ds, _, yaw, dy, ddy, g, dg = self._profiles(t)
+        lat = sp * dy
+        dlat = ds * dy + sp * ddy
+        roll, droll = -self.ROLL_PER_MPS2 * lat, -self.ROLL_PER_MPS2 * dlat
+        pitch, dpitch = -np.arctan(g), -dg / (1 + g**2)
+        return (roll, pitch, yaw), (droll, dpitch, dy)
+
+
 # ----------------------------------------------------------------------------- truth and ideal IMU
 
 

@@ -395,9 +395,9 @@ def truth_csv_trajectory(truth: Trajectory, frame: LocalFrame | None = None) -> 
     measures it (a 10-digit CSV's ~2 mm of longitude), so rounding does not become acceleration noise and
     exact rows keep their acceleration (an assumed 3 mm had smoothed 1-s specific force by up to 0.07 m/s^2 at
     the end of a quintic speed change). When the position rows are noisy, velocity and acceleration come from the
-    velocity rows instead if the file has them and they agree with the positions (a 10-digit CSV at 10 Hz: 1-s specific force 3e-5 m/s^2 off
-    from them, 0.04 from its positions). Attitude: a quintic quaternion spline through rows
-    thinned to ~10 Hz.
+    velocity rows instead if the file has them and they agree with the positions (a 10-digit CSV at 10 Hz: 1-s
+    specific force 3e-5 m/s^2 off from them, 0.04 from its positions). Attitude: a quintic quaternion spline
+    through rows thinned to ~10 Hz.
     """
     if len(truth.t) < 2:
         raise ValueError("truth trajectory needs at least 2 rows")

@@ -70,6 +70,8 @@ def evaluate(case: Case, model: SensorModel, resid: np.ndarray, exclude=(), fact
             note = reference.colored_fix_note(cand)
             if note:
                 cand.identifiable, cand.reason = False, note
+        if note := reference.attitude_note(ctx, cand):
+            cand.identifiable, cand.reason = False, (cand.reason + "; " if cand.reason else "") + note
         _rank_known_constant(cand)
     rank_low_frequency(ctx, out)
     return out

@@ -22,7 +22,8 @@ from imu_sim.diagnose.spectral import noise_psd
 
 def fit_metric(case: Case, cand: Candidate, model_before: SensorModel, model_after: SensorModel,
                resid: np.ndarray, seed: int = 0):
-    """(metric name, before, after) on held-out data."""
+    """(metric name, before, after) on held-out data. A known constant (Earth rate, normal gravity, Coriolis) is
+    added to the model at its value whatever its fitted scale, so it is scored at that value, not trained."""
     if cand.kind == "gnss":
         return gnss_candidates.fit_metric(case, cand, model_before, model_after)
     if cand.kind in ("regression", "vibration"):
@@ -31,7 +32,8 @@ def fit_metric(case: Case, cand: Candidate, model_before: SensorModel, model_aft
         if reference.moving_file_truth(case):
             resid, cols = _whitened(case, model_before, resid, cols)
             what += " of the residual whitened by the model's noise plus the reference's error"
-        b, a = metrics.heldout_rms(resid, cols, case.dt, cand.block_s)
+        b, a = metrics.heldout_rms(resid, cols, case.dt, cand.block_s,
+                                   fixed=[1.0] if cand.constant_scale is not None else None)
         return f"RMS of held-out {what} over their scatter (odd tenths of the run, fit on even tenths)", b, a
     if cand.kind == "quantization":
         half = case.n // 2

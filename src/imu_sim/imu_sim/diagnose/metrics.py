@@ -18,11 +18,12 @@ def robust_var(x: np.ndarray) -> float:
     return float((np.median(d) / 0.6745) ** 2 / 2.0) if len(d) else 1.0
 
 
-def heldout_rms(resid: np.ndarray, columns: dict, dt: float, block_s: float):
+def heldout_rms(resid: np.ndarray, columns: dict, dt: float, block_s: float, *, fixed=None):
     """Normalised RMS of held-out block means before (bias only) and after (bias + effect), trained on even chunks.
 
     Block means of ``block_s`` s; each channel normalised by its block-to-block scatter, so 1 means
-    nothing systematic is left at that averaging time.
+    nothing systematic is left at that averaging time. ``fixed`` (k,): the effect's coefficients are known (a
+    physical constant at its value), not trained.
     """
     m = max(1, int(round(block_s / dt)))
     yb = block_means(resid, m)
@@ -41,6 +42,9 @@ def heldout_rms(resid: np.ndarray, columns: dict, dt: float, block_s: float):
         rows.append(np.hstack([xb[c][train], bias]) * w)
         rhs.append(yb[train, c] * w)
     sol = np.linalg.lstsq(np.vstack(rows), np.concatenate(rhs), rcond=None)[0]
+    if fixed is not None:  # a known constant: its coefficient is not trained, only each channel's bias
+        fixed = np.asarray(fixed, float)
+        sol = np.concatenate([fixed, [np.mean(yb[train, c] - xb[c][train] @ fixed) for c in chans]])
     before, after = [], []
     for j, c in enumerate(chans):
         mean_train = yb[train, c].mean()

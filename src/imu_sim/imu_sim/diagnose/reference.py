@@ -191,3 +191,31 @@ def hold_demeaned(case, resid: np.ndarray) -> np.ndarray:
     for a, b in spans:
         out[a:b] = resid[a:b] - resid[a:b].mean(axis=0)
     return out
+
+
+def rotation_columns(case) -> dict:
+    """Per channel (n, 3): the residual a small constant rotation d (rad) of the truth's attitude makes, d x the
+    true rate on the gyros and d x the true specific force on the accelerometers (one d for both triads)."""
+    cols = {}
+    for tri, true in enumerate((case.gyro_true, case.accel_true)):
+        for i in range(3):
+            cols[3 * tri + i] = np.column_stack([np.cross(np.eye(3)[j], true)[:, i] for j in range(3)])
+    return cols
+
+
+def attitude_note(ctx, cand) -> str:
+    """On a moving truth file, why an axis misalignment is not separable from the truth's own attitude error ('' when
+    it is): its likelihood ratio less that of one constant rotation of the truth's attitude (a rotation is an
+    antisymmetric misalignment shared by the gyros and the accelerometers; a smoothed track's attitude is off by
+    hundredths of a degree, its heading by a tenth, and the IMU's mounting in the vehicle is a rotation too)."""
+    if cand.effect != "axis_misalignment" or not cand.significant or not moving_file_truth(ctx.case):
+        return ""
+    from imu_sim.diagnose.effect_tests import fit
+    rotation = fit(ctx, rotation_columns(ctx.case), 3)
+    given = cand.stat - rotation.lr
+    if given > cand.threshold:
+        return ""
+    d = np.degrees(np.abs(rotation.theta)).max() if rotation.identifiable else float("nan")
+    return (f"not separable from the reference on this record: one constant rotation of the truth file's attitude "
+            f"({d:.2g} deg at most) explains it, its likelihood ratio given that rotation {given:.4g} is below the "
+            f"threshold {cand.threshold:.4g} (a truth's attitude error and the IMU's mounting are a rotation); not ranked")
