@@ -132,3 +132,36 @@ def test_coloured_fix_error_a_smoothed_truth_can_carry_is_not_separable_and_moti
     assert reference.colored_fix_note(coloured([0.4, 0.1, 0.1])) == ""
     latency = Candidate("gps_latency", 30.0, 8.7, "", kind="gnss")
     assert _deterministic_first([coloured([1.0, 1.0, 1.0]), latency]) is latency
+
+
+def test_rotation_of_the_truth_attitude_is_its_columns_times_the_angles():
+    from types import SimpleNamespace
+
+    from imu_sim.diagnose import reference
+
+    rng = np.random.default_rng(5)
+    gyro, accel = rng.normal(0, 0.3, (200, 3)), rng.normal(0, 2.0, (200, 3)) + [0, 0, 9.8]
+    d = np.array([2e-4, -3e-4, 1e-3])  # rad
+    cols = reference.rotation_columns(SimpleNamespace(gyro_true=gyro, accel_true=accel))
+    for c in range(6):
+        x = (gyro, accel)[c // 3]
+        rotated = Rotation.from_rotvec(d).apply(x)[:, c % 3]
+        np.testing.assert_allclose(cols[c] @ d, rotated - x[:, c % 3], atol=1e-5 * np.abs(x).max())
+
+
+def test_known_constant_is_scored_held_out_at_its_value_not_trained():
+    from imu_sim.diagnose import metrics
+
+    rng = np.random.default_rng(9)
+    n, dt = 2400, 0.1  # 240 s, 1-s blocks
+    x = np.where((np.arange(n) // 300) % 2 == 0, 1.0, -1.0)[:, None]  # the constant's regressor
+    resid = np.column_stack([x[:, 0] * 1.0 + 0.3 + rng.normal(0, 1.0, n)])
+    before, fixed = metrics.heldout_rms(resid, {0: x}, dt, 1.0, fixed=[1.0])
+    m = 10
+    yb, xb = resid[:, 0].reshape(-1, m).mean(axis=1), x[:, 0].reshape(-1, m).mean(axis=1)
+    chunk = (np.arange(len(yb)) * 10) // len(yb)
+    train, test = chunk % 2 == 0, chunk % 2 == 1
+    bias = np.mean(yb[train] - xb[train])
+    expected = np.sqrt(np.mean((yb[test] - xb[test] - bias) ** 2) / metrics.robust_var(yb))
+    assert fixed == pytest.approx(expected)
+    assert fixed < before
