@@ -21,9 +21,9 @@ def test_a_lasting_line_stays_warn_for_the_whole_fault_and_clears_within_seconds
     assert 100.0 < named <= 105.0
     assert all(level[s] == "WARN" for s in level if named < s < 170), level
     cleared = [s for s in level if s >= 170 and level[s] == "OK"]
-    assert cleared and min(cleared) <= 170 + 5, level
+    assert cleared and min(cleared) <= 170 + 6, level
     assert all(level[s] == "OK" for s in level if s >= min(cleared))
     (note,) = mon.cleared
-    assert note["channels"] == ["gx"] and 170.0 <= note["t_s"] <= 175.0
+    assert note["channels"] == ["gx"] and 170.0 <= note["t_s"] <= 176.0
     st = statuses(mon, t[-1], {})["gx"]
     assert st.level == "OK" and "cleared" in st.message and st.cleared_s == note["t_s"]

@@ -41,6 +41,25 @@ def _samples():
     return t, x
 
 
+def channel_statuses(arr) -> dict:
+    """Channel or ``summary`` -> ChannelStatus, parsed back from one DiagnosticArray of the node."""
+    return {st.name.split(": ")[-1]: ChannelStatus.from_values({kv.key: kv.value for kv in st.values},
+                                                               level_name(st.level[0]), st.message)
+            for st in arr.status}
+
+
+def late_events(timeout_s=20.0) -> list:
+    """The events (dicts) a subscriber that joins now gets on the transient-local event topic."""
+    late = rclpy.create_node("late_listener")
+    got = []
+    late.create_subscription(String, "sensor_health/events", lambda m: got.append(m.data), EVENTS_QOS)
+    deadline = time.monotonic() + timeout_s
+    while not got and time.monotonic() < deadline:
+        rclpy.spin_once(late, timeout_sec=0.1)
+    late.destroy_node()
+    return [json.loads(m) for m in got]
+
+
 def test_node_names_the_fault_like_the_core_on_a_transient_local_topic_and_in_diagnostics(tmp_path, ros_env,
                                                                                           rclpy_context):
     path = sensor_model.save(_model(), tmp_path / "model.yaml")
@@ -73,23 +92,15 @@ def test_node_names_the_fault_like_the_core_on_a_transient_local_topic_and_in_di
                 time.sleep(0.0005)
             assert probe.spin_until(summary(min(a + 64, len(t))), 20), \
                 f"the node did not take samples {a}..{a + 64}:\n{node.output}"
-        statuses = {st.name.split(": ")[-1]: ChannelStatus.from_values({kv.key: kv.value for kv in st.values},
-                                                                        level_name(st.level[0]), st.message)
-                    for st in summary(len(t))(probe).status}
+        statuses = channel_statuses(summary(len(t))(probe))
         assert statuses["gz"].effect == "stuck_output" and statuses["gz"].level == "ERROR"
         assert abs(statuses["gz"].onset_s - expected[0].onset_s) < 1e-6
         assert statuses["summary"].events == 1 and statuses["gx"].effect == ""
 
-        late = rclpy.create_node("late_listener")  # joins after the event was published
-        got = []
-        late.create_subscription(String, "sensor_health/events", lambda m: got.append(m.data), EVENTS_QOS)
-        deadline = time.monotonic() + 20
-        while not got and time.monotonic() < deadline:
-            rclpy.spin_once(late, timeout_sec=0.1)
+        got = late_events()  # joins after the event was published
         assert got, "a late subscriber did not get the event (transient local)"
-        events = [Event.from_dict(json.loads(s)) for s in got]
-        assert [e.to_dict() for e in events] == [e.to_dict() for e in expected]
-        for n in (late, feeder, probe):
+        assert [Event.from_dict(d).to_dict() for d in got] == [e.to_dict() for e in expected]
+        for n in (feeder, probe):
             n.destroy_node()
     finally:
         node.stop()

@@ -3,22 +3,17 @@ turns whose gz scale factor steps by 5 %) to a real node process; the node names
 same fields at the same stamps as ``sensor-health --recording BAG --gnss G.csv`` on the same data, publishes it on
 the transient-local event topic (a late subscriber gets it) and shows it on gz in /diagnostics."""
 import json
-import time
 
 import numpy as np
 import pytest
-import rclpy
 from diagnostic_msgs.msg import DiagnosticArray
-from std_msgs.msg import String
 
 from nav_core import recording, sensor_model
 from nav_core.processes import NodeProcess
 from nav_core.ros_node import Probe
-from nav_core.status import level_name
 from sensor_health.cli import main
-from sensor_health.sensor_health_node import EVENTS_QOS
-from sensor_health.status import ChannelStatus
 from test_sensor_health_core import _model
+from test_sensor_health_node import channel_statuses, late_events
 from test_sensor_health_scale import _drive
 
 pytestmark = pytest.mark.ros
@@ -34,12 +29,6 @@ def _bag(tmp_path):
     gnss = recording.GnssRecording(T0 + tg, lat, lon, np.zeros(len(tg)), np.full((len(tg), 3), 0.02))
     recording.write_gnss_csv(tmp_path / "gnss.csv", gnss)
     return recording.write_bag(tmp_path / "bag", imu, gnss), tmp_path / "gnss.csv", len(t), len(tg)
-
-
-def _statuses(arr):
-    return {st.name.split(": ")[-1]: ChannelStatus.from_values({kv.key: kv.value for kv in st.values},
-                                                               level_name(st.level[0]), st.message)
-            for st in arr.status}
 
 
 def test_node_on_a_bag_names_the_gz_scale_change_like_the_cli_with_gnss(tmp_path, ros_env, rclpy_context):
@@ -69,18 +58,11 @@ def test_node_on_a_bag_names_the_gz_scale_change_like_the_cli_with_gnss(tmp_path
                     return arr
             return None
         assert probe.spin_until(taken, 90), f"{node.output}\n{player.output}"
-        status = _statuses(taken(probe))
-        late = rclpy.create_node("late_listener")  # joins after the event was published
-        got = []
-        late.create_subscription(String, "sensor_health/events", lambda m: got.append(m.data), EVENTS_QOS)
-        deadline = time.monotonic() + 20
-        while not got and time.monotonic() < deadline:
-            rclpy.spin_once(late, timeout_sec=0.1)
-        late.destroy_node()
+        status = channel_statuses(taken(probe))
+        live = late_events()  # joins after the event was published
     finally:
         codes = (player.stop() if player else None, node.stop())
         probe.destroy_node()
-    live = [json.loads(s) for s in got]
     assert [(e["t_s"], e["onset_s"], e["effect"], e["channels"], e["level"]) for e in live] == \
         [(e["t_s"], e["onset_s"], e["effect"], e["channels"], e["level"]) for e in expected], node.output
     for a, b in zip(live, expected):  # G.csv keeps 15 digits of a degree (1e-8 m): the estimate differs by ~1e-8

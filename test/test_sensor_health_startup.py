@@ -5,6 +5,7 @@ import numpy as np
 import pytest
 
 from sensor_health import noise_sim
+from sensor_health.events import CHANNELS
 from sensor_health.monitor import HealthConfig, HealthMonitor
 from sensor_health.startup import REPEATABILITY_KEY
 from test_sensor_health_core import RATE, _drive, _model, _thresholds
@@ -44,7 +45,7 @@ def test_noise_and_a_line_from_the_first_sample_are_named_at_once_and_held_while
     else:
         x[:, channel] += 3 * sd * np.sin(2 * np.pi * 9.7 * t + 0.3)
     mon, events = _run(t, x)
-    assert [(e.effect, e.channels) for e in events] == [(effect, [("gx", "gy", "gz", "ax", "ay", "az")[channel]])]
+    assert [(e.effect, e.channels) for e in events] == [(effect, [CHANNELS[channel]])]
     e = events[0]
     assert e.onset_s == t[0] and e.t_s <= 5.0
     if effect == "vibration":
@@ -71,7 +72,7 @@ def test_a_turn_on_bias_ten_times_the_stated_repeatability_is_named_at_an_unacce
     t, x = _standing(41)
     x[:, channel] += bias
     mon, events = _run(t, x, _stated())
-    assert [(e.effect, e.channels) for e in events] == [("turn_on_bias", [("gx", "gy", "gz", "ax", "ay", "az")[channel]])]
+    assert [(e.effect, e.channels) for e in events] == [("turn_on_bias", [CHANNELS[channel]])]
     e = events[0]
     assert e.onset_s == t[0] and e.t_s <= 5.0
     assert abs(e.estimate - bias) < 0.3 * abs(bias)

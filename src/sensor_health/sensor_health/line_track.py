@@ -1,7 +1,7 @@
 """A named vibration line followed while it lasts: its bins stay out of the run's reference spectrum (a line that
 joined the reference would look gone ~10 s after the event while it is still there), the channel stays WARN while
 the line's power holds, and the line is *cleared* once the median of its last HOLD_WINDOWS windows is below the hold
-level (3 windows after it goes).
+level (5 windows after it goes).
 
 No ROS. Frequencies are bins of the monitor's window grid; times s.
 """
@@ -12,10 +12,11 @@ import numpy as np
 HOLD_CHI2 = 10.0
 """The line holds while its whitened power against the reference (chi-square(2) on the model's noise), the largest
 of the bins next to it, has a median over the last HOLD_WINDOWS windows above this. On noise alone one window's
-largest of 3 bins passes it with probability 0.02, a median of 5 windows with 8e-5: a line that went is cleared
-within 3 windows. A median and a level well under the gate: a weak line, named near the gate and beating with the
-noise (the ADIS16405's 21-Hz gz line, 15-25), dips below the gate's fraction in single windows."""
-HOLD_WINDOWS = 5
+largest of 5 bins passes it with probability 0.03, a median of 9 windows with 5e-6: a line that went is cleared
+within 5 windows. A median and a level well under the gate: a weak line named near the gate (the ADIS16405's
+~21-Hz gz line, 15-25 in 1-s windows) dips below the gate's fraction in single windows, and that one beats: 1 to 3
+windows near zero every ~10 s."""
+HOLD_WINDOWS = 9
 TRACK_BINS = 2
 """The held line is looked for this many bins either side of where it was (a line between two bins, one that follows
 the speed, or a weak one whose largest neighbouring bin was noise for a window)."""
