@@ -12,7 +12,7 @@ def _run(t, x, gnss, h):
     mon = AlongTrackMonitor(BUDGET)
     events = mon.push_gnss(*gnss, h)
     for a in range(0, len(t), 64 * 30):
-        events += mon.push_imu(t[a:a + 64 * 30], x[a:a + 64 * 30, 3], x[a:a + 64 * 30, 2])
+        events += mon.push_imu(t[a:a + 64 * 30], *x[a:a + 64 * 30, [3, 2, 4]].T)
     return mon, events
 
 
@@ -37,3 +37,16 @@ def test_fixes_without_a_height_leave_the_ax_bias_not_observable():
     x[t >= 60.0, 3] += 0.05
     mon, events = _run(t, x, gnss, None)
     assert events == [] and "carry no altitude" in mon.observability()
+
+
+def test_a_gz_bias_step_is_named_against_the_gnss_track():
+    from sensor_health.cross_track import CrossTrackMonitor
+    t, x, gnss = _drive(14, duration_s=300.0)
+    mon = CrossTrackMonitor(1.5e-3, BUDGET, 2e-4)
+    assert mon.push_gnss(*gnss) + mon.push_imu(t, x[:, 2]) == []
+    assert mon.observability().startswith("observable")
+    x[t >= 200.0, 2] += 4e-3  # 20 x the bias sd: a knock
+    mon = CrossTrackMonitor(1.5e-3, BUDGET, 2e-4)
+    events = mon.push_gnss(*gnss) + mon.push_imu(t, x[:, 2])
+    assert [(e.effect, e.channels) for e in events] == [("bias_shift", ["gz"])]
+    assert 0 < events[0].t_s - 200.0 <= 30.0 and abs(events[0].estimate - 4e-3) < 1.5e-3

@@ -47,7 +47,7 @@ UNMONITORED = {
                               "(a 1 % change of 1 m/s^2 is 0.01 m/s^2); the along-track test carries the bias only",
     "scale_factor_change ay": "not monitored: the lateral acceleration against speed x GNSS course rate, in turns",
     "scale_factor_change gx gy": "not observable: a land vehicle's roll and pitch rates have no reference",
-    "bias_shift gz ay": "not monitored: the IMU alone sees only ay - v gz (a step of either moves it alike); naming "
-                        "the channel needs the GNSS course, whose 1-Hz noise takes 30-60 s for a 10-sd gz step",
+    "bias_shift ay": "not monitored: the IMU sees only ay - v gz (a step of either moves it alike, and gz's own "
+                     "noise times v is 0.02 m/s^2 in a 1-s mean); gz is tested against the GNSS track, ay is not",
 }
 """Effects and channels this package does not test, and why (health.json ``observability``)."""

@@ -124,7 +124,7 @@ class HealthMonitor:
         self.checked_s[1] = float(t[-1])
         events, flags = self.samples.push(t, x)
         events += self.yaw_scale.push_imu(t, x[:, 2])
-        events += self.along_track.push_imu(t, x[:, 3], x[:, 2]) + self.cross_track.push_imu(t, x[:, 2])
+        events += self.along_track.push_imu(t, x[:, 3], x[:, 2], x[:, 4]) + self.cross_track.push_imu(t, x[:, 2])
         self._remember(t, x)
         self._pending_t = np.concatenate([self._pending_t, t])
         self._pending_x = np.vstack([self._pending_x, x])

@@ -56,9 +56,9 @@ BIAS_CHANNELS = (0, 1, 5)
 gz, ax, ay carry the vehicle's turns and accelerations, so a bias step there is not seen in the raw signal."""
 
 
-N_TESTS = 6 + 6 + 6 + len(BIAS_CHANNELS) + 2
+N_TESTS = 6 + 6 + 6 + len(BIAS_CHANNELS) + 3
 """Statistical tests sharing the false-alarm budget: noise, line and clip on every channel, bias on BIAS_CHANNELS,
-the gz scale factor against the GNSS course, the ax bias against the GNSS track."""
+the gz scale factor against the GNSS course, the ax and gz biases against the GNSS track."""
 
 
 @dataclass
