@@ -16,8 +16,9 @@ per test (one test per fix, the overlap of the windows only makes it stricter).
 
 In turns ax also sees part of the lateral acceleration (a mount yawed by δ: δ times it; sideslip: about its
 square; the benchmark's generator shows 0.01 m/s^2 in its turns): the window fits the twice-integrated ay and ay|ay|
-(beyond a dead zone, so a straight costs nothing) as nuisance terms. Assumes x forward (the vehicle's axis). Below ``V_MIN_M_S`` (standstill, creeping) the chords are noise
-and the window restarts. No ROS, no simulator. Times s, distances m, accelerations m/s^2.
+(beyond a dead zone, so a straight costs nothing) as nuisance terms. Assumes x forward (the vehicle's axis). Below
+``V_MIN_M_S`` (standstill, creeping) the chords are noise and the window restarts. No ROS, no simulator. Times s,
+distances m, accelerations m/s^2.
 """
 from __future__ import annotations
 
@@ -143,7 +144,8 @@ class AlongTrackMonitor:
         v = v0 + np.cumsum(0.5 * (xx[1:] + xx[:-1]) * dt, axis=0)  # non-finite samples: NaN, windows skipped
         s = s0 + np.cumsum(0.5 * (np.vstack([v0, v[:-1]])[:, :3] + v[:, :3]) * dt, axis=0)
         self._last = (t[-1], x[-1], v[-1], s[-1])
-        self.imu_t, self.imu_v, self.imu_s = np.r_[self.imu_t, t], np.vstack([self.imu_v, v]), np.vstack([self.imu_s, s])
+        self.imu_t = np.r_[self.imu_t, t]
+        self.imu_v, self.imu_s = np.vstack([self.imu_v, v]), np.vstack([self.imu_s, s])
         keep = self.imu_t >= self.imu_t[-1] - 30.0
         if (~keep).sum() > len(t):
             self.imu_t, self.imu_v, self.imu_s = self.imu_t[keep], self.imu_v[keep], self.imu_s[keep]

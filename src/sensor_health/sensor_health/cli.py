@@ -61,7 +61,7 @@ def run(args) -> int:
         events = []
         if gnss is not None and len(gnss):
             fixed = gnss.status >= 0 if gnss.status is not None else np.ones(len(gnss), bool)  # -1: no fix
-            events = monitor.push_gnss(gnss.t[fixed], gnss.lat[fixed], gnss.lon[fixed])
+            events = monitor.push_gnss(gnss.t[fixed], gnss.lat[fixed], gnss.lon[fixed], gnss.h[fixed])
         events += monitor_recording(monitor, imu, args.chunk_s, not args.no_progress)
         result = health_document(monitor, events, imu, gnss)
         (tmp / "health.json").write_text(json.dumps(result, indent=1))

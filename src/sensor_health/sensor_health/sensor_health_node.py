@@ -92,7 +92,8 @@ class SensorHealthNode(Node):
             return
         t = msg.header.stamp.sec + 1e-9 * msg.header.stamp.nanosec
         with self.lock:
-            events = self.monitor.push_gnss([t], [float(deg2rad(msg.latitude))], [float(deg2rad(msg.longitude))])
+            events = self.monitor.push_gnss([t], [float(deg2rad(msg.latitude))], [float(deg2rad(msg.longitude))],
+                                            [float(msg.altitude)])
             self._publish_events(events)
 
     def on_batch(self, batch) -> None:
