@@ -74,6 +74,7 @@ def evaluate(case: Case, model: SensorModel, resid: np.ndarray, exclude=(), fact
             cand.identifiable, cand.reason = False, (cand.reason + "; " if cand.reason else "") + note
         _rank_known_constant(cand)
     rank_low_frequency(ctx, out)
+    fixture.rank_given_tilts(case, out, resid)  # the fixture's tilts are a nuisance of every ranking
     return out
 
 

@@ -4,9 +4,10 @@ A static segment's real attitude differs from its stated one by a small rotation
 whole segment; it changes the true specific force by f_b x d and the true rate by w_b x d (both from the truth,
 varying in time on a rate table). A candidate's fitted contribution (n, 6) is regressed jointly on these columns
 (three tilt parameters per segment, shared by the six channels) and a turn-on bias per channel, each channel weighted
-by its noise level, on the holds only. When the candidate's likelihood ratio given the tilts is below its threshold
-and the tilts lie within ``attitude_tolerance_deg``, the effect is not separable from the reference on this
-record.
+by its noise level, on the holds only; the tilts' second-order term follows from them (Gauss-Newton). When the candidate's likelihood
+ratio given the tilts is below its threshold and the tilts lie within ``attitude_tolerance_deg``, the effect is not
+separable from the reference on this record. The held-out fit of a regression on such a record is scored on the
+holds with the tilts removed (:func:`without_tilts`).
 """
 from __future__ import annotations
 
@@ -83,9 +84,8 @@ def _truth_hold_weights(case) -> np.ndarray | None:
 
 
 def _tilt_design(case, weights: np.ndarray) -> np.ndarray:
-    """Stacked design (6 n, 3 per segment + 6 biases + 1 per segment): f_b x d on accel, w_b x d + dd/dt on gyro;
-    then each segment's specific-force scale, the tilt's second-order term (a tilt theta shortens the specific force
-    along its nominal direction by 1 - cos theta, up to tolerance^2 / 2)."""
+    """Stacked design (6 n, 3 per segment + 6 biases): f_b x d on accel, w_b x d + dd/dt on gyro (first order in the
+    tilt d); the second-order term is not a free parameter but follows from d (:func:`_second_order`)."""
     w, wdot = weights
     n = case.n
     cols = []
@@ -101,11 +101,37 @@ def _tilt_design(case, weights: np.ndarray) -> np.ndarray:
         col = np.zeros((6, n))
         col[c] = 1.0
         cols.append(col.ravel())
-    for s in range(w.shape[1]):
-        col = np.zeros((n, 6))
-        col[:, 3:] = w[:, s:s + 1] * case.accel_true
-        cols.append(col.T.ravel())
     return np.column_stack(cols)
+
+
+def _second_order(case, weights: np.ndarray, tilts: np.ndarray) -> np.ndarray:
+    """The tilts' second-order term (6 n, stacked like the design), d x (d x v) / 2 for v the true rate and specific
+    force: a tilt theta shortens the specific force along its nominal direction by 1 - cos theta (1.5e-4 g at 1 deg).
+
+    It is fixed by the fitted tilts, not free: a free specific-force scale per hold (tried first) took a missing
+    gravity model, a scale common to every hold, which no tilt can make."""
+    d = weights[0] @ tilts  # (n, 3) tilt at each sample
+    out = np.zeros((case.n, 6))
+    out[:, :3] = 0.5 * np.cross(d, np.cross(d, case.gyro_true))
+    out[:, 3:] = 0.5 * np.cross(d, np.cross(d, case.accel_true))
+    return out.T.ravel()
+
+
+GAUSS_NEWTON_STEPS = 3
+"""Refits of the tilts with their second-order term from the previous fit (it is ~1e-2 of the first-order one)."""
+
+
+def _fit_tilts(case, weights, tilt, y, w, prior, eff=None) -> tuple:
+    """(rss, theta, second-order offset) of the weighted tilt fit (with ``eff`` columns), Gauss-Newton on the
+    second-order term."""
+    m = weights.shape[2]
+    x = tilt if eff is None else np.hstack([tilt, eff])
+    off = np.zeros_like(y)
+    for _ in range(GAUSS_NEWTON_STEPS):
+        rss, theta = _rss(x * w[:, None], (y - off) * w, prior)
+        off = _second_order(case, weights, theta[:3 * m].reshape(m, 3))
+    rss, theta = _rss(x * w[:, None], (y - off) * w, prior)
+    return rss, theta, off
 
 
 def _stack(columns: dict, n: int, k: int) -> np.ndarray:
@@ -127,6 +153,79 @@ def _rss(x: np.ndarray, y: np.ndarray, prior: np.ndarray | None = None) -> tuple
     return float(np.sum((y - x @ theta) ** 2)), theta
 
 
+def _setup(case, cand_columns: dict, resid: np.ndarray):
+    """Shared pieces of the joint fit: weights, design, stacked effect, residual, row weights (noise std per channel
+    on the holds only), tilt prior; None when the record has no fixture holds or no tolerance."""
+    weights = _weights(case)
+    tol = np.radians(case.scenario.attitude_tolerance_deg)
+    if weights is None or tol <= 0:
+        return None
+    n, m = case.n, weights.shape[2]
+    k = next(iter(cand_columns.values())).shape[1]
+    tilt = _tilt_design(case, weights)
+    eff = _stack(cand_columns, n, k)
+    raw = resid.T.ravel()
+    _, th = _rss(np.hstack([tilt, eff]), raw)
+    sigma = np.std((raw - np.hstack([tilt, eff]) @ th).reshape(6, n), axis=1)
+    # the moves between holds are left out: the simulator's path between two tilted holds is not the first-order
+    # blend of their tilts (a rotation-vector path of up to 180 deg), so only the holds are compared
+    hold = np.all(np.isin(weights[0], (0.0, 1.0)), axis=1)
+    w = np.repeat(1.0 / np.maximum(sigma, 1e-300), n) * np.tile(hold, 6)
+    # the tolerance is a Gaussian prior (sd = tolerance) on each tilt: a rotation about the gravity axis, which the
+    # specific force cannot see, stays within it instead of fitting the Earth rate's noise with tens of degrees
+    prior = np.diag(np.r_[np.full(3 * m, 1.0 / tol), np.zeros(6)])
+    return weights, tol, tilt, eff, raw, w, prior, hold
+
+
+def _given(case, cand, resid: np.ndarray, cache: dict | None = None):
+    """(likelihood ratio on the holds given the biases alone, given the tilts too, largest |tilt| rad) or None when
+    the record has no fixture holds, or the candidate no evidence on them. ``cache`` keeps the tilt-only fit."""
+    setup = _setup(case, cand.columns, resid)
+    if setup is None:
+        return None
+    weights, tol, tilt, eff, raw, w, prior, _ = setup
+    m = weights.shape[2]
+    bias = tilt[:, 3 * m:3 * m + 6] * w[:, None]
+    y = raw * w
+    lr_alone = _rss(bias, y)[0] - _rss(np.hstack([bias, eff * w[:, None]]), y)[0]
+    if lr_alone <= 0:
+        return None
+    if getattr(case.scenario, "source", None) != "static_segments" and lr_alone < cand.threshold:
+        return MOVES_ONLY  # a truth file's effect seen only off its still holds: a rate table's spins or the moves
+    cache = {} if cache is None else cache
+    key = (id(resid), w.tobytes().__hash__())
+    if key not in cache:
+        rss_tilt, th_tilt, _ = _fit_tilts(case, weights, tilt, raw, w, prior)
+        cache[key] = (rss_tilt, float(np.max(np.abs(th_tilt[:3 * m]))))
+    rss_tilt, top = cache[key]
+    rss_joint, theta, off = _fit_tilts(case, weights, tilt, raw, w, prior, eff)
+    x = np.hstack([tilt, eff]) * w[:, None]
+    p = np.zeros((prior.shape[0], x.shape[1]))
+    p[:, :prior.shape[1]] = prior
+    info = x.T @ x + p.T @ p
+    k = eff.shape[1]
+    cov = np.linalg.pinv(info)[-k:, -k:]
+    return lr_alone, max(rss_tilt - rss_joint, 0.0), top, theta[-k:], cov
+
+
+MOVES_ONLY = "moves only"
+"""What :func:`_given` returns for a truth file's effect with no evidence on its still holds."""
+
+
+def _spinning_holds(case) -> bool:
+    """Whether a truth file's record has constant-rate holds that turn (a rate table's), where an effect off the
+    still holds is seen on a known motion."""
+    from imu_sim.diagnose.reference import holds
+    return any(np.max(np.abs(case.gyro_true[a:b])) >= STILL_RAD_S for a, b in holds(case))
+
+
+def _note(case, cand, lr_alone: float, given: float, top: float) -> str:
+    return (f"{NOT_SEPARABLE}: on the holds, given a tilt of each static segment's fixture (at most "
+            f"{np.degrees(top):.3g} deg, tolerance {case.scenario.attitude_tolerance_deg:g} deg: "
+            f"attitude_tolerance_deg) its likelihood ratio falls from {lr_alone:.3g} to {given:.3g}, below the "
+            f"threshold {cand.threshold:.3g}; not ranked")
+
+
 def check(case, cand, resid: np.ndarray) -> str | None:
     """The note when a fixture tilt within tolerance can stand for ``cand`` (None: separable or not applicable).
 
@@ -135,39 +234,85 @@ def check(case, cand, resid: np.ndarray) -> str | None:
     """
     if cand.effect not in TILT_EFFECTS or not cand.columns:
         return None
-    weights = _weights(case)
+    got = _given(case, cand, resid)
+    if got is None or got is MOVES_ONLY:
+        return None
+    lr_alone, given, top = got[:3]
     tol = np.radians(case.scenario.attitude_tolerance_deg)
-    if weights is None or tol <= 0:
-        return None
-    n, m = case.n, weights.shape[2]
-    k = next(iter(cand.columns.values())).shape[1]
-    tilt = _tilt_design(case, weights)
-    eff = _stack(cand.columns, n, k)
-    bias = tilt[:, 3 * m:3 * m + 6]
-    raw = resid.T.ravel()
-    _, th = _rss(np.hstack([tilt, eff]), raw)
-    sigma = np.std((raw - np.hstack([tilt, eff]) @ th).reshape(6, n), axis=1)
-    # the moves between holds are left out: the simulator's path between two tilted holds is not the first-order
-    # blend of their tilts (a rotation-vector path of up to 180 deg), so only the holds are compared
-    hold = np.all(np.isin(weights[0], (0.0, 1.0)), axis=1)
-    w = np.repeat(1.0 / np.maximum(sigma, 1e-300), n) * np.tile(hold, 6)
-    y, tilt, eff, bias = raw * w, tilt * w[:, None], eff * w[:, None], bias * w[:, None]
-    # the tolerance is a Gaussian prior (sd = tolerance) on each tilt: a rotation about the gravity axis, which the
-    # specific force cannot see, stays within it instead of fitting the Earth rate's noise with tens of degrees
-    prior = np.diag(np.r_[np.full(3 * m, 1.0 / tol), np.zeros(6), np.full(m, 2.0 / tol**2)])
-    lr_alone = _rss(bias, y)[0] - _rss(np.hstack([bias, eff]), y)[0]
-    rss_tilt, _ = _rss(tilt, y, prior)
-    rss_joint, theta = _rss(np.hstack([tilt, eff]), y, prior)
-    if lr_alone <= 0:
-        return None
-    if getattr(case.scenario, "source", None) != "static_segments" and lr_alone < cand.threshold:
-        return None  # a truth file's effect seen only off its still holds (a rate table's spins): no tilt's doing
-    given = max(rss_tilt - rss_joint, 0.0)
-    _, th_tilt = _rss(tilt, y, prior)
-    tilts = np.abs(th_tilt[:3 * m])
-    if given < cand.threshold and np.all(tilts <= TILT_SLACK * tol):
-        return (f"{NOT_SEPARABLE}: on the holds, given a tilt of each static segment's fixture (at most "
-                f"{np.degrees(tilts.max()):.3g} deg, tolerance {case.scenario.attitude_tolerance_deg:g} deg: "
-                f"attitude_tolerance_deg) its likelihood ratio falls from {lr_alone:.3g} to {given:.3g}, below the "
-                f"threshold {cand.threshold:.3g}; not ranked")
+    if given < cand.threshold and top <= TILT_SLACK * tol:
+        return _note(case, cand, lr_alone, given, top)
     return None
+
+
+def rank_given_tilts(case, cands: list, resid: np.ndarray) -> None:
+    """Rank every significant tilt-sensitive candidate by its evidence given the fixture's tilts (joint fit on the
+    holds): its likelihood ratio there given the tilts, less its threshold (a known constant matching its value,
+    less its misfit z^2 only: zero free parameters); so of two nested effects (an accelerometer scale factor per
+    axis and the gravity model, a scale common to all) the one with fewer parameters wins unless the other explains
+    more than its extra threshold. One not separable from
+    the tilts is not ranked. Without this, a warm-up or misalignment whose raw statistic was the tilts' own
+    (6e5 on a 1-deg tumble) outranked the missing gravity model (4e3) and took part of it."""
+    tol = np.radians(getattr(case.scenario, "attitude_tolerance_deg", 0.0) or 0.0)
+    if tol <= 0:
+        return
+    cache: dict = {}
+    for cand in cands:
+        if cand.effect not in TILT_EFFECTS or not cand.columns or not cand.significant:
+            continue
+        got = _given(case, cand, resid, cache)
+        if got is MOVES_ONLY and not _spinning_holds(case):
+            cand.identifiable, cand.reason = False, (
+                f"{NOT_SEPARABLE}: its evidence lies in the moves between the fixture's holds, not on them, and a "
+                f"tilt of each hold within attitude_tolerance_deg ({case.scenario.attitude_tolerance_deg:g} deg) "
+                "changes each move's path (a 1-deg tilt is 1 % of a 90-deg turn); not ranked")
+            continue
+        if got is None or got is MOVES_ONLY:
+            continue
+        lr_alone, given, top, theta, cov = got
+        if given < cand.threshold and top <= TILT_SLACK * tol:
+            cand.identifiable, cand.reason = False, _note(case, cand, lr_alone, given, top)
+            continue
+        if cand.constant_scale is not None:
+            _constant_given_tilts(case, cand, given, theta, cov)
+        else:
+            own = given - cand.threshold
+            cand.rank = own if cand.rank is None else min(cand.rank, own)
+
+
+def without_tilts(case, columns: dict, resid: np.ndarray):
+    """(residual less each hold's fitted fixture tilt, (n,) mask of the hold samples) for a held-out fit, or None.
+
+    The tilts are fitted jointly with ``columns`` (so they cannot take the effect), within the tolerance; only the
+    holds are scored, as the path between tilted holds is not known (a 1-deg tilt changes a 6-s move's rate by
+    3e-3 rad/s, which swamped a missing Earth rate's 7e-5 in the held-out gyro block means)."""
+    setup = _setup(case, columns, resid)
+    if setup is None:
+        return None
+    weights, _, tilt, eff, raw, w, prior, hold = setup
+    m = weights.shape[2]
+    _, theta, off = _fit_tilts(case, weights, tilt, raw, w, prior, eff)
+    nuis = tilt[:, :3 * m] @ theta[:3 * m] + off
+    return resid - nuis.reshape(6, case.n).T, hold
+
+
+def _constant_given_tilts(case, cand, given: float, theta: np.ndarray, cov: np.ndarray) -> None:
+    """A known constant's scale, interval and ranking from the joint fit with the tilts: the tilts' second-order term
+    (1.5e-4 g at 1 deg) is ten times the gravity model's difference (1.6e-3 m/s^2 at Calgary), so the fit that
+    ignores them put the gravity scale at 2.1; matching its value (|z| <= 1.96) it ranks with zero free parameters."""
+    from imu_sim.diagnose.regressors import physical_value
+    se = float(np.sqrt(max(cov[0, 0], 0.0)))
+    ci = np.array([[theta[0] - 1.96 * se, theta[0] + 1.96 * se]])
+    cand.params, cand.intervals = physical_value(cand.effect, theta, ci, case)
+    cand.constant_scale, cand.constant_se = float(theta[0]), se
+    cand.contrib = np.zeros((case.n, 6))
+    for ch, x in cand.columns.items():
+        cand.contrib[:, ch] = x @ theta
+    z = (theta[0] - 1.0) / se if se > 0 else np.inf
+    if abs(z) <= 1.96:
+        cand.rank = float(given - z * z)
+        cand.caveat = (f"It matches the known constant within its 95 % interval (scale {theta[0]:.4g} +- "
+                       f"{1.96 * se:.2g}, fitted jointly with each hold's fixture tilt): evidence with zero free "
+                       "parameters.")
+    else:  # ranked with its free scale, by the statistic the ranking used
+        cand.rank, cand.caveat, cand.stat = None, "", float(given)
+        cand.statistic += " on the holds, given each hold's fixture tilt"

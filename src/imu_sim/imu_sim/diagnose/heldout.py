@@ -13,7 +13,7 @@ import numpy as np
 
 from nav_core.sensor_model import SensorModel
 
-from imu_sim.diagnose import gnss_candidates, local_level, metrics, noise_tests, reference
+from imu_sim.diagnose import fixture, gnss_candidates, local_level, metrics, noise_tests, reference
 from imu_sim.diagnose.candidate import Candidate, Context, add_effect
 from imu_sim.diagnose.case import CHANNELS, Case, deterministic
 from imu_sim.diagnose.noise_candidates import noise
@@ -29,10 +29,14 @@ def fit_metric(case: Case, cand: Candidate, model_before: SensorModel, model_aft
     if cand.kind in ("regression", "vibration"):
         cols = {c: x for c, x in cand.columns.items() if CHANNELS[c] in cand.channels} or cand.columns
         what = "1-s block means" if cand.kind == "regression" else "samples"
+        keep = None
         if reference.moving_file_truth(case):
             resid, cols = _whitened(case, model_before, resid, cols)
             what += " of the residual whitened by the model's noise plus the reference's error"
-        b, a = metrics.heldout_rms(resid, cols, case.dt, cand.block_s,
+        elif cand.kind == "regression" and (held := fixture.without_tilts(case, cols, resid)) is not None:
+            resid, keep = held
+            what += " on the fixture's holds, each hold's tilt (within attitude_tolerance_deg) fitted with it"
+        b, a = metrics.heldout_rms(resid, cols, case.dt, cand.block_s, keep,
                                    fixed=[1.0] if cand.constant_scale is not None else None)
         return f"RMS of held-out {what} over their scatter (odd tenths of the run, fit on even tenths)", b, a
     if cand.kind == "quantization":
