@@ -56,6 +56,11 @@ def late_events(timeout_s=20.0) -> list:
     deadline = time.monotonic() + timeout_s
     while not got and time.monotonic() < deadline:
         rclpy.spin_once(late, timeout_sec=0.1)
+    quiet = time.monotonic() + 1.0  # the rest of the history follows the first
+    while time.monotonic() < quiet:
+        n = len(got)
+        rclpy.spin_once(late, timeout_sec=0.1)
+        quiet = quiet if len(got) == n else time.monotonic() + 1.0
     late.destroy_node()
     return [json.loads(m) for m in got]
 

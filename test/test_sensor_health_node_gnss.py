@@ -1,7 +1,8 @@
 """sensor_health_node's GNSS path over DDS: bag_play plays a rosbag2 bag (imu/data_raw and gps/fix of a drive with
 turns whose gz scale factor steps by 5 %) to a real node process; the node names the scale-factor change with the
-same fields at the same stamps as ``sensor-health --recording BAG --gnss G.csv`` on the same data, publishes it on
-the transient-local event topic (a late subscriber gets it) and shows it on gz in /diagnostics."""
+same fields at the same stamps as ``sensor-health --recording BAG --gnss G.csv`` on the same data (and every other
+event the CLI names there), publishes them on the transient-local event topic (a late subscriber gets them) and
+shows the latest on gz in /diagnostics."""
 import json
 
 import numpy as np
@@ -43,8 +44,8 @@ def test_node_on_a_bag_names_the_gz_scale_change_like_the_cli_with_gnss(tmp_path
         assert main(["--recording", str(bag), "--gnss", str(gnss_csv), "--model", str(model), "--out",
                      str(tmp_path / "cli"), "--no-progress"]) == 0
         expected = json.loads((tmp_path / "cli" / "health.json").read_text())["events"]
-        assert [(e["effect"], e["channels"]) for e in expected] == [("scale_factor_change", ["gz"])]
-        assert STEP_S < expected[0]["t_s"] - T0 < 300.0
+        scale = [e for e in expected if (e["effect"], e["channels"]) == ("scale_factor_change", ["gz"])]
+        assert len(scale) == 1 and STEP_S < scale[0]["t_s"] - T0 < 300.0, expected
         assert node.wait_for_line("ready", 60), node.output
         player = NodeProcess("bag_play", env=ros_env, ros_args={
             "bag": str(bag), "rate": 40.0, "publish_clock": False, "settle_s": 1.0,
@@ -69,7 +70,7 @@ def test_node_on_a_bag_names_the_gz_scale_change_like_the_cli_with_gnss(tmp_path
         assert a["estimate"] == pytest.approx(b["estimate"], rel=1e-6)
         assert a["interval_95"] == pytest.approx(b["interval_95"], rel=1e-6)
         assert a["statistic"] == pytest.approx(b["statistic"], rel=1e-6)
-    gz = status["gz"]
-    assert (gz.effect, gz.t_s, gz.onset_s) == ("scale_factor_change", expected[0]["t_s"], expected[0]["onset_s"])
-    assert status["summary"].events == 1 and status["gx"].effect == ""
+    gz, last = status["gz"], max((e for e in expected if "gz" in e["channels"]), key=lambda e: e["t_s"])
+    assert (gz.effect, gz.t_s, gz.onset_s) == (last["effect"], last["t_s"], last["onset_s"])
+    assert status["summary"].events == len(expected)
     assert codes[1] == 0, node.output
