@@ -34,6 +34,9 @@ V_MIN_M_S = 3.0
 MAX_FIX_GAP_S = 2.5
 SIGN_TURN_RAD = 0.5
 """Summed |course change| in turns (rad) before the sign of gz against the course is trusted."""
+SCALE_PREFERENCE = 10.0
+"""A scale step must fit the window better than a bias step by this much (GLS chi-square) to silence the event:
+with a turn in the window either can mimic the other a little."""
 NOISE_WINDOWS = 60
 SIGMA_FLOOR_M = 0.005
 Z95 = 1.959964
@@ -151,7 +154,8 @@ class CrossTrackMonitor:
         self.trace_t.append(tk)
         self.trace_z.append(z)
         if self.n_ref > WARMUP_EPOCHS - WINDOW_EPOCHS and abs(z) > self.gate:
-            return [self._event(tk, z)]
+            event = self._event(tk, z)
+            return [event] if event is not None else []
         self.ref += db / min(self.n_ref, REFERENCE_EPOCHS)
         return []
 
@@ -161,8 +165,11 @@ class CrossTrackMonitor:
         own turn would carry the bias' drift too)."""
         return np.unwrap(course) - course[0]
 
-    def _event(self, tk, z) -> Event:
-        """Change point: the step of the heading drift's slope (GLS over the window, each chord as the start)."""
+    def _event(self, tk, z) -> Event | None:
+        """Change point: the step of the heading drift's slope (GLS over the window, each chord as the start). None
+        when a step of the gyro's scale (the heading error growing with the course's turn from some chord on) fits
+        the window better: a scale change in a turn looks like a bias step to the test, and is the scale-factor
+        test's to name (the test restarts either way)."""
         tm, length, course, psi = np.array(self.chords).T
         tau = tm - tm[0]
         turn = self.sign * (psi - psi[0])
@@ -171,19 +178,28 @@ class CrossTrackMonitor:
         lw = np.tril(np.ones((len(y), len(y)))) * length
         sig = max(1.4826 * float(np.median(self.mad)), SIGMA_FLOOR_M)
         ci = np.linalg.inv(self.arw**2 * lw @ np.minimum.outer(tau, tau) @ lw.T + sig**2 * np.eye(len(y)))
-        best = None
+        turned = self._course_turn(course)
+        best, best_scale = None, np.inf
         for j in range(2, len(y) - 2):
-            x = np.column_stack([np.ones(len(y)), np.cumsum(length), np.cumsum(length * np.maximum(tau - tau[j], 0)),
-                                 np.cumsum(length * self._course_turn(course))])
-            info = np.linalg.inv(x.T @ ci @ x)
-            coef = info @ (x.T @ ci @ y)
-            r = y - x @ coef
-            score = float(r @ ci @ r)
-            if best is None or score < best[0]:
-                best = (score, j, float(coef[2]), float(np.sqrt(info[2, 2])))
+            base = [np.ones(len(y)), np.cumsum(length)]
+            after = tau >= tau[j]
+            constant_scale = np.cumsum(length * turned)
+            for kind, extra in (("bias", [np.cumsum(length * (tau - tau[j]) * after), constant_scale]),
+                                ("scale", [constant_scale, np.cumsum(length * (turned - turned[j]) * after)])):
+                x = np.column_stack(base + extra)
+                info = np.linalg.inv(x.T @ ci @ x)
+                coef = info @ (x.T @ ci @ y)
+                r = y - x @ coef
+                score = float(r @ ci @ r)
+                if kind == "scale":
+                    best_scale = min(best_scale, score)
+                elif best is None or score < best[0]:
+                    best = (score, j, float(coef[2]), float(np.sqrt(info[2, 2])))
+        self.ref, self.n_ref, self.chords = None, 0, []
+        if best_scale < best[0] - SCALE_PREFERENCE:
+            return None
         _, j, step, sd = best
         step *= -self.sign  # the heading drift's slope is minus the bias (in gz's sign)
-        self.ref, self.n_ref, self.chords = None, 0, []
         return Event(tk, float(tm[j]), "bias_shift", ["gz"], "WARN", step, [step - Z95 * sd, step + Z95 * sd],
                      f"gz mean stepped by {step:.3g} rad/s (against the GNSS track, {abs(z):.1f} sd)",
                      {"z": float(z), "gate": self.gate})
