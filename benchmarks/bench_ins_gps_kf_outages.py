@@ -19,6 +19,7 @@ where a smoothed variance exceeds the forward one; the backward pass's CPU time 
 written as CSV; 10 minutes with --quick) in a child process, whose peak RSS is measured (target under 300 MB).
 
     nice -n 10 .venv/bin/python benchmarks/bench_ins_gps_kf_outages.py [--seeds 0 1] [--quick]
+        [--bias-gm-states 1 3] [--mounting-estimated-only] [--no-memory] [--no-katwijk]
 """
 from __future__ import annotations
 
@@ -116,9 +117,10 @@ def nees(est, err) -> np.ndarray:
     return np.array([d @ np.linalg.solve(e.cov[:3, :3], d) for d, e in zip(err, est)])
 
 
-def run_names(quick: bool) -> list:
+def run_names(quick: bool, gm_states=(None,)) -> list:
     """(label, params) of every run: the plain filter, then each NHC case with each mounting; then (not --quick) the
-    options that bear on the consistency inside the outages: scale-factor states, ZUPT in outages."""
+    options that bear on the consistency inside the outages: scale-factor states, ZUPT in outages. Each
+    ``bias_gm_states_per_axis`` of ``gm_states`` (None: the default) runs them all, labelled unless it is None."""
     mountings = {"estimated": {}} if quick else MOUNTINGS
     out = [("forward", {})]
     for case, extra in list(CASES.items())[1:]:
@@ -126,7 +128,8 @@ def run_names(quick: bool) -> list:
     if not quick:
         out += [(f"{case}, {name}", {**extra, **p}) for name, p in OPTIONS.items() for case, extra in CASES.items()
                 if case != "NHC + odometer" or "ZUPT" not in name]
-    return out
+    return [(label if n is None else f"{label} [{n} GM]", p if n is None else {**p, "bias_gm_states_per_axis": n})
+            for n in gm_states for label, p in out]
 
 
 def score_outages(sims, shifts, runs, model) -> dict:
@@ -159,24 +162,26 @@ def score_outages(sims, shifts, runs, model) -> dict:
     return {k: float(np.sqrt(np.mean(np.square(v)))) for k, v in scores.items()}, scores
 
 
-def print_scores(rms: dict, scores: dict) -> None:
-    """The scores and the issue's ratios."""
-    base = rms[("forward", "forward")]
+def print_scores(rms: dict, scores: dict, gm_states=(None,)) -> None:
+    """The scores and the issue's ratios (to the plain forward filter of the first of ``gm_states``)."""
+    tag = [f" [{n} GM]" if n is not None else "" for n in gm_states]
+    base = rms[("forward" + tag[0], "forward")]
     for (label, kind), value in rms.items():
         print(f"{kind:<8} {label:<44} RMS of the largest horizontal error per outage: {value:7.2f} m "
               f"({len(scores[(label, kind)])} outages, worst {max(scores[(label, kind)]):6.1f} m; "
               f"{value / base:.3f}x plain forward)")
-    est = ", mounting estimated"
-    print(f"forward + NHC / forward: {rms[('NHC' + est, 'forward')] / base:.3f} (target <= 0.4)")
-    print(f"forward + NHC + odometer / forward: {rms[('NHC + odometer' + est, 'forward')] / base:.3f} "
-          "(target <= 0.1)")
-    print(f"smoothed + NHC / forward: {rms[('NHC' + est, 'smoothed')] / base:.3f} (target <= 0.1)")
+    for t in tag:
+        est = ", mounting estimated" + t
+        print(f"forward + NHC{t} / forward: {rms[('NHC' + est, 'forward')] / base:.3f} (target <= 0.4)")
+        print(f"forward + NHC + odometer{t} / forward: {rms[('NHC + odometer' + est, 'forward')] / base:.3f} "
+              "(target <= 0.1)")
+        print(f"smoothed + NHC{t} / forward: {rms[('NHC' + est, 'smoothed')] / base:.3f} (target <= 0.1)")
 
 
-def throughout(sims, model) -> None:
+def throughout(sims, model, gm_states=(None,)) -> None:
     """With GNSS throughout: RMS, NEES, the no-larger share against the optimal smoother's, variances, CPU."""
     cost = {"forward": 0.0, "backward": 0.0}
-    for label, extra in run_names(quick=True):
+    for label, extra in run_names(True, gm_states):
         acc = {k: [] for k in ("h_f", "h_s", "nees_f", "nees_s", "no_worse", "expected", "var_up")}
         for seed, sim, imu, odometry in sims:
             fwd, smo, filt, t_f, t_b = forward_and_smoothed(imu, sim.gnss, model,
@@ -208,20 +213,21 @@ def throughout(sims, model) -> None:
           f"{cost['backward'] / cost['forward']:.3f}x (target <= 1)")
 
 
-def long_drive_memory(duration_s: float) -> None:
+def long_drive_memory(duration_s: float, gm_states=None) -> None:
     """``ins-gps-kf replay --smooth`` over a ``duration_s`` synthetic drive at 64 Hz in a child: its peak RSS. A
     200-s drive is replayed first, so the numba kernels are compiled and cached (its peak, printed, is what a first
     run after an install or an edit costs) and the figure is the drive's own."""
     with tempfile.TemporaryDirectory(prefix="bench_smooth_") as tmp:
-        warm = _replay_smooth_child(Path(tmp) / "warm", 200.0)
-        peak_mb, import_mb, wall, rows = _replay_smooth_child(Path(tmp) / "long", duration_s)
-    print(f"replay --smooth over a {duration_s / 3600.0:.2f}-h drive at 64 Hz ({int(duration_s * 64)} IMU samples, "
+        warm = _replay_smooth_child(Path(tmp) / "warm", 200.0, gm_states)
+        peak_mb, import_mb, wall, rows = _replay_smooth_child(Path(tmp) / "long", duration_s, gm_states)
+    gm = "" if gm_states is None else f", {gm_states} GM states per bias axis"
+    print(f"replay --smooth{gm} over a {duration_s / 3600.0:.2f}-h drive at 64 Hz ({int(duration_s * 64)} IMU samples, "
           f"{rows} smoothed epochs): peak RSS {peak_mb:.0f} MB, {wall:.0f} s wall (target < 300 MB for 2 h; the "
           f"imports alone take {import_mb:.0f} MB: numba, and FilterPy pulling in scipy.stats; the first run over "
           f"{warm[3]} epochs, kernels compiled unless cached: {warm[0]:.0f} MB)")
 
 
-def _replay_smooth_child(folder: Path, duration_s: float) -> tuple:
+def _replay_smooth_child(folder: Path, duration_s: float, gm_states=None) -> tuple:
     """(peak RSS MB, RSS after the imports MB, wall s, smoothed epochs) of ``replay --smooth`` in a child process
     over a synthetic circle drive of ``duration_s`` at 64 Hz written as CSV into ``folder``."""
     rate = 64.0
@@ -235,7 +241,9 @@ def _replay_smooth_child(folder: Path, duration_s: float) -> tuple:
     t0 = time.time()
     proc = subprocess.run([sys.executable, "-c", REPLAY_REPORTING_PEAK, "replay", "--recording", str(imu_csv),
                            "--gnss", str(gnss_csv), "--model", "default", "--out", str(folder / "traj.csv"),
-                           "--quiet", "--no-plot", "--smooth"], capture_output=True, text=True)
+                           "--quiet", "--no-plot", "--smooth"]
+                          + ([] if gm_states is None else ["--param", f"bias_gm_states_per_axis={gm_states}"]),
+                          capture_output=True, text=True)
     wall = time.time() - t0
     if proc.returncode != 0:
         raise SystemExit(f"replay --smooth failed: {proc.stderr[-2000:]}")
@@ -285,9 +293,18 @@ def main(argv=None) -> int:
     p.add_argument("--seeds", type=int, nargs="+", default=[0, 1])
     p.add_argument("--quick", action="store_true", help="seed 0, no shifted starts, mounting estimated only, a "
                    "10-minute drive for the memory check")
+    p.add_argument("--bias-gm-states", type=int, nargs="+", default=None, metavar="N",
+                   help="run every case with each bias_gm_states_per_axis N (compared in one run; default: the "
+                   "filter's default only); the memory check uses the first")
+    p.add_argument("--mounting-estimated-only", action="store_true",
+                   help="the NHC cases with the mounting estimated only, no options (the outage NEES comparison)")
+    p.add_argument("--no-memory", action="store_true", help="skip the 2-hour replay --smooth memory check")
+    p.add_argument("--no-katwijk", action="store_true", help="skip the Katwijk rover")
     args = p.parse_args(argv)
+    gm = tuple(args.bias_gm_states) if args.bias_gm_states else (None,)
     # the 2-hour child first: RUSAGE_CHILDREN reports the largest child, and no other child runs before
-    long_drive_memory(QUICK_DRIVE_S if args.quick else LONG_DRIVE_S)
+    if not args.no_memory:
+        long_drive_memory(QUICK_DRIVE_S if args.quick else LONG_DRIVE_S, gm[0])
     if args.quick:
         args.seeds = [0]
     model = bp3010_grade_model()
@@ -297,10 +314,12 @@ def main(argv=None) -> int:
         sims.append((seed, sim, tilted(sim.imu), simulated_odometer(sim.truth, seed)))
     print(f"IMU mounted at roll {TILT_DEG[0]:g}, pitch {TILT_DEG[1]:g}, yaw {TILT_DEG[2]:g} deg in the car, not told "
           "to the filter")
-    rms, scores = score_outages(sims, SHIFTS_S[:1] if args.quick else SHIFTS_S, run_names(args.quick), model)
-    print_scores(rms, scores)
-    throughout(sims, model)
-    katwijk()
+    runs = run_names(args.quick or args.mounting_estimated_only, gm)
+    rms, scores = score_outages(sims, SHIFTS_S[:1] if args.quick else SHIFTS_S, runs, model)
+    print_scores(rms, scores, gm)
+    throughout(sims, model, gm)
+    if not args.no_katwijk:
+        katwijk()
     return 0
 
 

@@ -13,13 +13,27 @@ Optional (``estimate_scale_factors``): 21 states, ``SG`` gyro and ``SA`` accel s
 (body, unitless, random constants). With measured = (1 + s) true + b, corrected = measured (1 - s_est) - b_est::
 
     dv'  += -C_nb diag(f_b) sa        phi' += C_nb diag(w_b) sg
+
+Flicker bias instability as a sum of Gauss-Markov processes (``bias_gm_states_per_axis`` n > 1): the flicker
+(one-sided PSD B^2/(pi f), Allan plateau 0.664 B) of each axis is ``b = c_1 + ... + c_n``, ``c_k' = -c_k/T_k + q_k w_k``
+with T_k and q_k from :func:`flicker_gm_sum` (the sum's Allan deviation within 1.2 % of 0.664 B over 2 s to
+``flicker_correlation_time_s``, n = 3).
+``BG``/``BA`` stay the *total* bias error (every measurement and the feedback see only the total); the states
+``c_2 .. c_n`` of each axis follow the INS states (:func:`with_bias_components`), and with ``c_1 = b - sum c_k``::
+
+    b'   = -b/T_1 + sum_k (1/T_1 - 1/T_k) c_k + q_1 w_1 + sum_k q_k w_k      c_k' = -c_k/T_k + q_k w_k
+
+T_1 is the slowest, which also carries the rate random walk K (as the single state does). n = 1 is the single
+Gauss-Markov state (sigma B, T = ``flicker_correlation_time_s``).
 """
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
+from functools import lru_cache
 
 import numpy as np
 from numba import njit
+from scipy.optimize import nnls
 
 from nav_core import sensor_model as sm
 from nav_core.units import DEG, DEG_PER_H, MG
@@ -63,6 +77,16 @@ class NoiseModel:
     accel_bias_drive: np.ndarray  # m/s^2/sqrt(s)
     gyro_bias_tau: np.ndarray    # s
     accel_bias_tau: np.ndarray   # s
+    # the further Gauss-Markov components of a flicker bias, (3, n - 1) each: driving density and correlation time
+    gyro_extra_drive: np.ndarray = field(default_factory=lambda: np.zeros((3, 0)))   # rad/s/sqrt(s)
+    gyro_extra_tau: np.ndarray = field(default_factory=lambda: np.ones((3, 0)))      # s
+    accel_extra_drive: np.ndarray = field(default_factory=lambda: np.zeros((3, 0)))  # m/s^2/sqrt(s)
+    accel_extra_tau: np.ndarray = field(default_factory=lambda: np.ones((3, 0)))     # s
+
+    @property
+    def n_extra(self) -> int:
+        """Extra bias-component states: 6 (n - 1) with n Gauss-Markov states per axis, else 0."""
+        return 6 * self.gyro_extra_tau.shape[1]
 
 
 def default_mems_model() -> sm.SensorModel:
@@ -78,19 +102,123 @@ def default_mems_model() -> sm.SensorModel:
     return model
 
 
-def _bias_drive(triad: sm.TriadModel, flicker_tau: float):
-    """Bias-state driving density and correlation time per axis from B, tau_B and K."""
-    tau = np.where(triad.bias_correlation_time > 0, triad.bias_correlation_time, flicker_tau)
-    drive2 = 2.0 * triad.bias_instability**2 / tau + triad.rate_random_walk**2
+ALLAN_PLATEAU = float(np.sqrt(2.0 * np.log(2.0) / np.pi))  # flicker's Allan deviation over B: 0.664
+FLICKER_BAND_MIN_S = 2.0  # s, the shortest averaging time the Gauss-Markov sum fits (4 filter epochs at 2 Hz; below
+# it a MEMS IMU's white noise dwarfs its flicker: the BP3010's accel crosses at 9 s, its gyro at 240 s)
+GM_ALLAN_PEAK = 1.89  # a Gauss-Markov process's Allan deviation peaks at 1.89 T
+
+
+def gm_allan_variance(tau, variance, corr_time):
+    """Allan variance at averaging times ``tau`` (s) of a first-order Gauss-Markov process of stationary
+    ``variance`` and correlation time ``corr_time`` (s): ``s^2/x^2 (2x - 3 + 4 e^-x - e^-2x)``, x = tau/T."""
+    x = np.asarray(tau, float) / corr_time
+    return variance / x**2 * (2.0 * x - 3.0 + 4.0 * np.exp(-x) - np.exp(-2.0 * x))
+
+
+@lru_cache(maxsize=32)
+def _unit_flicker_fit(n: int, tau_min_s: float, tau_max_s: float) -> tuple:
+    """(T (n,) s ascending, variances (n,)) of n Gauss-Markov processes whose summed Allan variance best fits
+    a unit flicker's (0.664^2) over averaging times tau_min_s..tau_max_s, in relative terms: T log-spaced from
+    tau_min/1.89/p to tau_max/1.89*p (p, the overhang, searched), variances by non-negative least squares."""
+    taus = np.geomspace(tau_min_s, tau_max_s, 60)
+    best = None
+    for pad in np.linspace(0.5, 3.0, 51):
+        corr = np.geomspace(tau_min_s / GM_ALLAN_PEAK / pad, tau_max_s / GM_ALLAN_PEAK * pad, n)
+        a = np.array([gm_allan_variance(taus, 1.0, t) for t in corr]).T / ALLAN_PLATEAU**2
+        var, _ = nnls(a, np.ones(len(taus)))
+        err = float(np.max(np.abs(np.sqrt(a @ var) - 1.0)))
+        if best is None or err < best[0]:
+            best = (err, corr, var)
+    return best[1], best[2]
+
+
+def flicker_gm_sum(bias_instability, n: int, tau_max_s: float, tau_min_s: float = FLICKER_BAND_MIN_S):
+    """Correlation times T (n,) s and stationary sigmas (n,) (the unit of ``bias_instability`` B) of n Gauss-Markov
+    processes whose sum has the flicker's Allan deviation 0.664 B over averaging times ``tau_min_s``..``tau_max_s``
+    (over 2..300 s within 1.2 % for n = 3, 8 % for n = 2; T from 1.1 s, 2.1 s). n = 1: the single process of today (sigma B, T tau_max)."""
+    if n == 1:
+        return np.array([float(tau_max_s)]), np.array([float(bias_instability)])
+    corr, var = _unit_flicker_fit(int(n), float(tau_min_s), float(tau_max_s))
+    return corr.copy(), np.sqrt(var) * float(bias_instability)
+
+
+def _bias_drive(triad: sm.TriadModel, flicker_tau: float, n: int = 1):
+    """Bias-state driving densities and correlation times per axis from B, tau_B and K: the main state's (3,),
+    (3,) (the slowest component, with K) and the further components' (3, n - 1), (3, n - 1); a Gauss-Markov or
+    absent B has one state (its further components get no drive)."""
+    extra_drive, extra_tau = np.zeros((3, n - 1)), np.ones((3, n - 1))
+    tau, sigma = np.empty(3), np.empty(3)
+    for i in range(3):
+        b, t_b = float(triad.bias_instability[i]), float(triad.bias_correlation_time[i])
+        if t_b > 0 or b <= 0:
+            tau[i], sigma[i] = (t_b if t_b > 0 else flicker_tau), b
+            continue
+        corr, sig = flicker_gm_sum(b, n, flicker_tau)
+        tau[i], sigma[i] = corr[-1], sig[-1]
+        extra_tau[i], extra_drive[i] = corr[:-1], np.sqrt(2.0 * sig[:-1] ** 2 / corr[:-1])
+    drive2 = 2.0 * sigma**2 / tau + triad.rate_random_walk**2
     tau = np.where(triad.bias_instability > 0, tau, np.inf)  # no instability term: pure random walk
-    return np.sqrt(drive2), tau
+    return np.sqrt(drive2), tau, extra_drive, extra_tau
 
 
-def noise_from_sensor_model(model: sm.SensorModel, flicker_tau_s: float = 300.0) -> NoiseModel:
-    """Process-noise densities from the sensor model (flicker bias approximated as Gauss-Markov)."""
-    g_drive, g_tau = _bias_drive(model.gyro, flicker_tau_s)
-    a_drive, a_tau = _bias_drive(model.accel, flicker_tau_s)
-    return NoiseModel(model.gyro.white_noise.copy(), model.accel.white_noise.copy(), g_drive, a_drive, g_tau, a_tau)
+def noise_from_sensor_model(model: sm.SensorModel, flicker_tau_s: float = 300.0, gm_per_axis: int = 1) -> NoiseModel:
+    """Process-noise densities from the sensor model; a flicker bias as ``gm_per_axis`` Gauss-Markov processes."""
+    g_drive, g_tau, g_xd, g_xt = _bias_drive(model.gyro, flicker_tau_s, gm_per_axis)
+    a_drive, a_tau, a_xd, a_xt = _bias_drive(model.accel, flicker_tau_s, gm_per_axis)
+    return NoiseModel(model.gyro.white_noise.copy(), model.accel.white_noise.copy(), g_drive, a_drive, g_tau, a_tau,
+                      g_xd, g_xt, a_xd, a_xt)
+
+
+def with_bias_components(f_cont, g_cont, noise: NoiseModel, at: int):
+    """``F``, ``G`` with the further Gauss-Markov components of the biases (``noise.n_extra`` states) inserted at
+    state ``at`` (after the INS states, before the odometer and mounting ones), each with a noise column of its own.
+    Component k of axis i drives the total ``BG``/``BA`` state i by ``(1/T_1 - 1/T_k) c_k + q_k w_k`` (module doc)."""
+    k = noise.n_extra
+    if k == 0:
+        return f_cont, g_cont
+    n, m = g_cont.shape
+    f = np.zeros((n + k, n + k))
+    g = np.zeros((n + k, m + k))
+    keep = np.r_[0:at, at + k:n + k]
+    f[np.ix_(keep, keep)] = f_cont
+    g[keep, :m] = g_cont
+    per = k // 6
+    col = m
+    for block, drive, tau, main_tau in ((BG, noise.gyro_extra_drive, noise.gyro_extra_tau, noise.gyro_bias_tau),
+                                        (BA, noise.accel_extra_drive, noise.accel_extra_tau, noise.accel_bias_tau)):
+        for i in range(3):
+            total = block.start + i
+            for c in range(per):
+                s = at + (0 if block is BG else 3 * per) + i * per + c
+                f[s, s] = -1.0 / tau[i, c]
+                f[total, s] = 1.0 / main_tau[i] - 1.0 / tau[i, c]
+                g[s, col] = g[total, col] = drive[i, c]
+                col += 1
+    return f, g
+
+
+def component_decay(noise: NoiseModel, dt: float) -> np.ndarray:
+    """Factors exp(-dt/T_k) (``noise.n_extra``,) of the further bias components over ``dt`` s, in state order."""
+    return np.exp(-dt / np.concatenate([noise.gyro_extra_tau.ravel(), noise.accel_extra_tau.ravel()]))
+
+
+def bias_component_covariance(noise: NoiseModel, total_var: np.ndarray) -> np.ndarray:
+    """Initial covariance (6 + k, 6 + k) of the total biases ``BG BA`` (their variances ``total_var`` (6,)) and
+    their k further components (``noise.n_extra``, in :func:`with_bias_components`' order): each component at its
+    stationary variance, its total by as much more, and correlated with it."""
+    k = noise.n_extra
+    per = k // 6
+    cov = np.zeros((6 + k, 6 + k))
+    cov[range(6), range(6)] = total_var
+    for t, (drive, tau) in enumerate(((noise.gyro_extra_drive, noise.gyro_extra_tau),
+                                      (noise.accel_extra_drive, noise.accel_extra_tau))):
+        for i in range(3):
+            for c in range(per):
+                s = 6 + t * 3 * per + i * per + c
+                var = drive[i, c] ** 2 * tau[i, c] / 2.0
+                cov[s, s] = cov[3 * t + i, s] = cov[s, 3 * t + i] = var
+                cov[3 * t + i, 3 * t + i] += var
+    return cov
 
 
 @njit(cache=True)

@@ -41,14 +41,16 @@ EPOCH_TOL_S = 1e-6  # stamps within this of an epoch belong to it (ns stamp roun
 
 
 class InsGpsFilter:
-    """Loosely coupled INS/GPS error-state Kalman filter (15 states, 21 with scale factors) with alignment."""
+    """Loosely coupled INS/GPS error-state Kalman filter (15 states, 21 with scale factors, 6 (n - 1) more with n
+    Gauss-Markov states per flicker bias axis, then the odometer scale and the mounting) with alignment."""
 
     def __init__(self, cfg: FilterConfig, model: sm.SensorModel | None = None):
         self.cfg = cfg
         self.model = model if model is not None else em.default_mems_model()
-        self.noise = em.noise_from_sensor_model(self.model, cfg.flicker_correlation_time)
+        self.noise = em.noise_from_sensor_model(self.model, cfg.flicker_correlation_time, cfg.bias_gm_per_axis)
         self.lever_arm_b = np.asarray(cfg.lever_arm_b, dtype=float)
-        self.n_ins = em.N_STATES_SF if cfg.estimate_scale_factors else em.N_STATES
+        self.n_core = em.N_STATES_SF if cfg.estimate_scale_factors else em.N_STATES
+        self.n_ins = self.n_core + self.noise.n_extra  # the flicker's further Gauss-Markov components follow
         self.n_states = self.n_ins + (1 if cfg.odometer_enabled else 0)
         mount_index = None
         if cfg.nhc_enabled and cfg.nhc_mounting == "estimate":
@@ -88,6 +90,7 @@ class InsGpsFilter:
         self.course = heading.HeadingFromCourse(self.cfg)
         self.gyro_bias = np.zeros(3)
         self.accel_bias = np.zeros(3)
+        self.bias_parts = np.zeros(self.noise.n_extra)  # the further Gauss-Markov components in the biases above
         self.gyro_scale = np.zeros(3)  # estimated scale-factor errors (unitless), with estimate_scale_factors
         self.odometer.scale = 0.0
         self.odometer.pending, self.odometer.last_t = None, -math.inf  # a restarted clock: wheel stamps start anew
@@ -246,7 +249,7 @@ class InsGpsFilter:
         return True
 
     def _integrate(self, t, gyro, accel):
-        if self.n_ins == em.N_STATES_SF:
+        if self.cfg.estimate_scale_factors:
             gyro, accel = gyro * (1.0 - self.gyro_scale), accel * (1.0 - self.accel_scale)
         strapdown.integrate(self.nav, self.mem, t, gyro, accel, self.gyro_bias, self.accel_bias,
                             self.w_ie_n, self.w_en_n, self.g_n)
@@ -271,11 +274,15 @@ class InsGpsFilter:
         known_yaw = not math.isnan(cfg.initial_yaw)
         self.alignment = self.aligner.finish(self.frame.lat0_deg * DEG, cfg.initial_yaw if known_yaw else None)
         new = starts.start(cfg, self.alignment, t0, self.gnss.pending_fix, self.lever_arm_b, self.model,
-                           self.n_ins)
+                           self.n_core)
         self.nav, self.mem, self.cov, self.status = new.nav, new.mem, new.cov, new.status
-        if self.n_states > self.n_ins:
+        if self.n_states > self.n_core:
             cov = np.zeros((self.n_states, self.n_states))
-            cov[:self.n_ins, :self.n_ins] = self.cov
+            cov[:self.n_core, :self.n_core] = self.cov
+            if self.noise.n_extra:
+                idx = np.r_[em.index(em.BG, em.BA), self.n_core:self.n_ins]
+                total_var = np.diag(self.cov)[em.index(em.BG, em.BA)]
+                cov[np.ix_(idx, idx)] = em.bias_component_covariance(self.noise, total_var)
             extra = np.arange(self.n_ins, self.n_states)
             cov[extra, extra] = [v**2 for v, _ in self._extra_states()]
             self.cov = cov
@@ -329,16 +336,20 @@ class InsGpsFilter:
         dt = self.mem[strapdown.M_DT]
         mat_nb = self.mat_nb()
         f_cont, g_cont = em.dynamics(mat_nb, f_n, self.w_ie_n, self.w_en_n, self.noise)
-        if self.n_ins == em.N_STATES_SF:
+        if self.cfg.estimate_scale_factors:
             w_b = self.mem[strapdown.M_WSUM] / max(self.mem[strapdown.M_N], 1.0)
             f_cont, g_cont = em.with_scale_factors(f_cont, g_cont, mat_nb, w_b, mat_nb.T @ f_n)
+        f_cont, g_cont = em.with_bias_components(f_cont, g_cont, self.noise, self.n_core)
         if self.n_states > self.n_ins:
             f_cont, g_cont = em.with_random_walks(f_cont, g_cont, [d for _, d in self._extra_states()])
+        order = 10 if self.noise.n_extra else 8  # fast bias components (kalman.propagate_series)
         if self.recorder is None:
-            self.cov = kalman.propagate_series(self.cov, f_cont, g_cont, dt)
+            self.cov = kalman.propagate_series(self.cov, f_cont, g_cont, dt, order)
         else:
-            phi, self.cov = kalman.propagate_series_phi(self.cov, f_cont, g_cont, dt)
+            phi, self.cov = kalman.propagate_series_phi(self.cov, f_cont, g_cont, dt, order)
             self.recorder.predicted(phi, self.cov)
+        if self.noise.n_extra:
+            self._decay_bias_parts(dt)
         predicted = self.nav[strapdown.P].copy(), self.nav[strapdown.Q].copy()  # the continuous INS chain
         w_mean_b = self.mem[strapdown.M_WSUM] / max(self.mem[strapdown.M_N], 1.0)
         epoch = Epoch(t_e, self.nav, self.n_states, motion, self.gravity)
@@ -363,7 +374,16 @@ class InsGpsFilter:
                         self.nav[strapdown.Q].copy(), self.cov.copy(), self.gyro_bias.copy(),
                         self.accel_bias.copy(), self.status, gps_used, zupt_used, nis, stationary,
                         np.concatenate([self.gyro_scale, self.accel_scale])
-                        if self.n_ins == em.N_STATES_SF else None, w_mean_b, *predicted)
+                        if self.cfg.estimate_scale_factors else None, w_mean_b, *predicted)
+
+    def _decay_bias_parts(self, dt: float) -> None:
+        """The further bias components' estimates relax to zero over ``dt`` s, as the error model says the components
+        do (the error state's mean stays zero only if the estimate follows), and the biases with them."""
+        drop = self.bias_parts * (1.0 - em.component_decay(self.noise, dt))
+        self.bias_parts -= drop
+        half = len(drop) // 2
+        self.gyro_bias = self.gyro_bias - drop[:half].reshape(3, -1).sum(axis=1)
+        self.accel_bias = self.accel_bias - drop[half:].reshape(3, -1).sum(axis=1)
 
     def _update(self, model, epoch: Epoch, counters=None, used: str = "", rejected: str = "") -> bool:
         """Apply ``model``'s measurement at ``epoch`` if it has one (gated at the model's probability, else the
@@ -426,11 +446,12 @@ class InsGpsFilter:
         strapdown.rotate_attitude(self.nav, dx[em.PHI])
         self.gyro_bias = self.gyro_bias - dx[em.BG]
         self.accel_bias = self.accel_bias - dx[em.BA]
+        self.bias_parts -= dx[self.n_core:self.n_ins]
         if self.cfg.odometer_enabled:
             self.odometer.scale -= float(dx[self.n_ins])
         if self.mounting.index is not None:
             self.mounting.feed_back(dx[self.mounting.index])
-        if self.n_ins == em.N_STATES_SF:
+        if self.cfg.estimate_scale_factors:
             self.gyro_scale = self.gyro_scale - dx[em.SG]
             self.accel_scale = self.accel_scale - dx[em.SA]
 

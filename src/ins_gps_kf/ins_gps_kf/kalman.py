@@ -58,17 +58,18 @@ def van_loan_series(f_cont, g_cont, dt, order=8):
 
 
 @njit(cache=True)
-def propagate_series(cov, f_cont, g_cont, dt):
-    """``Phi P Phi' + Qd`` with :func:`van_loan_series`, symmetrised (compiled :func:`propagate`)."""
-    phi, q = van_loan_series(f_cont, g_cont, dt)
+def propagate_series(cov, f_cont, g_cont, dt, order=8):
+    """``Phi P Phi' + Qd`` with :func:`van_loan_series`, symmetrised (compiled :func:`propagate`); ``order`` 10
+    for fast bias components (a 1.1-s Gauss-Markov state has |F dt| 0.45 at 2 Hz: 2e-9 at order 8, 4e-12 at 10)."""
+    phi, q = van_loan_series(f_cont, g_cont, dt, order)
     out = phi @ cov @ phi.T + q
     return 0.5 * (out + out.T)
 
 
 @njit(cache=True)
-def propagate_series_phi(cov, f_cont, g_cont, dt):
+def propagate_series_phi(cov, f_cont, g_cont, dt, order=8):
     """(Phi, covariance): :func:`propagate_series` that also gives the transition (what a smoother stores)."""
-    phi, q = van_loan_series(f_cont, g_cont, dt)
+    phi, q = van_loan_series(f_cont, g_cont, dt, order)
     out = phi @ cov @ phi.T + q
     return phi, 0.5 * (out + out.T)
 

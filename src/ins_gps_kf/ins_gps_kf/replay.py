@@ -28,7 +28,7 @@ from nav_core.units import DEG  # noqa: E402
 from nav_core.cli import about, add_common, parse_args, run_cli  # noqa: E402
 from nav_core.params import did_you_mean  # noqa: E402
 from nav_core.outputs import check_out_file, staged_file  # noqa: E402
-from ins_gps_kf import config as kfconfig, track_check  # noqa: E402
+from ins_gps_kf import config as kfconfig, error_model as em, track_check  # noqa: E402
 from ins_gps_kf.filter import ALIGNING, InsGpsFilter  # noqa: E402
 from ins_gps_kf.offline import EstimateTable, load_model, plot_north_east, run, table_trajectory  # noqa: E402
 from ins_gps_kf.smoother import ForwardStore, smooth_table  # noqa: E402
@@ -36,6 +36,13 @@ from ins_gps_kf.smoother import ForwardStore, smooth_table  # noqa: E402
 
 GNSS_END_WARN_S = 10.0  # fixes this far apart, or ending this long before the IMU, are said (a cut file or outage)
 SMOOTH_BLOCK = 512  # epochs the smoother holds in memory (store rows, a backward block): ~3 MB, not 11
+
+
+def smooth_block(n_states: int) -> int:
+    """Epochs the smoother holds in memory with ``n_states`` error states: :data:`SMOOTH_BLOCK` rows of the 15-state
+    filter's width (~3 MB), fewer for wider rows (3 Gauss-Markov states per bias axis: 27 states, 3.3x the bytes a
+    row; 512 of them took the 2-hour drive's peak from 279 to 299 MB)."""
+    return max(16, SMOOTH_BLOCK * ForwardStore.row_width(em.N_STATES) // ForwardStore.row_width(n_states))
 
 
 def forward_path(out_path) -> Path:
@@ -66,7 +73,8 @@ def replay_files(recording_path, gnss_path, model_path, out_path, params: dict |
         print(f"ins-gps-kf: warning: {warning}", file=sys.stderr)
     filt = InsGpsFilter(cfg, load_model(model_path))
     estimates = EstimateTable()  # compact rows, not Estimate objects: a 2-hour 64-Hz drive held 90 MB of those
-    filt.recorder = ForwardStore(filt.n_states, ram_rows=SMOOTH_BLOCK) if smooth else None
+    block = smooth_block(filt.n_states)
+    filt.recorder = ForwardStore(filt.n_states, ram_rows=block) if smooth else None
     try:
         run(filt, imu, gnss, progress=progress, odometry=odometry, sink=estimates.extend)
         if filt.frame is None:
@@ -74,7 +82,7 @@ def replay_files(recording_path, gnss_path, model_path, out_path, params: dict |
         if not len(estimates):
             raise recording.RecordingError(f"{imu.source}: no filter epoch, nothing to write: {_why_no_epoch(filt)}")
         check_fixes_against_ins(imu, gnss, estimates, filt)
-        smoothed = smooth_table(filt.recorder, estimates, SMOOTH_BLOCK) if smooth else estimates
+        smoothed = smooth_table(filt.recorder, estimates, block) if smooth else estimates
     finally:
         if filt.recorder is not None:
             filt.recorder.close()

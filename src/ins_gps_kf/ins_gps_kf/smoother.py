@@ -41,7 +41,7 @@ class ForwardStore:
 
     def __init__(self, n_states: int, ram_rows: int = RAM_ROWS, tmp_dir: str | None = None):
         self.n = n_states
-        self.width = 1 + n_states + 3 * n_states * n_states
+        self.width = self.row_width(n_states)
         self.ram_rows = ram_rows
         self.tmp_dir = tmp_dir
         self._buf = np.empty((ram_rows, self.width))
@@ -51,6 +51,11 @@ class ForwardStore:
         self._phi = self._prior = None
         self._dx = np.zeros(n_states)
         self._linked = False
+
+    @staticmethod
+    def row_width(n_states: int) -> int:
+        """Floats a stored epoch takes with ``n_states`` error states."""
+        return 1 + n_states + 3 * n_states * n_states
 
     def __len__(self) -> int:
         return self._spilled + self._used
