@@ -7,8 +7,9 @@ The drives come from ``health_drives`` (motion and true IMU output by ``independ
 sensor model is fitted by ``imu-calib allan`` from a 1-h static run of the same unit, as a user would. Faults
 start 300 s into 420-s drives; healthy drives are 1 h each, seeds 9000.. (healthy) and 9500.. (faults). Fault and
 healthy runs get 1-Hz GNSS fixes along the motion (``--no-gnss``: the IMU alone); runs that miss a target and
-every false event are printed with what came first. The GNSS fixes have 5-cm horizontal and 10-cm vertical white noise. The gz scale-factor
-section: a +2 % step at 1500 s of 2400-s drives (seeds 9700..), and the scale test alone on the healthy drives.
+every false event are printed with what came first. The GNSS fixes have 5-cm horizontal and 10-cm vertical white
+noise. The gz scale-factor section: a +2 % step at 1500 s of 2400-s drives (seeds 9700..), and the scale test alone
+on the healthy drives. ``--floor``: what the gyro's own white noise allows a gyro bias test at best.
 Targets (issue 26): deterministic faults <= 1 s, noise x3 <= 5 s, a 3-sigma line <= 10 s, a 10 x bias-sd step
 <= 30 s; the right effect and channel first in >= 95 %; onset within 2 s for steps; <= 1 false event per 10 h.
 """
@@ -146,6 +147,39 @@ def scale_section(model, base, seeds: int, hours: int) -> None:
           f"{base.thr.budget_per_10h / thr.N_TESTS:.3f})")
 
 
+def floor_section(runs: int = 4000) -> None:
+    """The information floor of a gyro bias step (10 x the unit's bias sd): a test that knew the true rate exactly
+    (a perfect attitude reference) still sees the bias through the gyro's own white noise, so the ideal test is a
+    CUSUM on 1-s means of white noise (the step in sd of a 1-s mean, k 0.5, h at the budget's run length) and the
+    best change point is maximum likelihood over the samples. Prints the delays and onset errors that allows."""
+    rng = np.random.default_rng(0)
+    white = hd.SENSOR["gyro"]["white"]
+    delta = 10 * hd.SENSOR["gyro"]["gm_sd"] / white  # the step in sd of a 1-s mean
+    k = 0.5
+    target = thr.SECONDS_PER_10H / (0.3 / thr.N_TESTS)
+    z = rng.normal(size=400000)
+    h = thr.cusum_threshold(np.column_stack([z, -z]), k, target / 2)
+    s, d = np.zeros(runs), np.full(runs, np.nan)
+    for _ in range(300):  # the CUSUM's state on healthy data when the step comes
+        s = np.maximum(0.0, s + rng.normal(size=runs) - k)
+    for w in range(1, 200):
+        s = np.maximum(0.0, s + rng.normal(size=runs) + delta - k)
+        d[np.isnan(d) & (s > h)] = w
+    max20 = np.mean([np.max(rng.choice(d, 20)) for _ in range(500)])
+    print(f"floor, gyro bias step {delta:.2f} sd of a 1-s mean (k {k}, h {h:.2f}): delay median {np.median(d):.0f} s, "
+          f"95 % {np.percentile(d, 95):.0f} s, P(> 30 s) {np.mean(d > 30):.3f}, expected max of 20 runs {max20:.1f} s")
+    sig, fs, err = white * np.sqrt(hd.RATE_HZ), int(hd.RATE_HZ), []
+    for _ in range(1000):
+        x = rng.normal(0.0, sig, 76 * fs)
+        x[60 * fs:] += 10 * hd.SENSOR["gyro"]["gm_sd"]
+        cs = np.cumsum(x - x.mean())
+        j = np.arange(2, len(x) - 1)
+        err.append((j[np.argmax(cs[j - 1] ** 2 / (j * (len(x) - j)))] - 60 * fs) / fs)
+    err = np.abs(err)
+    print(f"floor, its change point (ML over 60 s before and 16 s after): |error| median {np.median(err):.2f} s, "
+          f"within 2 s in {100 * np.mean(err <= 2):.0f} %, 90 % {np.percentile(err, 90):.1f} s")
+
+
 def named(truth, e) -> bool:
     """The right effect, and the right channel where the effect has one."""
     if e.effect != truth["effect"]:
@@ -164,12 +198,16 @@ def main(argv=None) -> int:
     p.add_argument("--no-scale", action="store_true", help="skip the gz scale-factor section")
     p.add_argument("--faults", nargs="*", default=list(FAULT_CHANNELS), choices=list(FAULT_CHANNELS),
                    help="the fault sections to run (all by default; none: the healthy drives only)")
+    p.add_argument("--floor", action="store_true", help="the information floor of a gyro bias step alone")
     p.add_argument("--no-gnss", action="store_true",
                    help="IMU alone (no 1-Hz GNSS fixes) in the fault and healthy runs")
     args = p.parse_args(argv)
     if args.quick:
         args.healthy_hours, args.seeds, args.scale_seeds, args.scale_hours = 2, 4, 2, 2
     start = time.time()
+    if args.floor:
+        floor_section()
+        return 0
     with tempfile.TemporaryDirectory() as tmp:
         model = fitted_model(Path(tmp))
     base = HealthMonitor(model)
