@@ -5,7 +5,10 @@ with): the first ``STARTUP_S`` of windows are tested against the model's own noi
   variance factor at least ``NOISE_IGNORED_RATIO`` (3: below it a vehicle's own level is taken as healthy, as the
   running test does) -> ``white_noise_increase``;
 * spectrum: per bin, the least whitened power of the last 3 of the first k windows (k >= 3: a line lasts, a knock
-  in one window does not), its largest bin -> ``vibration``; the line is then held
+  in one window does not), its largest *narrow* bin (``NARROW_RATIO`` over the median of the bins 3 to 6 away: a
+  line, not the broad hump of a vehicle's own motion) with an amplitude of at least ``LINE_FLOOR_SD`` x the model's
+  per-sample sd (below it a line present from the start is taken as the vehicle's or the bench's own, as the
+  noise test takes a level below 3x) -> ``vibration``; the line is then held
   (:mod:`sensor_health.line_track`) and kept out of the run's reference spectrum;
 * turn-on bias, where the motion allows it (an **unaccelerated start**: standing, or a constant-velocity
   straight, every channel's window means steady) and **the model states a turn-on repeatability**
@@ -32,7 +35,7 @@ from nav_core.sensor_model import SensorModel
 from sensor_health import noise_sim
 from sensor_health.events import CHANNELS, Event
 from sensor_health.thresholds import NOISE_IGNORED_RATIO, exp_tail_threshold
-from sensor_health.window_stats import WindowGrid, window_stats
+from sensor_health.window_stats import WindowGrid, detrend, window_stats
 
 STARTUP_S = 5.0
 FALSE_ALARMS_PER_START = 1e-3
@@ -41,6 +44,14 @@ N_STARTUP_TESTS = 6 + 6 + 4
 """Noise and spectrum on every channel, turn-on bias on gx gy gz and the specific force along gravity."""
 NOISE_LOOK_MIN, LINE_LOOK_MIN = 2, 3
 """A one-window burst (a knock) is not a noise increase; a line lasts (the running detector confirms over 3)."""
+NARROW_RATIO, NARROW_SIDE, NARROW_NEAR = 10.0, 6, 2
+"""A start-up line's bin has NARROW_RATIO x the median of the bins NARROW_NEAR + 1 .. NARROW_SIDE either side (a
+Hann-tapered sinusoid leaks into NARROW_NEAR bins either side; the model's noise gives a median of ~0.5 there):
+the 2-5 Hz humps of a car's and a rover's body motion at the start of the real drives are not lines."""
+LINE_FLOOR_SD = 2.0
+"""A start-up line carries at least twice the model's white-noise variance (amplitude 2 sd: a^2 / 2 = 2 sd^2). The
+real recordings' own lines at the start sit below it: the ADIS16405's ~21-Hz gz line at ~1 sd, the Katwijk rover's
+46-Hz line and the NaveGo Canada rover's body motion at 1-2 sd of their models."""
 MC_RUNS = 1500
 REPEATABILITY_KEY = "turn_on_bias_repeatability"
 EARTH_RATE_RAD_S = 7.292115e-5
@@ -84,7 +95,7 @@ def startup_thresholds(model: SensorModel, grid: WindowGrid, noise_mu, noise_sd,
     noise_stat = np.cumsum(y, axis=1) / np.sqrt(k)
     line_stat = np.zeros((runs, looks, 6))
     for j in range(LINE_LOOK_MIN - 1, looks):
-        line_stat[:, j] = power[:, j - LINE_LOOK_MIN + 1:j + 1].min(axis=1).max(axis=-1)
+        line_stat[:, j] = narrow_peak(power[:, j - LINE_LOOK_MIN + 1:j + 1].min(axis=1))[0]
     noise_h = np.array([[exp_tail_threshold(noise_stat[:, j, c], p_look) for c in range(6)] for j in range(looks)])
     line_h = np.array([[exp_tail_threshold(line_stat[:, j, c], p_look) if j >= LINE_LOOK_MIN - 1 else np.inf
                         for c in range(6)] for j in range(looks)])
@@ -95,6 +106,23 @@ def startup_thresholds(model: SensorModel, grid: WindowGrid, noise_mu, noise_sd,
     out = StartupThresholds(looks, noise_h, line_h, mean_sd, steady_h, p_look)
     _CACHE[key] = out
     return out
+
+
+def narrow_peak(lasting: np.ndarray) -> tuple:
+    """The largest narrow bin of ``lasting`` (..., 6, nb): (its value (..., 6), its index (..., 6)); 0 and -1 where
+    no bin is narrow."""
+    nb = lasting.shape[-1]
+    pad = np.full(lasting.shape[:-1] + (NARROW_SIDE,), np.nan)
+    wide = np.concatenate([pad, lasting, pad], axis=-1)
+    offsets = [d for d in range(-NARROW_SIDE, NARROW_SIDE + 1) if abs(d) > NARROW_NEAR]
+    side = np.stack([wide[..., NARROW_SIDE + d:NARROW_SIDE + d + nb] for d in offsets], axis=-1)
+    with np.errstate(all="ignore"):
+        base = np.nanmedian(side, axis=-1)
+    narrow = lasting >= NARROW_RATIO * np.maximum(np.nan_to_num(base, nan=0.0), 1.0)
+    masked = np.where(narrow, lasting, 0.0)
+    k = np.argmax(masked, axis=-1)
+    value = np.take_along_axis(masked, k[..., None], axis=-1)[..., 0]
+    return value, np.where(value > 0, k, -1)
 
 
 def _model_key(model: SensorModel) -> bytes:
@@ -190,11 +218,11 @@ class StartupCheck:
 
     def _line(self, t1, fresh, ws, w, xwin) -> list:
         k = np.maximum(self.n, 1) - 1
-        lasting = np.min(self.powers, axis=0)  # (6, nb): a line lasts, a knock is in one window
-        best = np.argmax(lasting, axis=1)
-        stat = lasting[np.arange(6), best]
+        stat, best = narrow_peak(np.min(self.powers, axis=0))  # a line lasts, a knock is in one window
         gate = self.sth.line_h[k, np.arange(6)]
         fired = np.flatnonzero(fresh & ~self.line_done & (self.n >= LINE_LOOK_MIN) & (stat > gate))
+        fired = np.array([c for c in fired if self._amplitude(c, int(best[c]), xwin) >= LINE_FLOOR_SD
+                          * self.mon.thr.sample_sigma[c]], int)
         if len(fired) == 0:
             return []
         self.line_done[fired] = True
@@ -208,6 +236,15 @@ class StartupCheck:
         return [self.mon._line_event(t1, float(self.mon.checked_s[0]), fired, line_k, ws.level[w], xwin,
                                      {"startup_least_chi2": stat[fired].tolist(), "threshold": gate[fired].tolist(),
                                       "windows": self.n[fired].tolist()})]
+
+    def _amplitude(self, c, line_k, xwin) -> float:
+        """Largest amplitude of a sinusoid within half a bin of searched bin ``line_k`` in channel c of the window."""
+        grid = self.mon.grid
+        df = 1.0 / (grid.n * grid.dt)
+        f0 = float(grid.freqs[np.flatnonzero(grid.line_bins)[line_k]])
+        x = detrend(np.where(np.isfinite(xwin), xwin, 0.0))[:, [c]]
+        return max(float(self.mon._line_amplitude(x, f0 + d * df, np.ones(1), [c])[0][0])
+                   for d in (-0.5, -0.25, 0.0, 0.25, 0.5))
 
     def _turn_on(self, t1) -> list:
         """At the end of the first STARTUP_S: the turn-on bias against the model's stated bounds, if the start was
