@@ -74,11 +74,17 @@ def _without(model, base, effect: str):
     return out
 
 
-def _imu_drop(case, full: np.ndarray, dropped: np.ndarray) -> float:
+def _imu_drop(case, full: np.ndarray, dropped: np.ndarray, model=None) -> float:
     """Increase of the IMU residual's energy (per-sample noise variance units, turn-on bias per channel a
-    nuisance) from the full model's residual to the residual without one finding."""
+    nuisance) from the full model's residual to the residual without one finding. On a moving truth file both are
+    whitened by the model's noise plus the reference's error first, as the tests weight them (else the truth's own
+    slow error, correlated with a small effect by chance, decides its share)."""
     from imu_sim.diagnose import reference
     full, dropped = (reference.clean(case, r) for r in (full, dropped))
+    if model is not None and getattr(case, "scenario", None) is not None and reference.moving_file_truth(case):
+        from imu_sim.diagnose.heldout import _whitened
+        full, cols = _whitened(case, model, full, {c: dropped[:, c] for c in range(6)})
+        dropped = np.column_stack([cols[c] for c in range(6)])
     full, dropped = full - full.mean(axis=0), dropped - dropped.mean(axis=0)
     sigma2 = np.array([max(metrics.robust_var(full[:, c]), 1e-300) for c in range(6)])
     return float(np.sum((dropped**2 - full**2) / sigma2))
@@ -116,6 +122,6 @@ def drop_one(case, model, base, findings: list, cands: list) -> list:
         else:
             dropped = residual(case, without)
             moved = np.abs(dropped - full).max() > DROP_ONE_FLOOR * max(np.abs(full).max(), 1e-300)
-            gain = _imu_drop(case, full, dropped) if moved or cand.kind not in STOCHASTIC_KINDS else None
+            gain = _imu_drop(case, full, dropped, model) if moved or cand.kind not in STOCHASTIC_KINDS else None
         out.append(max(gain, 0.0) if gain is not None else float(f.get("mismatch_energy") or 0.0))
     return out
