@@ -95,6 +95,7 @@ TRUE = {
     "gps_latency": {"latency_s": 0.03},
     "gps_lever_arm": {"lever_arm_m[x]": 0.35, "lever_arm_m[y]": -0.25},
     "colored_gps_noise": {"sigma_m[e]": 0.3, "sigma_m[n]": 0.3, "sigma_m[u]": 0.5},
+    "coriolis": {"coriolis_scale": 1.0},
 }
 
 
