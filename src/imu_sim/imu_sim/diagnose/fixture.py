@@ -285,6 +285,8 @@ def without_tilts(case, columns: dict, resid: np.ndarray):
     The tilts are fitted jointly with ``columns`` (so they cannot take the effect), within the tolerance; only the
     holds are scored, as the path between tilted holds is not known (a 1-deg tilt changes a 6-s move's rate by
     3e-3 rad/s, which swamped a missing Earth rate's 7e-5 in the held-out gyro block means)."""
+    if getattr(case.scenario, "source", None) != "static_segments" and _spinning_holds(case):
+        return None  # a truth file's rate table: its evidence is on the spinning holds, which the still ones blend over
     setup = _setup(case, columns, resid)
     if setup is None:
         return None
