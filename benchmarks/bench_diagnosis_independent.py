@@ -15,7 +15,9 @@ the model (to +-10 %); fixtures (tumble poses, the static and up/down holds) are
 to ATTITUDE_TOL_DEG while the user's truth states the nominal one; a drive's truth.csv is at 10 Hz and carries a
 slow position error (5-30 cm horizontal, twice that vertical, periods 30-600 s) and a slow attitude error (roll and
 pitch 0.005-0.03 deg, yaw 0.02-0.1 deg), as from smoothing a noisy GNSS track;
-the rate table is typed as static_segments (its holds), so the simulator's own ramp shape differs from the table's.
+the rate table is typed as static_segments (its holds), so the simulator's own ramp shape differs from the table's;
+the tumble holds each pose 20-35 s (HOLDS_REALISTIC_S), the up/down pauses 2 s on its side, and the temperature and
+random-walk cases are resized (TEMP_REALISTIC, RW_REALISTIC) so the flicker bias instability does not bury them.
 """
 from __future__ import annotations
 
@@ -47,6 +49,14 @@ GYRO_FLICKER, ACCEL_FLICKER = 2e-5, 1e-4
 RW_REALISTIC = 5.0
 """The realistic random-walk case's walk is this many times larger: 6e-7 rad/s/sqrt(s) is buried under the flicker
 bias instability over the whole 2-h record (their PSDs cross near 1e-4 Hz), so no method could name it."""
+TEMP_REALISTIC = 3.0
+"""The realistic temperature case's coefficients are this many times larger: 1e-6 rad/s/degC over the +-10 degC cycle
+(period 30 min) is a 1e-5 rad/s bias wave under a flicker bias instability of 2e-5 rad/s, whose PSD at 0.56 mHz is
+three times the white level: its likelihood ratio is ~7 against a threshold of 19.7, so no method could name it."""
+HOLDS_REALISTIC_S = (20.0, 35.0)
+"""A realistic tumble holds each pose for a time drawn from this range (s), as an operator turning a cube by hand."""
+UPDOWN_PAUSE_S = 2.0
+"""A realistic up/down turns through a pause of this long on its side (level) between x up and x down."""
 ATTITUDE_TOL_DEG = 1.0
 """A realistic fixture is off its nominal attitude by up to this, per angle (the scenario's default tolerance)."""
 GYRO_WHITE, ACCEL_WHITE = 2e-4, 1e-3
@@ -121,6 +131,8 @@ def generate(name: str, seed: int, folder: Path) -> dict:
     site = gen.Site(*SITE)
     motion, rate, truth_rate = motion_of(kind)
     real = np.random.default_rng([seed, 24]) if REALISTIC else None
+    if real is not None and kind == "tumble":
+        motion = gen.Poses(TUMBLE_POSES, real.uniform(*HOLDS_REALISTIC_S, len(TUMBLE_POSES)), motion.move_s)
     if kind == "updown":
         return _updown(site, rng, folder, effect, real)
     dt = 1.0 / rate
@@ -146,8 +158,9 @@ def generate(name: str, seed: int, folder: Path) -> dict:
     elif effect == "axis_misalignment":
         gyro_out[:, 0] += par["xz"] * gyro[:, 2]
     elif effect == "temperature_bias":
-        gyro_out += (temp - 25.0)[:, None] * TEMP_COEF
-        accel_out += (temp - 25.0)[:, None] * 5e-6
+        k = TEMP_REALISTIC if real is not None else 1.0
+        gyro_out += (temp - 25.0)[:, None] * TEMP_COEF * k
+        accel_out += (temp - 25.0)[:, None] * 5e-6 * k
     elif effect == "gauss_markov_bias":
         gyro_out += gen.gauss_markov(rng, n, dt, [par["gyro"]] * 3, par["tau"])
         accel_out += gen.gauss_markov(rng, n, dt, [par["accel"]] * 3, par["tau"])
@@ -200,7 +213,7 @@ def generate(name: str, seed: int, folder: Path) -> dict:
 def _off_nominal(motion, real):
     """The poses a real fixture holds: each nominal pose off by up to ATTITUDE_TOL_DEG per angle."""
     poses = np.degrees(motion.poses) + real.uniform(-ATTITUDE_TOL_DEG, ATTITUDE_TOL_DEG, motion.poses.shape)
-    return gen.Poses(poses, motion.hold_s, motion.move_s)
+    return gen.Poses(poses, motion.holds, motion.move_s)
 
 
 def _table_holds(table) -> list:
@@ -256,7 +269,8 @@ def _gnss(site, motion, rng, folder, effect, par):
 def _updown(site, rng, folder, effect, real=None):
     """Navigation-grade static run at 64 Hz: x axis up 300 s, a recorded 10-s turn, x down 300 s; truth CSV at 64 Hz."""
     rate, hold = 64.0, 300.0
-    motion = gen.Poses([(0, -90, 0), (0, 90, 0)], hold, 10.0)
+    motion = (gen.Poses([(0, -90, 0), (0, 90, 0)], hold, 10.0) if real is None else
+              gen.Poses([(0, -90, 0), (0, 0, 0), (0, 90, 0)], [hold, UPDOWN_PAUSE_S, hold], 5.0))
     t, gyro, accel = site.true_imu(motion if real is None else _off_nominal(motion, real), rate)
     n = len(t)
     gw, aw = 2e-6, 2e-5  # ring-laser-grade white noise, rad/s/sqrt(s), m/s/sqrt(s)
@@ -318,7 +332,8 @@ def run_case(name: str, seed: int, max_effects: int = 2) -> dict:
            "significant": [t["effect"] for t in res["tested"] if t["significant"]]}
     if first and first["effect"] == effect:
         cover = []
-        scale = RW_REALISTIC if REALISTIC and name == "bias_random_walk" else 1.0
+        scale = {"bias_random_walk": RW_REALISTIC, "temperature_bias": TEMP_REALISTIC}.get(name, 1.0) if REALISTIC \
+            else 1.0
         for par, true in TRUE.get(name, {}).items():
             true *= scale
             if par in first["intervals"]:

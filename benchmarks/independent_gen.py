@@ -124,18 +124,20 @@ class Motion:
 
 
 class Poses(Motion):
-    """Static poses held for ``hold_s`` with smooth ``move_s`` transitions (Euler angles interpolated)."""
+    """Static poses held for ``hold_s`` (one for all, or one per pose) with smooth ``move_s`` transitions (Euler
+    angles interpolated)."""
 
-    def __init__(self, poses_deg, hold_s: float, move_s: float):
+    def __init__(self, poses_deg, hold_s, move_s: float):
         self.poses = np.radians(np.asarray(poses_deg, float)).reshape(-1, 3)
+        self.holds = np.broadcast_to(np.asarray(hold_s, float), (len(self.poses),)).copy()
         self.hold_s, self.move_s = hold_s, move_s
-        super().__init__(len(self.poses) * hold_s + (len(self.poses) - 1) * move_s)
+        self.starts = np.r_[0.0, np.cumsum(self.holds[:-1] + move_s)]
+        super().__init__(float(self.holds.sum() + (len(self.poses) - 1) * move_s))
 
     def attitude(self, t):
         """Euler angles held, then smoothstep to the next pose."""
-        period = self.hold_s + self.move_s
-        i = np.minimum((t // period).astype(int), len(self.poses) - 1)
-        u = (t - i * period - self.hold_s) / self.move_s
+        i = np.clip(np.searchsorted(self.starts, t, side="right") - 1, 0, len(self.poses) - 1)
+        u = (t - self.starts[i] - self.holds[i]) / self.move_s
         s, ds, _ = smoothstep(u)
         j = np.minimum(i + 1, len(self.poses) - 1)
         ang = self.poses[i] + s[:, None] * (self.poses[j] - self.poses[i])

@@ -221,3 +221,37 @@ def test_a_motion_effect_is_fitted_before_a_stochastic_term_that_outranks_it_alo
     # no motion effect significant: the stochastic term keeps its place; a deterministic best is not touched
     assert _deterministic_first([gm, warm]) is gm
     assert _deterministic_first([warm, gm, sf]) is warm
+
+
+def test_tilt_second_order_term_completes_the_rotation_of_the_specific_force():
+    """f + f x d + d x (d x f) / 2 is the specific force rotated by the tilt to third order: a 1-deg tilt's
+    shortening of |f| (1.5e-4 g) is fixed by the tilt, not a free scale that could take a gravity-model error."""
+    from types import SimpleNamespace
+
+    from scipy.spatial.transform import Rotation
+
+    from imu_sim.diagnose import fixture
+    rng = np.random.default_rng(5)
+    f = rng.normal(0, 5, (4, 3))
+    case = SimpleNamespace(n=4, gyro_true=np.zeros((4, 3)), accel_true=f)
+    d = np.radians([0.7, -0.6, 0.3])
+    second = fixture._second_order(case, np.ones((2, 4, 1)), d[None, :]).reshape(6, 4).T[:, 3:]
+    exact = Rotation.from_rotvec(-d).apply(f)
+    assert np.abs(f + np.cross(f, d) + second - exact).max() < 1e-6 * np.abs(f).max()
+    assert np.abs(f + np.cross(f, d) - exact).max() > 1e-5 * np.abs(f).max()  # without it: off at 1e-4
+
+
+def test_heldout_fit_uses_only_the_blocks_it_is_told_to_keep():
+    from imu_sim.diagnose.metrics import heldout_rms
+    rng = np.random.default_rng(3)
+    n = 4000
+    x = np.sin(np.arange(n) / 300.0)
+    resid = np.zeros((n, 6))
+    resid[:, 0] = 0.5 * x + rng.normal(0, 1, n)
+    keep = np.ones(n, bool)
+    keep[1000:3000] = False
+    resid[~keep, 0] += 50.0 * rng.normal(0, 1, (~keep).sum())  # the moves: large, unexplained
+    cols = {0: x[:, None]}
+    before_all, after_all = heldout_rms(resid, cols, 0.01, 0.1)
+    before, after = heldout_rms(resid, cols, 0.01, 0.1, keep)
+    assert after < before and (before - after) / before > 5 * (before_all - after_all) / before_all
