@@ -95,7 +95,8 @@ def startup_thresholds(model: SensorModel, grid: WindowGrid, noise_mu, noise_sd,
     noise_stat = np.cumsum(y, axis=1) / np.sqrt(k)
     line_stat = np.zeros((runs, looks, 6))
     for j in range(LINE_LOOK_MIN - 1, looks):
-        line_stat[:, j] = narrow_peak(power[:, j - LINE_LOOK_MIN + 1:j + 1].min(axis=1))[0]
+        # the gate on the largest bin: the monitor's narrowness and amplitude conditions only remove candidates
+        line_stat[:, j] = power[:, j - LINE_LOOK_MIN + 1:j + 1].min(axis=1).max(axis=-1)
     noise_h = np.array([[exp_tail_threshold(noise_stat[:, j, c], p_look) for c in range(6)] for j in range(looks)])
     line_h = np.array([[exp_tail_threshold(line_stat[:, j, c], p_look) if j >= LINE_LOOK_MIN - 1 else np.inf
                         for c in range(6)] for j in range(looks)])
