@@ -65,6 +65,8 @@ def test_healthy_starts_give_no_event_and_the_turn_on_test_needs_a_stated_repeat
         mon, events = _run(t, x, _stated())
         assert events == []
         assert mon.observability()["turn_on_bias"].startswith("tested at an unaccelerated start")
+    gates = mon.startup.sth  # every look the tests use has a finite Monte Carlo gate on every channel
+    assert np.isfinite(gates.line_h[2:]).all() and np.isfinite(gates.noise_h[1:]).all()
 
 
 @pytest.mark.parametrize("channel,bias", [(0, 10 * GYRO_REP), (2, -10 * GYRO_REP), (5, 10 * ACCEL_REP)])
