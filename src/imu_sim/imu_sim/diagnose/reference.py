@@ -210,8 +210,8 @@ def attitude_note(ctx, cand) -> str:
     hundredths of a degree, its heading by a tenth, and the IMU's mounting in the vehicle is a rotation too)."""
     if cand.effect != "axis_misalignment" or not cand.significant or not moving_file_truth(ctx.case):
         return ""
-    from imu_sim.diagnose.effect_tests import fit
-    rotation = fit(ctx, rotation_columns(ctx.case), 3)
+    from imu_sim.diagnose.spectral import gls
+    rotation = gls(ctx.wh, ctx.resid_f, rotation_columns(ctx.case), 3)
     given = cand.stat - rotation.lr
     if given > cand.threshold:
         return ""
