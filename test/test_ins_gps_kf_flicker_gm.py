@@ -10,7 +10,6 @@ from ins_gps_kf.filter import InsGpsFilter
 from ins_gps_kf.offline import run
 
 B = 1e-3  # m/s^2, the BP3010-grade accel's bias instability
-BAND_S = (em.FLICKER_BAND_MIN_S, 300.0)
 
 
 def _allan_from_psd(psd_one_sided, tau: float) -> float:
@@ -33,15 +32,16 @@ def test_the_flicker_psd_has_the_stated_plateau():
     assert adev == pytest.approx(em.ALLAN_PLATEAU * B, rel=1e-3)
 
 
-@pytest.mark.parametrize("n, tolerance", [(2, 0.10), (3, 0.02), (4, 0.02)])
-def test_gauss_markov_sum_has_the_flicker_allan_deviation_over_the_band(n, tolerance):
-    corr, sigma = em.flicker_gm_sum(B, n, BAND_S[1])
+@pytest.mark.parametrize("n, band_max_s, tolerance", [(2, 300.0, 0.10), (3, 300.0, 0.02), (3, 1000.0, 0.03),
+                                                       (4, 1000.0, 0.02)])
+def test_gauss_markov_sum_has_the_flicker_allan_deviation_over_the_band(n, band_max_s, tolerance):
+    corr, sigma = em.flicker_gm_sum(B, n, band_max_s)
     assert len(corr) == n and np.all(np.diff(corr) > 0) and np.all(sigma > 0)
-    taus = np.geomspace(*BAND_S, 12)
+    taus = np.geomspace(em.FLICKER_BAND_MIN_S, band_max_s, 12)
     adev = np.sqrt([_allan_from_psd(_gm_sum_psd(corr, sigma), tau) for tau in taus])
     assert np.max(np.abs(adev / (em.ALLAN_PLATEAU * B) - 1.0)) < tolerance
     # one Gauss-Markov state (today's filter) is far from it at the outage time scales
-    one = np.sqrt(_allan_from_psd(_gm_sum_psd(*em.flicker_gm_sum(B, 1, BAND_S[1])), 10.0))
+    one = np.sqrt(_allan_from_psd(_gm_sum_psd(*em.flicker_gm_sum(B, 1, 300.0)), 10.0))
     assert one < 0.6 * em.ALLAN_PLATEAU * B
 
 
@@ -58,11 +58,11 @@ def test_total_bias_states_are_the_sum_of_the_components():
     components' stationary one, transformed alike, with the total's own variance added."""
     model = em.default_mems_model()
     n = 3
-    noise = em.noise_from_sensor_model(model, 300.0, n)
+    noise = em.noise_from_sensor_model(model, 300.0, n, 1000.0)
     assert noise.n_extra == 6 * (n - 1)
     f15, g15 = em.dynamics(np.eye(3), [0.0, 0.0, 9.8], np.zeros(3), np.zeros(3), noise)
     f, g = em.with_bias_components(f15, g15, noise, em.N_STATES)
-    corr, sigma = em.flicker_gm_sum(model.accel.bias_instability[0], n, 300.0)
+    corr, sigma = em.flicker_gm_sum(model.accel.bias_instability[0], n, 1000.0)  # bias_gm_band_max_s
     q = np.sqrt(2.0 * sigma**2 / corr)
     q[-1] = np.hypot(q[-1], model.accel.rate_random_walk[0])  # the slowest also carries K
     to_total = np.eye(n)

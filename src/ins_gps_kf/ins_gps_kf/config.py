@@ -108,11 +108,13 @@ PARAMETERS = (
     Param("init_accel_bias_std_mg", 20.0, "initial accel bias std, mg", 0.0, 1e4),
     Param("init_attitude_std_deg", 1.0, "initial roll/pitch std after alignment, deg", 0.0, 90.0),
     Param("heading_std_deg", 10.0, "initial heading std (course or parameter), deg", 0.0, 180.0),
-    Param("flicker_correlation_time_s", 300.0, "Gauss-Markov time for flicker bias instability (the slowest "
-          "of bias_gm_states_per_axis), s", 1.0, 1e6),
+    Param("flicker_correlation_time_s", 300.0, "Gauss-Markov time for flicker bias instability (one state per "
+          "axis), s", 1.0, 1e6),
     Param("bias_gm_states_per_axis", 1, "Gauss-Markov states per flicker bias axis: 1 = one state (sigma B, "
-          "flicker_correlation_time_s); n > 1: a sum fitted to the flicker's Allan deviation from 1 s to "
-          "flicker_correlation_time_s, 6 (n - 1) more states", 1, 5),
+          "flicker_correlation_time_s); n > 1: a sum fitted to the flicker's Allan deviation from 2 s to "
+          "bias_gm_band_max_s, 6 (n - 1) more states", 1, 5),
+    Param("bias_gm_band_max_s", 1000.0, "with bias_gm_states_per_axis > 1: the longest averaging time the sum fits "
+          "the flicker's Allan plateau to, s", 10.0, 1e6),
     Param("reorder_window_s", 0.1, "node: messages are held this long and processed in stamp order, s", 0.0, 5.0),
     Param("time_jump_s", 1.0, "backward stamp jump or IMU gap that resets the filter, s", 0.01, 1e6),
     Param("max_bridged_gap_s", 30.0, "a forward IMU gap up to this long (a lost serial port) is bridged by holding "
@@ -193,6 +195,7 @@ class FilterConfig:
     heading_std: float = 10.0 * DEG
     flicker_correlation_time: float = 300.0
     bias_gm_per_axis: int = 1
+    bias_gm_band_max: float = 1000.0  # s
     time_jump: float = 1.0
     max_bridged_gap: float = 30.0
     bridge_accel_std: float = 1.0
@@ -266,7 +269,7 @@ def from_params(params: dict) -> FilterConfig:
         init_gyro_bias_std=p["init_gyro_bias_std_dph"] * DEG_PER_H,
         init_accel_bias_std=p["init_accel_bias_std_mg"] * MG, init_attitude_std=p["init_attitude_std_deg"] * DEG,
         heading_std=p["heading_std_deg"] * DEG, flicker_correlation_time=float(p["flicker_correlation_time_s"]),
-        bias_gm_per_axis=int(p["bias_gm_states_per_axis"]),
+        bias_gm_per_axis=int(p["bias_gm_states_per_axis"]), bias_gm_band_max=float(p["bias_gm_band_max_s"]),
         time_jump=float(p["time_jump_s"]), max_bridged_gap=float(p["max_bridged_gap_s"]),
         bridge_accel_std=float(p["bridge_accel_std_mps2"]), bridge_rate_std=float(p["bridge_rate_std_dps"]) * DEG,
         apply_calibration=bool(p["apply_sensor_model_calibration"]), max_speed=float(p["max_speed_mps"]),

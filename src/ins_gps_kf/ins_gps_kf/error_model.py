@@ -16,8 +16,8 @@ Optional (``estimate_scale_factors``): 21 states, ``SG`` gyro and ``SA`` accel s
 
 Flicker bias instability as a sum of Gauss-Markov processes (``bias_gm_states_per_axis`` n > 1): the flicker
 (one-sided PSD B^2/(pi f), Allan plateau 0.664 B) of each axis is ``b = c_1 + ... + c_n``, ``c_k' = -c_k/T_k + q_k w_k``
-with T_k and q_k from :func:`flicker_gm_sum` (the sum's Allan deviation within 1.2 % of 0.664 B over 2 s to
-``flicker_correlation_time_s``, n = 3).
+with T_k and q_k from :func:`flicker_gm_sum` (the sum's Allan deviation within 2.5 % of 0.664 B over 2 s to
+``bias_gm_band_max_s``, 1000 s, for n = 3).
 ``BG``/``BA`` stay the *total* bias error (every measurement and the feedback see only the total); the states
 ``c_2 .. c_n`` of each axis follow the INS states (:func:`with_bias_components`), and with ``c_1 = b - sum c_k``::
 
@@ -135,14 +135,15 @@ def _unit_flicker_fit(n: int, tau_min_s: float, tau_max_s: float) -> tuple:
 def flicker_gm_sum(bias_instability, n: int, tau_max_s: float, tau_min_s: float = FLICKER_BAND_MIN_S):
     """Correlation times T (n,) s and stationary sigmas (n,) (the unit of ``bias_instability`` B) of n Gauss-Markov
     processes whose sum has the flicker's Allan deviation 0.664 B over averaging times ``tau_min_s``..``tau_max_s``
-    (over 2..300 s within 1.2 % for n = 3, 8 % for n = 2; T from 1.1 s, 2.1 s). n = 1: the single process of today (sigma B, T tau_max)."""
+    (over 2..1000 s within 2.5 % for n = 3, T 1.4, 24, 397 s; over 2..300 s within 1.2 % for n = 3, 8 % for n = 2).
+    n = 1: the single process of before (sigma B, T ``tau_max_s``)."""
     if n == 1:
         return np.array([float(tau_max_s)]), np.array([float(bias_instability)])
     corr, var = _unit_flicker_fit(int(n), float(tau_min_s), float(tau_max_s))
     return corr.copy(), np.sqrt(var) * float(bias_instability)
 
 
-def _bias_drive(triad: sm.TriadModel, flicker_tau: float, n: int = 1):
+def _bias_drive(triad: sm.TriadModel, flicker_tau: float, n: int = 1, band_max_s: float = 1000.0):
     """Bias-state driving densities and correlation times per axis from B, tau_B and K: the main state's (3,),
     (3,) (the slowest component, with K) and the further components' (3, n - 1), (3, n - 1); a Gauss-Markov or
     absent B has one state (its further components get no drive)."""
@@ -153,7 +154,7 @@ def _bias_drive(triad: sm.TriadModel, flicker_tau: float, n: int = 1):
         if t_b > 0 or b <= 0:
             tau[i], sigma[i] = (t_b if t_b > 0 else flicker_tau), b
             continue
-        corr, sig = flicker_gm_sum(b, n, flicker_tau)
+        corr, sig = flicker_gm_sum(b, n, flicker_tau if n == 1 else band_max_s)
         tau[i], sigma[i] = corr[-1], sig[-1]
         extra_tau[i], extra_drive[i] = corr[:-1], np.sqrt(2.0 * sig[:-1] ** 2 / corr[:-1])
     drive2 = 2.0 * sigma**2 / tau + triad.rate_random_walk**2
@@ -161,10 +162,12 @@ def _bias_drive(triad: sm.TriadModel, flicker_tau: float, n: int = 1):
     return np.sqrt(drive2), tau, extra_drive, extra_tau
 
 
-def noise_from_sensor_model(model: sm.SensorModel, flicker_tau_s: float = 300.0, gm_per_axis: int = 1) -> NoiseModel:
-    """Process-noise densities from the sensor model; a flicker bias as ``gm_per_axis`` Gauss-Markov processes."""
-    g_drive, g_tau, g_xd, g_xt = _bias_drive(model.gyro, flicker_tau_s, gm_per_axis)
-    a_drive, a_tau, a_xd, a_xt = _bias_drive(model.accel, flicker_tau_s, gm_per_axis)
+def noise_from_sensor_model(model: sm.SensorModel, flicker_tau_s: float = 300.0, gm_per_axis: int = 1,
+                            band_max_s: float = 1000.0) -> NoiseModel:
+    """Process-noise densities from the sensor model; a flicker bias as one Gauss-Markov process of correlation
+    time ``flicker_tau_s`` or, ``gm_per_axis`` > 1, a sum fitted to its Allan deviation from 2 s to ``band_max_s``."""
+    g_drive, g_tau, g_xd, g_xt = _bias_drive(model.gyro, flicker_tau_s, gm_per_axis, band_max_s)
+    a_drive, a_tau, a_xd, a_xt = _bias_drive(model.accel, flicker_tau_s, gm_per_axis, band_max_s)
     return NoiseModel(model.gyro.white_noise.copy(), model.accel.white_noise.copy(), g_drive, a_drive, g_tau, a_tau,
                       g_xd, g_xt, a_xd, a_xt)
 
@@ -195,11 +198,6 @@ def with_bias_components(f_cont, g_cont, noise: NoiseModel, at: int):
                 g[s, col] = g[total, col] = drive[i, c]
                 col += 1
     return f, g
-
-
-def component_decay(noise: NoiseModel, dt: float) -> np.ndarray:
-    """Factors exp(-dt/T_k) (``noise.n_extra``,) of the further bias components over ``dt`` s, in state order."""
-    return np.exp(-dt / np.concatenate([noise.gyro_extra_tau.ravel(), noise.accel_extra_tau.ravel()]))
 
 
 def bias_component_covariance(noise: NoiseModel, total_var: np.ndarray) -> np.ndarray:

@@ -47,7 +47,8 @@ class InsGpsFilter:
     def __init__(self, cfg: FilterConfig, model: sm.SensorModel | None = None):
         self.cfg = cfg
         self.model = model if model is not None else em.default_mems_model()
-        self.noise = em.noise_from_sensor_model(self.model, cfg.flicker_correlation_time, cfg.bias_gm_per_axis)
+        self.noise = em.noise_from_sensor_model(self.model, cfg.flicker_correlation_time, cfg.bias_gm_per_axis,
+                                                cfg.bias_gm_band_max)
         self.lever_arm_b = np.asarray(cfg.lever_arm_b, dtype=float)
         self.n_core = em.N_STATES_SF if cfg.estimate_scale_factors else em.N_STATES
         self.n_ins = self.n_core + self.noise.n_extra  # the flicker's further Gauss-Markov components follow
@@ -90,7 +91,6 @@ class InsGpsFilter:
         self.course = heading.HeadingFromCourse(self.cfg)
         self.gyro_bias = np.zeros(3)
         self.accel_bias = np.zeros(3)
-        self.bias_parts = np.zeros(self.noise.n_extra)  # the further Gauss-Markov components in the biases above
         self.gyro_scale = np.zeros(3)  # estimated scale-factor errors (unitless), with estimate_scale_factors
         self.odometer.scale = 0.0
         self.odometer.pending, self.odometer.last_t = None, -math.inf  # a restarted clock: wheel stamps start anew
@@ -348,8 +348,6 @@ class InsGpsFilter:
         else:
             phi, self.cov = kalman.propagate_series_phi(self.cov, f_cont, g_cont, dt, order)
             self.recorder.predicted(phi, self.cov)
-        if self.noise.n_extra:
-            self._decay_bias_parts(dt)
         predicted = self.nav[strapdown.P].copy(), self.nav[strapdown.Q].copy()  # the continuous INS chain
         w_mean_b = self.mem[strapdown.M_WSUM] / max(self.mem[strapdown.M_N], 1.0)
         epoch = Epoch(t_e, self.nav, self.n_states, motion, self.gravity)
@@ -375,15 +373,6 @@ class InsGpsFilter:
                         self.accel_bias.copy(), self.status, gps_used, zupt_used, nis, stationary,
                         np.concatenate([self.gyro_scale, self.accel_scale])
                         if self.cfg.estimate_scale_factors else None, w_mean_b, *predicted)
-
-    def _decay_bias_parts(self, dt: float) -> None:
-        """The further bias components' estimates relax to zero over ``dt`` s, as the error model says the components
-        do (the error state's mean stays zero only if the estimate follows), and the biases with them."""
-        drop = self.bias_parts * (1.0 - em.component_decay(self.noise, dt))
-        self.bias_parts -= drop
-        half = len(drop) // 2
-        self.gyro_bias = self.gyro_bias - drop[:half].reshape(3, -1).sum(axis=1)
-        self.accel_bias = self.accel_bias - drop[half:].reshape(3, -1).sum(axis=1)
 
     def _update(self, model, epoch: Epoch, counters=None, used: str = "", rejected: str = "") -> bool:
         """Apply ``model``'s measurement at ``epoch`` if it has one (gated at the model's probability, else the
@@ -446,7 +435,6 @@ class InsGpsFilter:
         strapdown.rotate_attitude(self.nav, dx[em.PHI])
         self.gyro_bias = self.gyro_bias - dx[em.BG]
         self.accel_bias = self.accel_bias - dx[em.BA]
-        self.bias_parts -= dx[self.n_core:self.n_ins]
         if self.cfg.odometer_enabled:
             self.odometer.scale -= float(dx[self.n_ins])
         if self.mounting.index is not None:
