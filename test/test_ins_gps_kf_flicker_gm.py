@@ -8,6 +8,7 @@ from scipy.integrate import quad
 from ins_gps_kf import config, error_model as em, synthetic as syn
 from ins_gps_kf.filter import InsGpsFilter
 from ins_gps_kf.offline import run
+from ins_gps_kf.smoother import ForwardStore, smooth
 
 B = 1e-3  # m/s^2, the BP3010-grade accel's bias instability
 
@@ -79,7 +80,7 @@ def test_total_bias_states_are_the_sum_of_the_components():
     np.testing.assert_allclose(sub, to_total @ comp_cov @ to_total.T, rtol=1e-12)
 
 
-def test_filter_with_three_states_per_axis_navigates_with_a_positive_definite_covariance():
+def test_filter_and_smoother_with_three_states_per_axis_keep_a_positive_definite_covariance():
     rate = 32.0
     motion = syn.circle(still_s=50.0, accel_s=10.0, straight_s=10.0, turn_s=100.0, yaw_rate=0.05)
     rng = np.random.default_rng(3)
@@ -89,7 +90,11 @@ def test_filter_with_three_states_per_axis_navigates_with_a_positive_definite_co
     gnss = syn.gnss(motion, rate, 1.0, rng)
     one = run(InsGpsFilter(config.from_params({"imu_rate_hz": rate}), model), imu, gnss)
     filt = InsGpsFilter(config.from_params({"imu_rate_hz": rate, "bias_gm_states_per_axis": 3}), model)
+    filt.recorder = ForwardStore(filt.n_states)
     three = run(filt, imu, gnss)
+    smoothed = smooth(filt.recorder, three)
+    var_f, var_s = (np.array([np.diag(e.cov) for e in est]) for est in (three, smoothed))
+    assert np.all(var_s <= var_f * (1 + 1e-9) + 1e-15)  # the smoother never claims more than the forward pass
     assert filt.n_states == em.N_STATES + 12 and three[-1].cov.shape == (27, 27)
     assert np.linalg.eigvalsh(three[-1].cov).min() > 0.0
     assert len(three) == len(one)
