@@ -80,11 +80,15 @@ def test_total_bias_states_are_the_sum_of_the_components():
     np.testing.assert_allclose(sub, to_total @ comp_cov @ to_total.T, rtol=1e-12)
 
 
-def test_filter_and_smoother_with_three_states_per_axis_keep_a_positive_definite_covariance():
+@pytest.mark.parametrize("gyro_gm_s, extra", [(0.0, 12), (100.0, 6)], ids=["all_flicker", "gyro_gauss_markov"])
+def test_filter_and_smoother_with_three_states_per_axis_keep_a_positive_definite_covariance(gyro_gm_s, extra):
+    """Only flicker axes get further components (a Gauss-Markov gyro bias keeps its one state: zero-variance states
+    made the smoother's P- singular)."""
     rate = 32.0
     motion = syn.circle(still_s=50.0, accel_s=10.0, straight_s=10.0, turn_s=100.0, yaw_rate=0.05)
     rng = np.random.default_rng(3)
     model = em.default_mems_model()
+    model.gyro.bias_correlation_time[:] = gyro_gm_s
     imu = syn.add_imu_errors(syn.ideal_imu(motion, rate), rng, np.array([2e-4, -1e-4, 3e-4]),
                              np.array([0.005, -0.004, 0.003]), model.gyro.white_noise, model.accel.white_noise)
     gnss = syn.gnss(motion, rate, 1.0, rng)
@@ -95,7 +99,7 @@ def test_filter_and_smoother_with_three_states_per_axis_keep_a_positive_definite
     smoothed = smooth(filt.recorder, three)
     var_f, var_s = (np.array([np.diag(e.cov) for e in est]) for est in (three, smoothed))
     assert np.all(var_s <= var_f * (1 + 1e-9) + 1e-15)  # the smoother never claims more than the forward pass
-    assert filt.n_states == em.N_STATES + 12 and three[-1].cov.shape == (27, 27)
+    assert filt.n_states == em.N_STATES + extra and three[-1].cov.shape == (15 + extra, 15 + extra)
     assert np.linalg.eigvalsh(three[-1].cov).min() > 0.0
     assert len(three) == len(one)
     # with GNSS throughout the extra states change little: the solutions agree well within the fixes' noise

@@ -112,7 +112,7 @@ PARAMETERS = (
           "axis), s", 1.0, 1e6),
     Param("bias_gm_states_per_axis", 1, "Gauss-Markov states per flicker bias axis: 1 = one state (sigma B, "
           "flicker_correlation_time_s); n > 1: a sum fitted to the flicker's Allan deviation from 2 s to "
-          "bias_gm_band_max_s, 6 (n - 1) more states", 1, 5),
+          "bias_gm_band_max_s, n - 1 more states per flicker axis", 1, 5),
     Param("bias_gm_band_max_s", 1000.0, "with bias_gm_states_per_axis > 1: the longest averaging time the sum fits "
           "the flicker's Allan plateau to, s", 10.0, 1e6),
     Param("reorder_window_s", 0.1, "node: messages are held this long and processed in stamp order, s", 0.0, 5.0),

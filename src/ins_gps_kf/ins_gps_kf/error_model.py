@@ -77,16 +77,16 @@ class NoiseModel:
     accel_bias_drive: np.ndarray  # m/s^2/sqrt(s)
     gyro_bias_tau: np.ndarray    # s
     accel_bias_tau: np.ndarray   # s
-    # the further Gauss-Markov components of a flicker bias, (3, n - 1) each: driving density and correlation time
-    gyro_extra_drive: np.ndarray = field(default_factory=lambda: np.zeros((3, 0)))   # rad/s/sqrt(s)
-    gyro_extra_tau: np.ndarray = field(default_factory=lambda: np.ones((3, 0)))      # s
-    accel_extra_drive: np.ndarray = field(default_factory=lambda: np.zeros((3, 0)))  # m/s^2/sqrt(s)
-    accel_extra_tau: np.ndarray = field(default_factory=lambda: np.ones((3, 0)))     # s
+    # the further Gauss-Markov components of the flicker biases, one entry each: the bias axis it belongs to
+    # (0-2 gyro x y z, 3-5 accel), its driving density (the axis's unit/sqrt(s)) and correlation time (s)
+    extra_axis: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=int))
+    extra_drive: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    extra_tau: np.ndarray = field(default_factory=lambda: np.ones(0))
 
     @property
     def n_extra(self) -> int:
-        """Extra bias-component states: 6 (n - 1) with n Gauss-Markov states per axis, else 0."""
-        return 6 * self.gyro_extra_tau.shape[1]
+        """Extra bias-component states: n - 1 per flicker axis with n Gauss-Markov states per axis, else 0."""
+        return len(self.extra_axis)
 
 
 def default_mems_model() -> sm.SensorModel:
@@ -145,18 +145,19 @@ def flicker_gm_sum(bias_instability, n: int, tau_max_s: float, tau_min_s: float 
 
 def _bias_drive(triad: sm.TriadModel, flicker_tau: float, n: int = 1, band_max_s: float = 1000.0):
     """Bias-state driving densities and correlation times per axis from B, tau_B and K: the main state's (3,),
-    (3,) (the slowest component, with K) and the further components' (3, n - 1), (3, n - 1); a Gauss-Markov or
-    absent B has one state (its further components get no drive)."""
-    extra_drive, extra_tau = np.zeros((3, n - 1)), np.ones((3, n - 1))
+    (3,) (the slowest component, with K), and per axis the further components' drives and times (lists); only a
+    flicker axis has further components (a Gauss-Markov or absent B has one state)."""
+    extra_drive, extra_tau = [], []
     tau, sigma = np.empty(3), np.empty(3)
     for i in range(3):
         b, t_b = float(triad.bias_instability[i]), float(triad.bias_correlation_time[i])
-        if t_b > 0 or b <= 0:
+        if t_b > 0 or b <= 0 or n == 1:
             tau[i], sigma[i] = (t_b if t_b > 0 else flicker_tau), b
+            extra_drive.append([]), extra_tau.append([])
             continue
-        corr, sig = flicker_gm_sum(b, n, flicker_tau if n == 1 else band_max_s)
+        corr, sig = flicker_gm_sum(b, n, band_max_s)
         tau[i], sigma[i] = corr[-1], sig[-1]
-        extra_tau[i], extra_drive[i] = corr[:-1], np.sqrt(2.0 * sig[:-1] ** 2 / corr[:-1])
+        extra_tau.append(list(corr[:-1])), extra_drive.append(list(np.sqrt(2.0 * sig[:-1] ** 2 / corr[:-1])))
     drive2 = 2.0 * sigma**2 / tau + triad.rate_random_walk**2
     tau = np.where(triad.bias_instability > 0, tau, np.inf)  # no instability term: pure random walk
     return np.sqrt(drive2), tau, extra_drive, extra_tau
@@ -168,14 +169,19 @@ def noise_from_sensor_model(model: sm.SensorModel, flicker_tau_s: float = 300.0,
     time ``flicker_tau_s`` or, ``gm_per_axis`` > 1, a sum fitted to its Allan deviation from 2 s to ``band_max_s``."""
     g_drive, g_tau, g_xd, g_xt = _bias_drive(model.gyro, flicker_tau_s, gm_per_axis, band_max_s)
     a_drive, a_tau, a_xd, a_xt = _bias_drive(model.accel, flicker_tau_s, gm_per_axis, band_max_s)
+    per_axis = list(zip(g_xd + a_xd, g_xt + a_xt))
+    axis = np.array([i for i, (d, _) in enumerate(per_axis) for _ in d], dtype=int)
+    drive = np.array([v for d, _ in per_axis for v in d], dtype=float)
+    corr = np.array([v for _, t in per_axis for v in t], dtype=float)
     return NoiseModel(model.gyro.white_noise.copy(), model.accel.white_noise.copy(), g_drive, a_drive, g_tau, a_tau,
-                      g_xd, g_xt, a_xd, a_xt)
+                      axis, drive, corr)
 
 
 def with_bias_components(f_cont, g_cont, noise: NoiseModel, at: int):
-    """``F``, ``G`` with the further Gauss-Markov components of the biases (``noise.n_extra`` states) inserted at
-    state ``at`` (after the INS states, before the odometer and mounting ones), each with a noise column of its own.
-    Component k of axis i drives the total ``BG``/``BA`` state i by ``(1/T_1 - 1/T_k) c_k + q_k w_k`` (module doc)."""
+    """``F``, ``G`` with the further Gauss-Markov components of the flicker biases (``noise.n_extra`` states, in
+    ``noise.extra_axis`` order) inserted at state ``at`` (after the INS states, before the odometer and mounting
+    ones), each with a noise column of its own. Component k of bias axis i drives the total ``BG``/``BA`` state i by
+    ``(1/T_1 - 1/T_k) c_k + q_k w_k`` (module doc)."""
     k = noise.n_extra
     if k == 0:
         return f_cont, g_cont
@@ -185,37 +191,26 @@ def with_bias_components(f_cont, g_cont, noise: NoiseModel, at: int):
     keep = np.r_[0:at, at + k:n + k]
     f[np.ix_(keep, keep)] = f_cont
     g[keep, :m] = g_cont
-    per = k // 6
-    col = m
-    for block, drive, tau, main_tau in ((BG, noise.gyro_extra_drive, noise.gyro_extra_tau, noise.gyro_bias_tau),
-                                        (BA, noise.accel_extra_drive, noise.accel_extra_tau, noise.accel_bias_tau)):
-        for i in range(3):
-            total = block.start + i
-            for c in range(per):
-                s = at + (0 if block is BG else 3 * per) + i * per + c
-                f[s, s] = -1.0 / tau[i, c]
-                f[total, s] = 1.0 / main_tau[i] - 1.0 / tau[i, c]
-                g[s, col] = g[total, col] = drive[i, c]
-                col += 1
+    main_tau = np.concatenate([noise.gyro_bias_tau, noise.accel_bias_tau])
+    for j, (axis, drive, tau) in enumerate(zip(noise.extra_axis, noise.extra_drive, noise.extra_tau)):
+        s, total = at + j, BG.start + axis  # BA follows BG: axes 3-5 are BA's
+        f[s, s] = -1.0 / tau
+        f[total, s] = 1.0 / main_tau[axis] - 1.0 / tau
+        g[s, m + j] = g[total, m + j] = drive
     return f, g
 
 
 def bias_component_covariance(noise: NoiseModel, total_var: np.ndarray) -> np.ndarray:
     """Initial covariance (6 + k, 6 + k) of the total biases ``BG BA`` (their variances ``total_var`` (6,)) and
-    their k further components (``noise.n_extra``, in :func:`with_bias_components`' order): each component at its
-    stationary variance, its total by as much more, and correlated with it."""
+    their k further components (``noise.n_extra``, in ``noise.extra_axis`` order): each component at its stationary
+    variance, its total by as much more, and correlated with it."""
     k = noise.n_extra
-    per = k // 6
     cov = np.zeros((6 + k, 6 + k))
     cov[range(6), range(6)] = total_var
-    for t, (drive, tau) in enumerate(((noise.gyro_extra_drive, noise.gyro_extra_tau),
-                                      (noise.accel_extra_drive, noise.accel_extra_tau))):
-        for i in range(3):
-            for c in range(per):
-                s = 6 + t * 3 * per + i * per + c
-                var = drive[i, c] ** 2 * tau[i, c] / 2.0
-                cov[s, s] = cov[3 * t + i, s] = cov[s, 3 * t + i] = var
-                cov[3 * t + i, 3 * t + i] += var
+    for j, (axis, drive, tau) in enumerate(zip(noise.extra_axis, noise.extra_drive, noise.extra_tau)):
+        var = drive**2 * tau / 2.0
+        cov[6 + j, 6 + j] = cov[axis, 6 + j] = cov[6 + j, axis] = var
+        cov[axis, axis] += var
     return cov
 
 

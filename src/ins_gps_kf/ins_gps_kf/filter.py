@@ -41,8 +41,8 @@ EPOCH_TOL_S = 1e-6  # stamps within this of an epoch belong to it (ns stamp roun
 
 
 class InsGpsFilter:
-    """Loosely coupled INS/GPS error-state Kalman filter (15 states, 21 with scale factors, 6 (n - 1) more with n
-    Gauss-Markov states per flicker bias axis, then the odometer scale and the mounting) with alignment."""
+    """Loosely coupled INS/GPS error-state Kalman filter (15 states, 21 with scale factors, n - 1 more per flicker
+    bias axis with n Gauss-Markov states per axis, then the odometer scale and the mounting) with alignment."""
 
     def __init__(self, cfg: FilterConfig, model: sm.SensorModel | None = None):
         self.cfg = cfg
