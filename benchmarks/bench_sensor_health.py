@@ -40,10 +40,11 @@ VENV_BIN = Path(sys.executable).parent
 FAULT_CHANNELS = {"stuck_output": range(6), "non_finite": range(6), "white_noise_increase": range(6),
                   "vibration": range(6), "bias_shift_gyro": (0, 1), "bias_shift_accel": (5,), "saturation": (2,),
                   "dropout": (0,), "sample_rate_change": (0,), "bias_shift_gyro_z": (2,), "bias_shift_accel_x": (3,),
-                  "bias_shift_accel_y": (4,)}
+                  "bias_shift_accel_y": (4,), "az_scale_1pct": (5,)}
 TARGET_S = {"stuck_output": 1, "non_finite": 1, "saturation": 1, "dropout": 1, "sample_rate_change": 1,
             "white_noise_increase": 5, "vibration": 10, "bias_shift_gyro": 30, "bias_shift_accel": 30,
-            "bias_shift_gyro_z": 30, "bias_shift_accel_x": 30, "bias_shift_accel_y": 30}
+            "bias_shift_gyro_z": 30, "bias_shift_accel_x": 30, "bias_shift_accel_y": 30,
+            "az_scale_1pct": 30}
 ALL_CHANNELS = ("dropout", "sample_rate_change")
 
 
@@ -81,6 +82,12 @@ def fault_run(model, base, fault, seed, gnss=True):
         x[after, ch] = np.clip(x[after, ch], -level, level)
         onset = float(t[after][np.argmax(np.abs(x[after, ch]) >= level)])
         truth = {"effect": "saturation", "channel": ch, "onset_s": onset}
+    elif fault == "az_scale_1pct":
+        # az's scale up 1 % on a level drive: its mean moves by 0.01 g, exactly as a bias does, and the only right
+        # name there is bias_shift az (health.json says the az scale is not observable on such a record)
+        after = t >= 300.0
+        x[after, ch] *= 1.01
+        truth = {"effect": "bias_shift", "channel": ch, "onset_s": float(t[after][0])}
     else:
         t, x, truth = hd.inject(fault, t, x, 300.0, ch, rng)
     mon = HealthMonitor(model, keep_trace=False, thresholds=base.thr)

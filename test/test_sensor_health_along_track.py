@@ -50,3 +50,15 @@ def test_a_gz_bias_step_is_named_against_the_gnss_track():
     events = mon.push_gnss(*gnss) + mon.push_imu(t, x[:, 2])
     assert [(e.effect, e.channels) for e in events] == [("bias_shift", ["gz"])]
     assert 0 < events[0].t_s - 200.0 <= 30.0 and abs(events[0].estimate - 4e-3) < 1.5e-3
+
+
+def test_an_az_scale_change_on_a_level_drive_is_named_a_bias_shift_and_the_scale_said_not_observable():
+    from sensor_health.monitor import HealthConfig, HealthMonitor
+    from test_sensor_health_core import _drive as level_drive, _model, _thresholds
+    t, x = level_drive(15, 160.0)
+    x[t >= 100.0, 5] *= 1.01  # +0.098 m/s^2 on a level unit: what a bias step does
+    mon = HealthMonitor(_model(), HealthConfig(mc_windows=4000), thresholds=_thresholds())
+    events = mon.push(t, x[:, :3], x[:, 3:])
+    assert {(e.effect, tuple(e.channels)) for e in events} == {("bias_shift", ("az",))}
+    assert abs(events[0].estimate - 0.0981) < 0.01 and abs(events[0].onset_s - 100.0) <= 2.0
+    assert mon.observability()["scale_factor_change az"].startswith("not observable on this record")
