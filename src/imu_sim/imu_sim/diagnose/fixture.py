@@ -288,8 +288,8 @@ def without_tilts(case, columns: dict, resid: np.ndarray):
     if getattr(case.scenario, "source", None) != "static_segments" and _spinning_holds(case):
         return None  # a truth file's rate table: its evidence is on the spinning holds, which the still ones blend over
     setup = _setup(case, columns, resid)
-    if setup is None:
-        return None
+    if setup is None or setup[0].shape[2] < 2:
+        return None  # one hold: its tilt is its accelerometers' turn-on bias, which the held-out fit has anyway
     weights, _, tilt, eff, raw, w, prior, hold = setup
     m = weights.shape[2]
     _, theta, off = _fit_tilts(case, weights, tilt, raw, w, prior, eff)
