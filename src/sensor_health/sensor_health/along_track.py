@@ -28,7 +28,7 @@ import numpy as np
 
 from nav_core.earth import radii
 from sensor_health import thresholds as thr
-from sensor_health.events import Event
+from sensor_health.events import Event, bias_shift_event
 
 WINDOW_EPOCHS = 25
 """Fixes per window (1 Hz: 25 s). The grade comes from the altitude's slope over the window, whose noise falls as
@@ -46,7 +46,6 @@ NOISE_WINDOWS = 60
 SIGMA_FLOOR_M = 0.005
 ONSET_SPAN_EPOCHS = 60
 G = 9.80665
-Z95 = 1.959964
 NOT_OBSERVABLE = "not observable on this record"
 
 
@@ -268,10 +267,9 @@ class AlongTrackMonitor:
         self.ref, self.n_ref = None, 0  # relearned from the windows after the step: one event per step
         self.epochs = []
         self.fix = None
-        return Event(tk, float(tk - tau[-1] + tau[j]), "bias_shift",
-                     ["ax"], "WARN", step, [step - Z95 * sd, step + Z95 * sd],
-                     f"ax mean stepped by {step:.3g} m/s^2 (against the GNSS track, {abs(z):.1f} sd)",
-                     {"z": float(z), "gate": self.gate})
+        return bias_shift_event(tk, float(tk - tau[-1] + tau[j]), "ax", step, sd,
+                                f"ax mean stepped by {step:.3g} m/s^2 (against the GNSS track, {abs(z):.1f} sd)",
+                                {"z": float(z), "gate": self.gate})
 
     def observability(self) -> str:
         """Whether this record made an ax bias step observable against the GNSS track, in words."""

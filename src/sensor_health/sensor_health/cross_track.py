@@ -25,7 +25,7 @@ from scipy import stats
 
 from sensor_health import thresholds as thr
 from sensor_health.along_track import chord_en
-from sensor_health.events import Event
+from sensor_health.events import Event, bias_shift_event
 
 WINDOW_EPOCHS = 25
 WARMUP_EPOCHS = 40
@@ -39,7 +39,6 @@ SCALE_PREFERENCE = 10.0
 with a turn in the window either can mimic the other a little."""
 NOISE_WINDOWS = 60
 SIGMA_FLOOR_M = 0.005
-Z95 = 1.959964
 NOT_OBSERVABLE = "not observable on this record"
 
 
@@ -200,9 +199,9 @@ class CrossTrackMonitor:
             return None
         _, j, step, sd = best
         step *= -self.sign  # the heading drift's slope is minus the bias (in gz's sign)
-        return Event(tk, float(tm[j]), "bias_shift", ["gz"], "WARN", step, [step - Z95 * sd, step + Z95 * sd],
-                     f"gz mean stepped by {step:.3g} rad/s (against the GNSS track, {abs(z):.1f} sd)",
-                     {"z": float(z), "gate": self.gate})
+        return bias_shift_event(tk, float(tm[j]), "gz", step, sd,
+                                f"gz mean stepped by {step:.3g} rad/s (against the GNSS track, {abs(z):.1f} sd)",
+                                {"z": float(z), "gate": self.gate})
 
     def observability(self) -> str:
         """Whether this record made a gz bias step observable against the GNSS track, in words."""

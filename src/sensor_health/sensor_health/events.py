@@ -5,6 +5,8 @@ import json
 import math
 from dataclasses import asdict, dataclass, field
 
+from nav_core.noise_stats import Z95
+
 CHANNELS = ("gx", "gy", "gz", "ax", "ay", "az")
 """Sensor channels: gyro x y z (rad/s), accelerometer x y z (m/s^2)."""
 
@@ -72,3 +74,10 @@ class Event:
     def to_json(self) -> str:
         """One line of JSON (the event topic carries it)."""
         return json.dumps(self.to_dict(), sort_keys=True)
+
+
+def bias_shift_event(t_s: float, onset_s: float, channel: str, step: float, sd: float, message: str,
+                     statistic: dict) -> Event:
+    """A ``bias_shift`` WARN on one channel: the step (the channel's SI unit) and its 95 % interval from its sd."""
+    return Event(t_s, onset_s, "bias_shift", [channel], "WARN", step, [step - Z95 * sd, step + Z95 * sd], message,
+                 statistic)

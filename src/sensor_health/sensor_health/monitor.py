@@ -28,9 +28,9 @@ from sensor_health.along_track import AlongTrackMonitor
 from sensor_health.bias_filter import BiasFilter, motion_regressors
 from sensor_health.cross_track import CrossTrackMonitor
 from sensor_health.config import UNMONITORED, HealthConfig, Trace
-from sensor_health.events import CHANNELS, Event
+from sensor_health.events import CHANNELS, Z95, Event, bias_shift_event
 from sensor_health.line_track import LineTrack
-from sensor_health.vibration_check import LINE_WARMUP_S, Z95, VibrationCheck
+from sensor_health.vibration_check import LINE_WARMUP_S, VibrationCheck
 from sensor_health.sample_checks import SampleChecks
 from sensor_health.startup import StartupCheck, startup_thresholds
 from sensor_health.yaw_scale import YawScaleMonitor
@@ -330,9 +330,9 @@ class HealthMonitor(VibrationCheck):
             i = int(np.flatnonzero(chans == c)[0])
             start = self.bias_start[0 if pos[c] > neg[c] else 1, c]
             onset, step, sd = self._mean_onset(i, c, start, t1, level[c])
-            event = Event(t1, onset, "bias_shift", [CHANNELS[c]], "WARN", step, [step - Z95 * sd, step + Z95 * sd],
-                          f"{CHANNELS[c]} mean stepped by {step:.3g} ({abs(step) / sd:.1f} sd)",
-                          {"cusum": float(max(pos[c], neg[c])), "threshold": float(th.bias_h[c])})
+            event = bias_shift_event(t1, onset, CHANNELS[c], step, sd,
+                                     f"{CHANNELS[c]} mean stepped by {step:.3g} ({abs(step) / sd:.1f} sd)",
+                                     {"cusum": float(max(pos[c], neg[c])), "threshold": float(th.bias_h[c])})
             self.bias_pos[c] = self.bias_neg[c] = 0.0
             if np.isfinite(step) and t1 - start <= BIAS_FAST_WINDOWS * th.window_s:
                 # crossed in a few windows: a large step, or a pulse (the mount turned and came back); the next

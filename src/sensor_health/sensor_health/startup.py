@@ -33,7 +33,7 @@ from scipy import stats
 
 from nav_core.sensor_model import SensorModel
 from sensor_health import noise_sim
-from sensor_health.events import CHANNELS, Event
+from sensor_health.events import CHANNELS, Z95, Event
 from sensor_health.thresholds import NOISE_IGNORED_RATIO, exp_tail_threshold
 from sensor_health.window_stats import WindowGrid, detrend, window_stats
 
@@ -60,7 +60,6 @@ G_NORMAL_M_S2, G_ALLOWANCE_M_S2 = 9.806, 0.03
 STEADY_P, STEADY_MARGIN = 1e-3, 2.0
 """The start counts as unaccelerated when every channel's window means scatter less than STEADY_MARGIN x their
 simulated 1 - STEADY_P quantile (normalised by the window's noise level)."""
-Z95 = 1.959964
 _CACHE = {}
 
 

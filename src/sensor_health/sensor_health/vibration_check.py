@@ -6,10 +6,9 @@ from __future__ import annotations
 import numpy as np
 
 from nav_core import noise_stats
-from sensor_health.events import CHANNELS, Event
+from sensor_health.events import CHANNELS, Z95, Event
 from sensor_health.window_stats import detrend
 
-Z95 = 1.959964
 LINE_WARMUP_S = 30.0
 LINE_REFERENCE_S = 300.0
 LINE_CONFIRM = 3

@@ -20,7 +20,7 @@ import numpy as np
 
 from nav_core.earth import radii
 from sensor_health import thresholds as thr
-from sensor_health.events import Event
+from sensor_health.events import Z95, Event
 
 SEGMENT_S = 10.0
 STRAIGHT_EPOCH_RAD = 0.03
@@ -45,7 +45,6 @@ SIGMA_SEGMENTS = 60
 """The course noise is the MAD of the last this many segments' residuals (turns too: a scale change only raises
 it, which makes the test slower, not falsely alarmed)."""
 HISTORY_SEGMENTS = 120
-Z95 = 1.959964
 NOT_OBSERVABLE = "not observable on this record"
 
 
