@@ -26,7 +26,8 @@ import numba
 import numpy as np
 from scipy import optimize
 
-Z95 = 1.959963984540054
+from imu_calib.intervals import Z95
+
 OFF_DIAGONAL = ((0, 1), (0, 2), (1, 0), (1, 2), (2, 0), (2, 1))
 MIN_MOVES = 6
 """Nine parameters from three residuals per move: at least this many moves (about different axes)."""

@@ -32,11 +32,11 @@ import numpy as np
 from scipy import optimize
 from scipy.ndimage import uniform_filter1d
 
+from imu_calib.intervals import Z95
 from imu_calib.gyro_multi_position import GyroCalibration, fit_gyro, moves_between
 from nav_core.earth import RATE, normal_gravity
 from nav_core.recording import ImuRecording, check_timestamps
 
-Z95 = 1.959963984540054
 MISALIGNMENT_INDEX = ((0, 1), (0, 2), (1, 2))
 
 

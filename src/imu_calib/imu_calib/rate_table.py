@@ -15,12 +15,12 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from imu_calib.intervals import Z95
 from imu_calib.model_io import set_interval
 from nav_core.earth import earth_rate_n
 
 DIRECTIONS = {"up": (0, 0, 1), "down": (0, 0, -1), "north": (0, 1, 0), "south": (0, -1, 0),
               "east": (1, 0, 0), "west": (-1, 0, 0)}
-Z95 = 1.959963984540054
 
 
 @dataclass

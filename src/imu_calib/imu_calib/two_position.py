@@ -15,12 +15,12 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from imu_calib.intervals import Z95
 from imu_calib.model_io import set_interval
 from nav_core.earth import normal_gravity
 from nav_core.recording import ImuRecording
 
 AXES = {"x": 0, "y": 1, "z": 2}
-Z95 = 1.959963984540054
 
 
 @dataclass
