@@ -198,7 +198,7 @@ def main(argv=None) -> int:
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     p.add_argument("--healthy-hours", type=int, default=20)
     p.add_argument("--seeds", type=int, default=20)
-    p.add_argument("--quick", action="store_true", help="2 h healthy, 4 seeds per fault")
+    p.add_argument("--quick", action="store_true", help="1 h healthy, 2 seeds per fault, 1 scale drive")
     p.add_argument("--scale-seeds", type=int, default=10, help="gz scale-step drives (2400 s each)")
     p.add_argument("--scale-hours", type=int, default=20, help="healthy 1-h drives with GNSS for the scale test")
     p.add_argument("--only-scale", action="store_true", help="the scale-factor section alone")
@@ -210,7 +210,7 @@ def main(argv=None) -> int:
                    help="IMU alone (no 1-Hz GNSS fixes) in the fault and healthy runs")
     args = p.parse_args(argv)
     if args.quick:
-        args.healthy_hours, args.seeds, args.scale_seeds, args.scale_hours = 2, 4, 2, 2
+        args.healthy_hours, args.seeds, args.scale_seeds, args.scale_hours = 1, 2, 1, 1
     start = time.time()
     if args.floor:
         floor_section()
