@@ -24,7 +24,7 @@ import numpy as np
 from scipy import stats
 
 from sensor_health import thresholds as thr
-from sensor_health.along_track import chord_en
+from sensor_health.along_track import chord_en, robust_sd
 from sensor_health.events import Event, bias_shift_event
 
 WINDOW_EPOCHS = 25
@@ -123,22 +123,11 @@ class CrossTrackMonitor:
 
     def _window(self, tk) -> list:
         """GLS of the summed lateral drift on [1, distance, distance-weighted time, distance-weighted turn]."""
-        tm, length, course, psi = np.array(self.chords).T
-        tau = tm - tm[0]
-        turn = self.sign * (psi - psi[0])
-        ref = 0.0 if self.ref is None else self.ref
-        heading = course[0] + turn + ref * tau  # the gyro's heading less the learned bias' drift (ref: y's slope)
-        lateral = length * np.sin(np.angle(np.exp(1j * (course - heading))))
-        y = np.cumsum(lateral)
+        _, tau, length, course, y = self._drift(0.0 if self.ref is None else self.ref)
         x = np.column_stack([np.ones(len(y)), np.cumsum(length), np.cumsum(length * tau),
                              np.cumsum(length * self._course_turn(course))])
-        # the gyro's white noise: its heading error is a random walk W; the drift sums length_j W(tau_j)
-        lw = np.tril(np.ones((len(y), len(y)))) * length
-        cov_arw = self.arw**2 * lw @ np.minimum.outer(tau, tau) @ lw.T
         self.windows += 1
-        sig = max(1.4826 * float(np.median(self.mad)) if self.mad else SIGMA_FLOOR_M, SIGMA_FLOOR_M)
-        cov = cov_arw + sig**2 * np.eye(len(y))
-        ci = np.linalg.inv(cov)
+        ci = self._inverse_covariance(length, tau)
         info = np.linalg.inv(x.T @ ci @ x)
         coef = info @ (x.T @ ci @ y)
         resid = y - x @ coef
@@ -158,6 +147,22 @@ class CrossTrackMonitor:
         self.ref += db / min(self.n_ref, REFERENCE_EPOCHS)
         return []
 
+    def _drift(self, ref):
+        """The window's chord times (s) and times from its start (s), lengths (m), courses (rad) and summed lateral
+        drift (m) against the gyro's heading less the learned bias' drift ``ref`` (rad/s: y's slope)."""
+        tm, length, course, psi = np.array(self.chords).T
+        tau = tm - tm[0]
+        heading = course[0] + self.sign * (psi - psi[0]) + ref * tau
+        y = np.cumsum(length * np.sin(np.angle(np.exp(1j * (course - heading)))))
+        return tm, tau, length, course, y
+
+    def _inverse_covariance(self, length, tau):
+        """Inverse covariance (1/m^2) of the summed drift: the gyro's white noise makes its heading error a random
+        walk W, and the drift sums length_j W(tau_j); plus the fixes' noise from the recent residuals."""
+        lw = np.tril(np.ones((len(tau), len(tau)))) * length
+        sig = max(robust_sd(self.mad, 1.0) if self.mad else SIGMA_FLOOR_M, SIGMA_FLOOR_M)
+        return np.linalg.inv(self.arw**2 * lw @ np.minimum.outer(tau, tau) @ lw.T + sig**2 * np.eye(len(tau)))
+
     @staticmethod
     def _course_turn(course):
         """The GNSS course's turn from the window's start (unwrapped), rad: the scale error's regressor (the gyro's
@@ -169,14 +174,8 @@ class CrossTrackMonitor:
         when a step of the gyro's scale (the heading error growing with the course's turn from some chord on) fits
         the window better: a scale change in a turn looks like a bias step to the test, and is the scale-factor
         test's to name (the test restarts either way)."""
-        tm, length, course, psi = np.array(self.chords).T
-        tau = tm - tm[0]
-        turn = self.sign * (psi - psi[0])
-        heading = course[0] + turn + self.ref * tau
-        y = np.cumsum(length * np.sin(np.angle(np.exp(1j * (course - heading)))))
-        lw = np.tril(np.ones((len(y), len(y)))) * length
-        sig = max(1.4826 * float(np.median(self.mad)), SIGMA_FLOOR_M)
-        ci = np.linalg.inv(self.arw**2 * lw @ np.minimum.outer(tau, tau) @ lw.T + sig**2 * np.eye(len(y)))
+        tm, tau, length, course, y = self._drift(self.ref)
+        ci = self._inverse_covariance(length, tau)
         turned = self._course_turn(course)
         best, best_scale = None, np.inf
         for j in range(2, len(y) - 2):
