@@ -31,7 +31,7 @@ def fit_metric(case: Case, cand: Candidate, model_before: SensorModel, model_aft
         what = f"{cand.block_s:.3g}-s block means" if cand.kind == "regression" else "samples"
         keep = None
         if reference.moving_file_truth(case):
-            resid, cols = _whitened(case, model_before, resid, cols)
+            resid, cols = reference.whitened(case, model_before, resid, cols)
             what += " of the residual whitened by the model's noise plus the reference's error"
         elif cand.kind == "regression" and (held := fixture.without_tilts(case, cols, resid)) is not None:
             resid, keep = held
@@ -39,7 +39,7 @@ def fit_metric(case: Case, cand: Candidate, model_before: SensorModel, model_aft
         elif cand.kind == "regression" and _coloured(case, model_before):
             # weighted as the test was: a flicker bias instability's wander of the held-out half otherwise moved
             # the block means more than a fitted 30-min temperature wave (1.0321 -> 1.0327 at LR 87, not kept)
-            resid, cols = _whitened(case, model_before, resid, cols)
+            resid, cols = reference.whitened(case, model_before, resid, cols)
             what += " of the residual whitened by the model's noise"
         b, a = metrics.heldout_rms(resid, cols, case.dt, cand.block_s, keep,
                                    fixed=[1.0] if cand.constant_scale is not None else None)
@@ -65,20 +65,6 @@ def _coloured(case, model) -> bool:
     residual weight its low frequencies unlike the test did."""
     psd = noise_psd(model, np.fft.rfftfreq(case.n, case.dt), case.dt)[:, 1:]
     return bool(np.any(psd.max(axis=1) > 1.01 * psd.min(axis=1)))
-
-
-def _whitened(case, model, resid, cols):
-    """Residual (n, 6) and columns whitened by the model's noise PSD plus a moving truth file's reference error
-    (:func:`reference.with_reference_error`), so the held-out fit weights each frequency as the test did."""
-    freqs = np.fft.rfftfreq(case.n, case.dt)
-    psd = reference.with_reference_error(case, resid, noise_psd(model, freqs, case.dt))
-    gain = 1.0 / np.sqrt(psd / psd[:, -1:])  # (6, nf); unit at the top frequency
-    gain[:, 0] = 0.0
-
-    def whiten(x, c):
-        return np.fft.irfft(np.fft.rfft(x, axis=0) * (gain[c][:, None] if x.ndim == 2 else gain[c]), n=case.n, axis=0)
-    out = np.column_stack([whiten(resid[:, c], c) for c in range(6)])
-    return out, {c: whiten(x, c) for c, x in cols.items()}
 
 
 def _filter_metric(case, cand, model_before, resid):

@@ -219,3 +219,60 @@ def attitude_note(ctx, cand) -> str:
     return (f"not separable from the reference on this record: one constant rotation of the truth file's attitude "
             f"({d:.2g} deg at most) explains it, its likelihood ratio given that rotation {given:.4g} is below the "
             f"threshold {cand.threshold:.4g} (a truth's attitude error and the IMU's mounting are a rotation); not ranked")
+
+
+TABLE_EDGE_S = 0.1
+"""A rate table's stated dwell is trusted from this long (s) after its t0 to this long before its t1: a dwell typed
+to 0.01 s may hold the last milliseconds of a ramp (at 150 deg/s^2, 5 ms is 0.75 deg/s in one sample)."""
+FILL_SEED = 24
+"""Seed of the white noise that stands for the residual where the reference is unknown (fixed: every model's
+residual gets the same fill, so fits and drop-one energies compare like with like)."""
+
+
+def unstated_moves(scenario, t_abs: np.ndarray, dt: float) -> np.ndarray | None:
+    """Mask (n,) of the samples a rate table's scenario does not state: outside its dwells (static segments, one at
+    least spinning, ``rate_dps``), less :data:`TABLE_EDGE_S` at each edge; None when there are none or the record is
+    not a rate table. The ramps between two rates are the table controller's (their acceleration and shape differ
+    from ramp to ramp); the simulator's own smooth move there is a guess, and its error (tens of deg/s for a second)
+    would be fitted as a scale factor or misalignment. Such samples are a reference error: they carry no information."""
+    if getattr(scenario, "source", None) != "static_segments":
+        return None
+    segs = list(scenario.spec or [])
+    if not any(float(s.get("rate_dps", 0.0) or 0.0) != 0.0 for s in segs):
+        return None
+    stated = np.zeros(len(t_abs), bool)
+    for seg in segs:
+        stated |= (t_abs - dt >= float(seg["t0"]) + TABLE_EDGE_S) & (t_abs <= float(seg["t1"]) - TABLE_EDGE_S)
+    out = ~stated
+    return out if out.any() and stated.any() else None
+
+
+def fill_unstated(resid: np.ndarray, unstated: np.ndarray) -> np.ndarray:
+    """The residual (n, 6) with its unstated samples replaced by what carries no information there: each channel's
+    mean over the stated samples (the turn-on bias, so no square wave of it reaches the line and noise tests) plus
+    white noise at the stated samples' level (robust sd of first differences / sqrt 2, so the GLS noise scale, a
+    median over the whole record, is not shrunk by the gap). Regressors are 0 there (the truth is set to 0)."""
+    out = resid.copy()
+    kept = resid[~unstated]
+    level = np.median(kept, axis=0)
+    diffs = np.diff(kept, axis=0)
+    sd = 1.4826 * np.median(np.abs(diffs - np.median(diffs, axis=0)), axis=0) / np.sqrt(2.0)
+    noise = np.random.default_rng(FILL_SEED).standard_normal((int(unstated.sum()), resid.shape[1]))
+    out[unstated] = level + noise * sd
+    return out
+
+
+def whitened(case, model, resid: np.ndarray, cols: dict):
+    """Residual (n, 6) and columns {channel: (n,) or (n, k)} whitened by the model's noise PSD plus a moving truth
+    file's reference error (:func:`with_reference_error`; unit gain at the top frequency, DC dropped), so a held-out
+    fit or a drop-one energy weights each frequency as the GLS tests do."""
+    from imu_sim.diagnose.spectral import noise_psd
+    freqs = np.fft.rfftfreq(case.n, case.dt)
+    psd = with_reference_error(case, resid, noise_psd(model, freqs, case.dt))
+    gain = 1.0 / np.sqrt(psd / psd[:, -1:])
+    gain[:, 0] = 0.0
+
+    def whiten(x, c):
+        return np.fft.irfft(np.fft.rfft(x, axis=0) * (gain[c][:, None] if x.ndim == 2 else gain[c]), n=case.n, axis=0)
+    out = np.column_stack([whiten(resid[:, c], c) for c in range(6)])
+    return out, {c: whiten(x, c) for c, x in cols.items()}

@@ -82,8 +82,7 @@ def _imu_drop(case, full: np.ndarray, dropped: np.ndarray, model=None) -> float:
     from imu_sim.diagnose import reference
     full, dropped = (reference.clean(case, r) for r in (full, dropped))
     if model is not None and getattr(case, "scenario", None) is not None and reference.moving_file_truth(case):
-        from imu_sim.diagnose.heldout import _whitened
-        full, cols = _whitened(case, model, full, {c: dropped[:, c] for c in range(6)})
+        full, cols = reference.whitened(case, model, full, {c: dropped[:, c] for c in range(6)})
         dropped = np.column_stack([cols[c] for c in range(6)])
     full, dropped = full - full.mean(axis=0), dropped - dropped.mean(axis=0)
     sigma2 = np.array([max(metrics.robust_var(full[:, c]), 1e-300) for c in range(6)])
