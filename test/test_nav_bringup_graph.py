@@ -2,8 +2,10 @@
 
 scenario_player (emulator -> pty, GPS, /clock) -> bp3010_driver -> wmra_node -> ins_gps_kf_node,
 with allan_node and bag_record, as nav-demo starts them (the one graph description), on the paper
-drive: its first 100 s at 2x real time, and its first 6 minutes at 8x (what the README claims: the
-filter's horizontal error below the raw GPS's, and the same at 8x).
+drive's first 6 minutes at 8x (what the README claims: the filter's horizontal error below the raw
+GPS's). A slower rate adds no check of its own: test_nav_bringup_busy_cpu runs this graph at 3x (live
+odometry = offline replay, no stamp back, nothing dropped), and at 8x an intake chunk holds the most
+samples (about five), the harder case for the twist and the live = offline equality below.
 """
 from pathlib import Path
 
@@ -21,7 +23,7 @@ from nav_core.ros_node import stamp_to_s
 
 pytestmark = [pytest.mark.ros, pytest.mark.slow]
 MODEL = REPO / "config" / "sensor_models" / "bp3010.yaml"
-RUNS = {2.0: 100.0, 8.0: 360.0}  # replay rate -> simulated seconds played
+RUNS = {8.0: 360.0}  # replay rate -> simulated seconds played
 SETTLED_S = 120.0
 """From here on the heading taken from the course (at ~50 s, after the 45-s stationary alignment) has settled:
 before, its few-degree error puts up to 0.9 m/s of the 9.5 m/s into the body's y axis."""
@@ -76,7 +78,7 @@ def test_graph_runs_the_paper_drive_and_every_node_exits_cleanly(sim_dir, tmp_pa
     assert odom[-1].pose.covariance[0] > 0 and odom[-1].twist.covariance[0] > 0
 
     # Position error against the simulator's truth: below the raw GPS's once the heading has settled, as the
-    # README claims for the whole drive (0.56 m against 0.72 m); on the 100-s run only a sanity bound.
+    # README claims for the whole drive (0.56 m against 0.72 m).
     truth = TruthTrack.from_sim_dir(sim_dir)
     pos = np.array([[m.pose.pose.position.x, m.pose.pose.position.y, m.pose.pose.position.z] for m in odom])
     settled = stamps >= truth.epoch_s + SETTLED_S
@@ -88,18 +90,16 @@ def test_graph_runs_the_paper_drive_and_every_node_exits_cleanly(sim_dir, tmp_pa
     rms, gps_rms = np.sqrt(np.mean(horizontal[settled] ** 2)), np.sqrt(np.mean(gps_err**2))
     print(f"rate {rate}: horizontal RMS {rms:.3f} m after {SETTLED_S:.0f} s over {settled.sum()} epochs, "
           f"raw GPS {gps_rms:.3f} m; all epochs {np.sqrt(np.mean(horizontal**2)):.3f} m")
-    if seconds > SETTLED_S + 60.0:
-        assert rms < gps_rms, f"horizontal RMS {rms:.2f} m, raw GPS {gps_rms:.2f} m"
+    assert rms < gps_rms, f"horizontal RMS {rms:.2f} m, raw GPS {gps_rms:.2f} m"
     assert np.sqrt(np.mean(horizontal**2)) < 1.5
 
     # twist.linear against the truth's body velocity: rotated with the estimate's own attitude, however many
     # samples an intake chunk held (8x: about five per chunk)
     vel_b = np.array([[m.twist.twist.linear.x, m.twist.twist.linear.y, m.twist.twist.linear.z] for m in odom])
     vel_err = vel_b - _truth_velocity_b(truth, stamps)
-    if settled.any():
-        vel_rms = np.sqrt(np.mean(vel_err[settled] ** 2, axis=0))
-        print(f"rate {rate}: twist.linear RMS error forward/left/up {np.round(vel_rms, 3)} m/s")
-        assert np.all(vel_rms < 0.3), vel_rms  # measured 0.17 / 0.24 / 0.05 at 8x: the heading's error at 9.5 m/s
+    vel_rms = np.sqrt(np.mean(vel_err[settled] ** 2, axis=0))
+    print(f"rate {rate}: twist.linear RMS error forward/left/up {np.round(vel_rms, 3)} m/s")
+    assert np.all(vel_rms < 0.3), vel_rms  # measured 0.17 / 0.24 / 0.05 at 8x: the heading's error at 9.5 m/s
 
     # Diagnostics clean: no corrupt frames, no rejected fixes, the Allan node characterised the head.
     by_node = diag_values(probe)
