@@ -11,7 +11,8 @@ Sample-level checks (:mod:`sensor_health.sample_checks`) run on every sample. Wi
   :mod:`sensor_health.vibration_check`);
 * a two-sided CUSUM per channel on the standardised innovation of a Kalman filter of the window mean (bias plus
   the vehicle's motion: :mod:`sensor_health.bias_filter`), through turns (``bias_shift``, gx gy az);
-* a count of samples at the extreme of the last 10 windows (``saturation`` below the configured range).
+* a count of samples at the extreme of the last 10 windows, every 8 samples (``saturation`` below the configured
+  range; :mod:`sensor_health.clip_check`).
 
 Thresholds come from :func:`sensor_health.thresholds.monte_carlo`. A channel touched by a deterministic fault
 in a window is left out of the statistics of that window (its CUSUMs restart).
@@ -26,6 +27,7 @@ from nav_core.sensor_model import SensorModel
 from sensor_health import thresholds as thr
 from sensor_health.along_track import AlongTrackMonitor
 from sensor_health.bias_filter import BiasFilter, motion_regressors
+from sensor_health.clip_check import ClipCheck
 from sensor_health.cross_track import CrossTrackMonitor
 from sensor_health.config import UNMONITORED, HealthConfig, Trace
 from sensor_health.events import CHANNELS, Z95, Event, bias_shift_event
@@ -34,9 +36,8 @@ from sensor_health.vibration_check import LINE_WARMUP_S, VibrationCheck
 from sensor_health.sample_checks import SampleChecks
 from sensor_health.startup import StartupCheck, startup_thresholds
 from sensor_health.yaw_scale import YawScaleMonitor
-from sensor_health.window_stats import CLIP_SPAN_WINDOWS, WindowGrid, span_ties, window_stats
+from sensor_health.window_stats import WindowGrid, window_stats
 
-CLIP_ONSET_LOOK_S = 60.0
 NOISE_CONFIRM = 2
 """Consecutive windows the noise CUSUM must stay over its threshold: a noise increase lasts; a one-window burst on
 several channels (a knock on the mount) is not one."""
@@ -74,10 +75,7 @@ class HealthMonitor(VibrationCheck):
         self.noise_quiet = np.zeros(6, int)
         self.noise_over = np.zeros(6, int)
         self.noise_warm, self.noise_ref = [], np.zeros(6)
-        self.clip_last = np.full(6, -np.inf)
-        self.clip_lattice_done = False
-        self.clip_buf = np.full((CLIP_SPAN_WINDOWS - 1, self.grid.n, 6), np.nan)
-        """The windows before the next one (NaN before the first: ignored by the clip statistic)."""
+        self.clip = ClipCheck(self)
         self.line_ref, self.line_n, self.line_now = None, 0, np.zeros(6)
         self.line_run, self.line_prev_bin = np.zeros(6, int), np.full(6, -10)
         self.line_track = LineTrack(int(self.grid.line_bins.sum()))
@@ -120,6 +118,7 @@ class HealthMonitor(VibrationCheck):
         events += self.yaw_scale.push_imu(t, x[:, 2])
         events += self.along_track.push_imu(t, x[:, 3], x[:, 2], x[:, 4]) + self.cross_track.push_imu(t, x[:, 2])
         self._remember(t, x)
+        events += self.clip.push(t, x, flags)
         self._pending_t = np.concatenate([self._pending_t, t])
         self._pending_x = np.vstack([self._pending_x, x])
         self._pending_f = np.vstack([self._pending_f, flags])
@@ -172,9 +171,6 @@ class HealthMonitor(VibrationCheck):
 
     def _windows(self, tw, xw, faulty) -> list:
         ws = window_stats(self.grid, xw)
-        span = np.concatenate([self.clip_buf, xw])
-        st = span_ties(span)
-        self.clip_buf = span[-(CLIP_SPAN_WINDOWS - 1):]
         phi = motion_regressors(np.where(np.isfinite(xw), xw, 0.0))
         use = ws.finite & ~faulty
         th = self.thr
@@ -187,7 +183,6 @@ class HealthMonitor(VibrationCheck):
             events += self._noise(w, t0, t1, y[w], ws, use[w])
             events += self._line(w, t1, ws, use[w], xw[w])
             events += self._bias(t0, t1, ws.mean[w], ws.level[w], use[w], phi[w])
-            events += self._clip(tw[w], st[w], span[w:w + CLIP_SPAN_WINDOWS], use[w])
             if self.trace is not None:
                 self.trace.t.append(t1)
                 self.trace.level.append(ws.level[w].copy())
@@ -260,45 +255,6 @@ class HealthMonitor(VibrationCheck):
         v2 = (cs[-1] - cs[k - 1]) / (len(d2) - k)
         nll = k * np.log(np.maximum(v1, 1e-300)) + (len(d2) - k) * np.log(np.maximum(v2, 1e-300))
         return float(ts[k[np.argmin(nll)]])
-
-    def _clip(self, tw, ties, span, use) -> list:
-        """Flat tops: more samples of the last CLIP_SPAN_WINDOWS windows exactly at their extreme, reached in this
-        window (``span`` (k, n, 6) ends with it), than the model's noise ever gives."""
-        th, t1 = self.thr, float(tw[-1])
-        self._clip_lattice(t1)
-        hit = use & (ties >= th.clip_span_ties)
-        fired = np.flatnonzero(hit & (t1 - self.clip_last > self.config.clear_s))
-        self.clip_last = np.where(hit, t1, self.clip_last)
-        events = []
-        flat = span.reshape(-1, 6)
-        for c in fired:
-            v = flat[np.isfinite(flat[:, c]), c]
-            hi = np.count_nonzero(v == v.max()) >= np.count_nonzero(v == v.min())
-            value = float(v.max() if hi else v.min())
-            # the clip began at its first flat top, often a window or more before enough of them gathered
-            recent = (self._hist_t > t1 - CLIP_ONSET_LOOK_S) & (self._hist_t <= t1)
-            hits = self._hist_t[recent][self._hist_x[recent, c] == value]
-            onset = float(hits[0]) if len(hits) else float(tw[0])
-            events.append(Event(t1, onset, "saturation", [CHANNELS[c]], "ERROR", value, [value, value],
-                                f"{CHANNELS[c]} clips at {value:.6g} ({int(ties[c])} samples of the last "
-                                f"{len(span) * th.window_s:.3g} s at it)",
-                                {"ties": int(ties[c]), "threshold": int(th.clip_span_ties[c])}))
-        return events
-
-    def _clip_lattice(self, t1) -> None:
-        """Once, after LINE_WARMUP_S: the clip threshold again on the lattice the output shows, if finer than the
-        model's (the model's quantization is often only an upper bound, and a coarse lattice ties often)."""
-        if self.clip_lattice_done or t1 - self.checked_s[0] < LINE_WARMUP_S:
-            return
-        self.clip_lattice_done = True
-        model = thr.model_lattice(self.model, self.dt)
-        seen = thr.observed_lattice(self._hist_x[self._hist_t <= t1], 1e-4 * self.thr.sample_sigma)
-        lattice = np.where(seen > 0, np.minimum(seen, model), model)
-        if np.array_equal(lattice, model):
-            return
-        p_window = self.thr.budget_per_10h / thr.N_TESTS * self.thr.window_s / thr.SECONDS_PER_10H
-        ties = thr.clip_threshold(self.thr.sample_sigma, lattice, self.grid.n, p_window, seed=self.config.seed)
-        self.thr = replace(self.thr, clip_span_ties=ties)
 
     def _bias(self, t0, t1, mean, level, use, phi) -> list:
         """One window through the bias filter (the motion's part of gx, gy, az taken out) and its CUSUMs.

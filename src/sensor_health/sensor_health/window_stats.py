@@ -20,6 +20,7 @@ import warnings
 from dataclasses import dataclass
 
 import numpy as np
+from scipy.ndimage import maximum_filter1d
 
 from nav_core import noise_stats
 from nav_core.sensor_model import SensorModel
@@ -121,23 +122,30 @@ def window_stats(grid: WindowGrid, x: np.ndarray) -> WindowStats:
 def span_ties(x: np.ndarray, span: int = CLIP_SPAN_WINDOWS) -> np.ndarray:
     """(nw - span + 1, 6) for contiguous windows x (nw, n, 6) (non-finite samples are ignored): for each window from
     the span-th on, the samples of it and the span - 1 before exactly at the span's largest (smallest) value when
-    this window reaches it, the larger of the two counts; 0 on a constant span."""
-    xs = np.where(np.isfinite(x), x, np.nan)
+    this window reaches it, the larger of the two counts; 0 on a constant span.
+
+    The span's extreme is the extreme of its windows' extremes, so only the windows holding it add their counts at
+    it: per-window extremes and their tie counts carry everything (windows of 8 samples, every 8 samples, cost no
+    more than windows of 64)."""
     nw = x.shape[0] - span + 1
     if nw <= 0:
         return np.zeros((0, 6), int)
+    xs = np.where(np.isfinite(x), x, np.nan)
     out = np.zeros((nw, 6), int)
     with np.errstate(all="ignore"), warnings.catch_warnings():
-        warnings.simplefilter("ignore", RuntimeWarning)  # all-NaN spans (before the first window) stay NaN
+        warnings.simplefilter("ignore", RuntimeWarning)  # all-NaN windows (before the first) stay NaN
         wmax, wmin = np.nanmax(xs, axis=1), np.nanmin(xs, axis=1)
-        for sign, ext in ((1, wmax), (-1, wmin)):
-            view = np.lib.stride_tricks.sliding_window_view(ext * sign, span, axis=0)  # (nw, 6, span)
-            top = np.nanmax(view, axis=-1) * sign  # the span's extreme
-            holds = ext[span - 1:] == top
-            count = np.zeros((nw, 6), int)
-            for j in range(span):
-                count += (xs[j:j + nw] == top[:, None, :]).sum(axis=1)
-            out = np.maximum(out, np.where(holds, count, 0))
-        flat = np.nanmax(np.lib.stride_tricks.sliding_window_view(wmax, span, axis=0), axis=-1) == \
-            np.nanmin(np.lib.stride_tricks.sliding_window_view(wmin, span, axis=0), axis=-1)
-    return np.where(flat, 0, out)
+    tops = []
+    for sign, ext in ((1, wmax), (-1, wmin)):
+        # the span's extreme: a trailing running maximum (NaN windows never hold it)
+        top = maximum_filter1d(np.nan_to_num(ext * sign, nan=-np.inf), span, axis=0,
+                               origin=(span - 1) // 2)[span - 1:] * sign
+        tops.append(top)
+        w, c = np.nonzero(ext[span - 1:] == top)  # this window reaches it
+        if len(w) == 0:
+            continue
+        rows = w[:, None] + np.arange(span)
+        count = (xs == ext[:, None, :]).sum(axis=1)
+        total = ((ext[rows, c[:, None]] == top[w, c][:, None]) * count[rows, c[:, None]]).sum(axis=1)
+        out[w, c] = np.maximum(out[w, c], total)
+    return np.where(tops[0] == tops[1], 0, out)
