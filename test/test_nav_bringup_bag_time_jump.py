@@ -13,7 +13,7 @@ from nav_core.ros_node import stamp_to_s
 
 pytestmark = [pytest.mark.ros, pytest.mark.slow]
 MODEL = REPO / "config" / "sensor_models" / "bp3010.yaml"
-SIM_S, RATE = 130.0, 4.0
+SIM_S, RATE = 130.0, 8.0
 SECOND_PASS_S = 120.0
 """Sensor seconds of the second pass to wait for: alignment (45 s) plus over a minute of driving."""
 
