@@ -124,8 +124,15 @@ def workspace(tmp_path):
 
 
 def _run_tool(command: str, ws: Path, env: dict) -> None:
+    """Runs a tool to exit 0; a two-host drive with a link cut is also checked as test_nav_bringup_two_hosts does."""
+    from test_nav_bringup_two_hosts import check_two_hosts_run, two_hosts_cut
+
     done = subprocess.run(["bash", "-c", command], cwd=ws, env=env, capture_output=True, text=True, timeout=900)
     assert done.returncode == 0, f"{command}\nexit {done.returncode}\n{done.stdout[-2000:]}\n{done.stderr[-3000:]}"
+    cut = two_hosts_cut(command)
+    if cut:
+        at_s, for_s, out = cut
+        check_two_hosts_run(done.stdout, ws / out, at_s, for_s)
 
 
 def _run_node(command: str, ws: Path, env: dict) -> None:
