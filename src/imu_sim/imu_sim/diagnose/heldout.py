@@ -41,6 +41,8 @@ def fit_metric(case: Case, cand: Candidate, model_before: SensorModel, model_aft
             # the block means more than a fitted 30-min temperature wave (1.0321 -> 1.0327 at LR 87, not kept)
             resid, cols = reference.whitened(case, model_before, resid, cols)
             what += " of the residual whitened by the model's noise"
+        if keep is None and getattr(case, "unstated", None) is not None:
+            keep = ~case.unstated  # a move between holds has no reference: scored on the stated samples only
         b, a = metrics.heldout_rms(resid, cols, case.dt, cand.block_s, keep,
                                    fixed=[1.0] if cand.constant_scale is not None else None)
         return f"RMS of held-out {what} over their scatter (odd tenths of the run, fit on even tenths)", b, a

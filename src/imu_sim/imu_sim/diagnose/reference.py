@@ -230,19 +230,25 @@ residual gets the same fill, so fits and drop-one energies compare like with lik
 
 
 def unstated_moves(scenario, t_abs: np.ndarray, dt: float) -> np.ndarray | None:
-    """Mask (n,) of the samples a rate table's scenario does not state: outside its dwells (static segments, one at
-    least spinning, ``rate_dps``), less :data:`TABLE_EDGE_S` at each edge; None when there are none or the record is
-    not a rate table. The ramps between two rates are the table controller's (their acceleration and shape differ
-    from ramp to ramp); the simulator's own smooth move there is a guess, and its error (tens of deg/s for a second)
-    would be fitted as a scale factor or misalignment. Such samples are a reference error: they carry no information."""
+    """Mask (n,) of the samples a static-segment scenario does not state: outside its holds (a fixture's moves between
+    poses) or its dwells (a rate table's ramps, less :data:`TABLE_EDGE_S` at each edge of a dwell); None when there
+    are none or the record is not of static segments. The ramps between two rates are the table controller's (their
+    acceleration and shape differ from ramp to ramp), a fixture's moves the operator's (a six-position test turned by
+    hand: its profile, duration and wobble); the simulator's own smooth move there is a guess, and its error (tens of
+    deg/s for a second) would be fitted as a scale factor, misalignment or warm-up. Such samples are a reference
+    error: they carry no information."""
     if getattr(scenario, "source", None) != "static_segments":
         return None
     segs = list(scenario.spec or [])
-    if not any(float(s.get("rate_dps", 0.0) or 0.0) != 0.0 for s in segs):
-        return None
+    # a fixture's moves (a six-position or up/down test turned by hand) are as unknown as a table's ramps: their
+    # profile, duration and wobble are the operator's; at the holds' edges the hand's move starts from rest
+    table = any(float(s.get("rate_dps", 0.0) or 0.0) != 0.0 for s in segs)
+    edge = TABLE_EDGE_S if table else 0.0
     stated = np.zeros(len(t_abs), bool)
     for seg in segs:
-        stated |= (t_abs - dt >= float(seg["t0"]) + TABLE_EDGE_S) & (t_abs <= float(seg["t1"]) - TABLE_EDGE_S)
+        stated |= (t_abs - dt >= float(seg["t0"]) + edge) & (t_abs <= float(seg["t1"]) - edge)
+    if not table:  # a fixture's first hold from the record's start, its last to the end
+        stated |= (t_abs <= float(min(s["t0"] for s in segs)) + dt) | (t_abs > float(max(s["t1"] for s in segs)))
     out = ~stated
     return out if out.any() and stated.any() else None
 

@@ -36,6 +36,16 @@ class Whitener(noise_stats.Whitener):
         """Weights from ``model``'s PSD; scales from the median whitened periodogram of ``resid`` (n, 6)."""
         return super().from_model(effective_model(model), resid, dt)
 
+    unstated = None
+    """(n,) mask of samples with no reference (a static-segment record's moves, :func:`reference.unstated_moves`):
+    every regressor is 0 there, so the residual's fill carries no information into any fit."""
+
+    def spectrum(self, x: np.ndarray) -> np.ndarray:
+        """rfft along time of x (n,) or (n, k), zero where the record has no reference."""
+        if self.unstated is not None and len(x) == len(self.unstated):
+            x = np.where(self.unstated[:, None] if x.ndim == 2 else self.unstated, 0.0, x)
+        return super().spectrum(x)
+
 
 @dataclass
 class GlsResult:
