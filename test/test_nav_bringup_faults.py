@@ -1,6 +1,6 @@
 """Faults during a live run of the whole graph: each is reported in diagnostics, no node exits, the filter recovers.
 
-On 300 s of the paper drive at 4x: a garbage burst on the serial line every 20 s, the port
+On 300 s of the paper drive at 8x: a garbage burst on the serial line every 20 s, the port
 unplugged for 5 s at 120 s (driving), a 60 s GPS outage from 150 s, a fix 500 m off at 230 s
 and a NaN fix at 240 s (simulated seconds: the player's faults follow its /clock, so the rate only
 shortens the wall time; test_nav_bringup_graph runs the same nodes at 8x). (A time jump in a replayed
@@ -19,7 +19,7 @@ from nav_core.ros_node import stamp_to_s
 
 pytestmark = [pytest.mark.ros, pytest.mark.slow]
 MODEL = REPO / "config" / "sensor_models" / "bp3010.yaml"
-SIM_S, RATE = 300.0, 4.0
+SIM_S, RATE = 300.0, 8.0
 UNPLUG_AT, OUTAGE, OFF_AT, NAN_AT = 120.0, (150.0, 60.0), 230.0, 240.0
 RECOVERY_S = 40.0  # stated recovery time after the last fault
 
