@@ -178,6 +178,63 @@ class RateTable(Motion):
         return (z, z.copy(), yaw), (z.copy(), z.copy(), rate)
 
 
+def ramp_step(u, shape: str):
+    """Rate step 0 -> 1 on u in [0, 1] and its integral, for a table's ramp: ``linear`` (constant acceleration),
+    ``smooth`` (cubic, C1) or ``quintic`` (C2); each integrates to 1/2 over the ramp."""
+    u = np.clip(u, 0.0, 1.0)
+    if shape == "linear":
+        return u, u**2 / 2
+    if shape == "smooth":
+        s, _, s_int = smoothstep(u)
+        return s, s_int
+    return u**3 * (10 - 15 * u + 6 * u**2), u**4 * (2.5 - 3 * u + u**2)
+
+
+class DwellTable(Motion):
+    """Level table turning about the vertical: after a rest, dwells at ``rates_dps[k]`` for ``dwell_s[k]``, each
+    reached by its own ramp (``ramp_s[k]`` long, shape ``shapes[k]`` of :func:`ramp_step`), then a ramp to rest
+    and ``rest_s`` at rest. ``rates`` includes both rests (0)."""
+
+    def __init__(self, rates_dps, dwell_s, ramp_s, shapes, rest_s: float = 20.0):
+        self.rates = np.radians(np.r_[0.0, np.asarray(rates_dps, float), 0.0])
+        m = len(self.rates) - 1  # ramps
+        self.ramps = np.broadcast_to(np.asarray(ramp_s, float), (m,)).copy()
+        self.dwells = np.r_[np.broadcast_to(np.asarray(dwell_s, float), (m - 1,)), rest_s]
+        self.shapes = list(shapes) if not isinstance(shapes, str) else [shapes] * m
+        self.rest_s = rest_s
+        self.starts = rest_s + np.r_[0.0, np.cumsum(self.ramps + self.dwells)[:-1]]
+        seg_angle = self.rates[:-1] * self.ramps + 0.5 * (self.rates[1:] - self.rates[:-1]) * self.ramps \
+            + self.rates[1:] * self.dwells
+        self.before = np.r_[0.0, np.cumsum(seg_angle)]
+        super().__init__(float(self.starts[-1] + self.ramps[-1] + self.dwells[-1]))
+
+    def dwell_spans(self):
+        """(t0, t1, rate rad/s) of each constant-rate dwell after a ramp (the last is the final rest)."""
+        t0 = self.starts + self.ramps
+        return [(float(a), float(a + d), float(r)) for a, d, r in zip(t0, self.dwells, self.rates[1:])]
+
+    def attitude(self, t):
+        """Yaw is the integral of the rate profile (closed form per ramp and dwell)."""
+        t = np.asarray(t, float)
+        k = np.clip(np.searchsorted(self.starts, t, side="right") - 1, 0, len(self.starts) - 1)
+        tau = np.clip(t - self.starts[k], 0.0, None)
+        r0, r1, ramp = self.rates[k], self.rates[k + 1], self.ramps[k]
+        rate, within = np.empty_like(t), np.empty_like(t)
+        for shape in set(self.shapes):
+            m = np.array([self.shapes[j] == shape for j in k])
+            s, s_int = ramp_step(tau[m] / ramp[m], shape)
+            rate[m] = r0[m] + (r1[m] - r0[m]) * s
+            within[m] = r0[m] * np.minimum(tau[m], ramp[m]) + (r1[m] - r0[m]) * ramp[m] * s_int
+        after = tau > ramp
+        rate[after] = r1[after]
+        within[after] += r1[after] * (tau[after] - ramp[after])
+        rest = t < self.rest_s
+        yaw = np.where(rest, 0.0, self.before[k] + within)
+        rate = np.where(rest, 0.0, rate)
+        z = np.zeros_like(t)
+        return (z, z.copy(), yaw), (z.copy(), z.copy(), rate)
+
+
 class FigureEight(Motion):
     """Level figure-eight (Lissajous 1:2), body x along the velocity: x = A sin(w t), y = B sin(2 w t)."""
 
@@ -424,3 +481,40 @@ def write_csv(path, columns: dict, digits: int = 10):
     data = np.column_stack([np.asarray(columns[k], float) for k in names])
     np.savetxt(path, data, delimiter=",", header=",".join(names), comments="", fmt=f"%.{digits}g")
     return path
+
+
+class HandTurns(Motion):
+    """Static poses (Euler angles, rad) held for ``holds`` s each, turned by hand between them: each move has its
+    own duration, a monotone but uneven profile (a smoothstep of u^p or of 1 - (1 - u)^p, p in [1, 2.5]) and a
+    sideways wobble (amplitude in rad per Euler angle, sin^2 in u, zero rate at both ends), none of which a
+    scenario of static segments states."""
+
+    def __init__(self, poses_rad, holds, moves, shapes, wobbles):
+        self.poses = np.asarray(poses_rad, float).reshape(-1, 3)
+        self.holds, self.moves = np.asarray(holds, float), np.asarray(moves, float)
+        self.shapes, self.wobbles = list(shapes), np.asarray(wobbles, float).reshape(-1, 3)
+        self.starts = np.r_[0.0, np.cumsum(self.holds[:-1] + self.moves)]
+        super().__init__(float(self.holds.sum() + self.moves.sum()))
+
+    def hold_spans(self):
+        """[(t0, t1)] of each hold, s."""
+        return [(float(a), float(a + h)) for a, h in zip(self.starts, self.holds)]
+
+    def attitude(self, t):
+        """Held pose, or the move's uneven profile plus its wobble, with the Euler rates."""
+        t = np.asarray(t, float)
+        i = np.clip(np.searchsorted(self.starts, t, side="right") - 1, 0, len(self.poses) - 1)
+        ang, rate = self.poses[i].copy(), np.zeros((len(t), 3))
+        mv = np.minimum(i, len(self.moves) - 1)
+        u = (t - self.starts[i] - self.holds[i]) / self.moves[mv]
+        moving = (u > 0) & (u < 1) & (i < len(self.poses) - 1)
+        for k in np.unique(i[moving]):
+            m = moving & (i == k)
+            uu, (p, flip), dur = u[m], self.shapes[k], self.moves[k]
+            v, dv = (1 - (1 - uu) ** p, p * (1 - uu) ** (p - 1)) if flip else (uu**p, p * uu ** (p - 1))
+            s, ds, _ = smoothstep(v)
+            delta = self.poses[k + 1] - self.poses[k]
+            wob, dwob = np.sin(np.pi * uu) ** 2, np.pi * np.sin(2 * np.pi * uu)
+            ang[m] = self.poses[k] + s[:, None] * delta + wob[:, None] * self.wobbles[k]
+            rate[m] = ((ds * dv)[:, None] * delta + dwob[:, None] * self.wobbles[k]) / dur
+        return tuple(ang.T), tuple(rate.T)

@@ -8,7 +8,7 @@ import yaml
 
 from imu_sim.cli import main
 from imu_sim.diagnose import reference, share
-from imu_sim.diagnose.case import DiagnosisInputError, load_case
+from imu_sim.diagnose.case import DiagnosisInputError, deterministic, load_case, residual
 from imu_sim.diagnose.effect_tests import regression
 from imu_sim.diagnose.candidate import Context
 from imu_sim.diagnose.engine import _rank_by_share, diagnose, evaluate
@@ -115,6 +115,31 @@ def test_lines_of_the_trajectory_itself_are_flagged_as_harmonics(tmp_path):
     mask = reference.harmonic_bins(case)
     assert mask[np.argmin(abs(freqs - f0))] and mask[np.argmin(abs(freqs - 3 * f0))]
     assert mask.sum() <= 6
+
+
+def test_rate_table_ramps_the_scenario_does_not_state_carry_no_information(tmp_path):
+    # a table's ramps, each with its own acceleration and shape, typed as its dwells only (as a user does)
+    site, rate, scale = gen.Site(*bench.SITE), 50.0, 1e-3
+    table = gen.DwellTable([30, -60, 45], [4.0, 5.0, 4.0], [0.4, 1.5, 2.0, 0.8],
+                           ["linear", "smooth", "quintic", "linear"], rest_s=3.0)
+    t, gyro, accel = site.true_imu(table, rate)
+    gyro[:, 2] *= 1.0 + scale
+    rec = gen.write_csv(tmp_path / "imu.csv", {"t": t, "gx": gyro[:, 0], "gy": gyro[:, 1], "gz": gyro[:, 2],
+                                               "ax": accel[:, 0], "ay": accel[:, 1], "az": accel[:, 2]})
+    sc = {"latitude_deg": bench.SITE[0], "longitude_deg": bench.SITE[1], "height_m": bench.SITE[2], "rate_hz": rate,
+          "gps": False, "static_segments": bench._table_holds(table)}
+    (tmp_path / "scenario.yaml").write_text(yaml.safe_dump(sc))
+    model = SensorModel(gyro=TriadModel(white_noise=np.full(3, 1e-6)), accel=TriadModel(white_noise=np.full(3, 1e-5)),
+                        sample_rate_hz=rate, physics={"earth_rotation": {}, "gravity_model": {}})
+    case = load_case(rec, tmp_path / "scenario.yaml", save_model(model, tmp_path / "model.yaml"))
+    gap = case.unstated
+    assert gap is not None and 0.1 < gap.mean() < 0.4 and "carry no information" in " ".join(case.notes)
+    # the simulator's own move between two dwells is off by far more than any sensor effect ...
+    assert np.abs(case.measured - deterministic(case, model))[gap, 2].max() > 0.05
+    # ... so there the truth is 0 and the residual carries nothing; on the dwells it is the scale factor alone
+    resid = residual(case, model)
+    assert np.all(case.gyro_true[gap] == 0.0) and np.ptp(resid[gap, 2]) < 1e-6
+    np.testing.assert_allclose(resid[~gap, 2], scale * case.gyro_true[~gap, 2], atol=2e-7)
 
 
 @pytest.mark.slow

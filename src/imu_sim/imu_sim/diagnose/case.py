@@ -54,6 +54,9 @@ class Case:
     """Sample indices after a masked join: separately recorded files, each with its own turn-on bias."""
     """Samples where the truth moves but the recording does not (e.g. two files joined without the turn between
     them): residual and truth set to 0 there, so they carry no information."""
+    unstated: np.ndarray | None = None
+    """Samples a rate table's scenario does not state (the ramps between its dwells): truth set to 0 there and the
+    residual filled with what carries no information (:func:`reference.unstated_moves`, :func:`reference.fill_unstated`)."""
 
     @property
     def n(self) -> int:
@@ -123,11 +126,17 @@ def make_case(rec: ImuRecording, sc: Scenario, model: SensorModel, gnss=None, wh
         notes.append(f"{int(masked.sum())} samples where the scenario turns the IMU faster than anything recorded "
                      f"(at t = {', '.join(f'{x:.2f}' for x in t[masked][:5])} s; files joined without the move?) "
                      "carry no information (residual and truth set to 0 there)")
+    from imu_sim.diagnose.reference import unstated_moves
+    unstated = unstated_moves(sc, t_abs[:n], 1.0 / rate)
+    if unstated is not None:
+        gyro_true[unstated], accel_true[unstated] = 0.0, 0.0
+        notes.append(f"{int(unstated.sum())} samples between the rate table's stated dwells (its ramps, whose profile "
+                     "the scenario does not give) carry no information: a reference error, not sensor physics")
     resets = [] if masked is None else [int(i) + 1 for i in np.flatnonzero(masked[:-1] & ~masked[1:])]
     if resets:
         notes.append("a separate turn-on bias per joined file (a step on every channel at each join is a nuisance)")
     return Case(rec, sc, model, t, 1.0 / rate, temp, gyro_true, accel_true, t_abs[:n], gnss, notes, masked=masked,
-                bias_resets=resets, cache={"traj": traj})
+                bias_resets=resets, cache={"traj": traj}, unstated=unstated)
 
 
 def _check_uniform(rec: ImuRecording, where: str) -> None:
@@ -213,6 +222,9 @@ def residual(case: Case, model: SensorModel) -> np.ndarray:
     out = case.measured - deterministic(case, model)
     if case.masked is not None:
         out[case.masked] = 0.0
+    if case.unstated is not None:
+        from imu_sim.diagnose.reference import fill_unstated
+        out = fill_unstated(out, case.unstated)
     return out
 
 
@@ -228,8 +240,9 @@ def kinematic_difference(case: Case, model: SensorModel, effect: str) -> np.ndar
             traj = trajectory(case)
             dth, dv = kinematics.increments(traj, case.sim_t_abs, case.dt, key)
             case.cache[key] = np.column_stack([dth, dv]) / case.dt
-            if case.masked is not None:
-                case.cache[key][case.masked] = 0.0
+            for mask in (case.masked, case.unstated):
+                if mask is not None:
+                    case.cache[key][mask] = 0.0
         out.append(case.cache[key])
     return out[0] - out[1]
 
