@@ -94,6 +94,16 @@ def test_each_fault_is_named_first_on_its_channel_near_its_onset(effect, channel
         assert abs(first.estimate["frequency_hz"] - 11.3) < 0.2
 
 
+def test_a_clip_is_named_within_the_block_its_flat_tops_gather_in_not_at_the_window_end():
+    t, x = _drive(7, 130.0)
+    peak = 0.1 * np.exp(-0.5 * ((t - 120.3) / 0.12) ** 2)  # a rate peak just over the clip level, 0.3 s in a window
+    x[:, 0] = np.minimum(x[:, 0] + peak, 0.08)
+    at = t[x[:, 0] == 0.08]
+    ev = _run(x, t)
+    assert [(e.effect, e.channels) for e in ev] == [("saturation", ["gx"])]
+    assert ev[0].onset_s == at[0] and ev[0].t_s <= at[ev[0].statistic["threshold"] - 1] + 8 / RATE < 121.0
+
+
 def test_a_dropout_and_a_rate_change_are_told_apart():
     t, x = _drive(4, 60.0)
     gap = np.ones(len(t), bool)

@@ -107,6 +107,6 @@ class ClipCheck:
         lattice = np.where(seen > 0, np.minimum(seen, model), model)
         if np.array_equal(lattice, model):
             return
-        p_window = mon.thr.budget_per_10h / thr.N_TESTS * mon.thr.window_s / thr.SECONDS_PER_10H
-        ties = thr.clip_threshold(mon.thr.sample_sigma, lattice, mon.grid.n, p_window, seed=mon.config.seed)
+        ties = thr.clip_threshold(mon.thr.sample_sigma, lattice, mon.grid.n, mon.thr.clip_p_window(),
+                                  seed=mon.config.seed)
         mon.thr = replace(mon.thr, clip_span_ties=ties)

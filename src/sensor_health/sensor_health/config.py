@@ -14,7 +14,17 @@ class HealthConfig:
     f_min_hz: float = 2.0
     """Lines are searched from here to Nyquist (the vehicle's motion lives below)."""
     false_alarms_per_10h: float = 0.3
-    """Budget of statistical false events on the model's own noise, all detectors and channels together."""
+    """Budget of statistical false events on the model's own noise, all detectors and channels together (but the
+    gx and gy bias tests: ``gyro_bias_per_10h``)."""
+    gyro_bias_per_10h: float = 0.1
+    """False events per 10 h allowed to each of the gx and gy bias CUSUMs, on top of ``false_alarms_per_10h``
+    (0: an equal share of it). A step of 10x a MEMS gyro's bias sd is ~1.3 sd of a 1-s mean, at its white-noise
+    floor; a larger share of the false-event target shortens its delay (bench_sensor_health --floor)."""
+    clip_per_10h: float = 0.03
+    """False events per 10 h allowed to each channel's flat-top clip count, on top of ``false_alarms_per_10h`` (0: an
+    equal share of it): a clip that a peak only touches shows a handful of samples at one value, and on a gyro's
+    fine lattice the 6th tie an equal share needs can come a turn later (on white noise with a lattice of 0.013
+    sd, 4 ties at a 10-s span's extreme came 1e-5 times per second, each tie more ~0.04 times as often)."""
     baseline_s: float = 600.0
     """Time constant of the bias baseline, s."""
     gyro_range_rad_s: float = float(deg2rad(300.0))

@@ -95,6 +95,14 @@ class Thresholds:
     """(6,) per-sample sd of the model's white and quantization noise."""
     budget_per_10h: float
     mc_windows: int
+    gyro_bias_per_10h: float
+    """False events per 10 h allowed to each of the gx and gy bias CUSUMs (beyond ``budget_per_10h``)."""
+    clip_per_10h: float
+    """False events per 10 h allowed to the flat-top clip count of each channel (beyond ``budget_per_10h``)."""
+
+    def clip_p_window(self) -> float:
+        """The clip count's false-event probability per window and channel."""
+        return self.clip_per_10h * self.window_s / SECONDS_PER_10H
 
     def to_dict(self) -> dict:
         """Plain types (health.json ``thresholds``)."""
@@ -198,9 +206,11 @@ def observed_lattice(x: np.ndarray, floor: np.ndarray) -> np.ndarray:
 
 
 def monte_carlo(model: SensorModel, grid: WindowGrid, window_s: float, budget_per_10h: float,
-                baseline_s: float, mc_windows: int = 20000, seed: int = 0) -> Thresholds:
+                baseline_s: float, mc_windows: int = 20000, seed: int = 0,
+                gyro_bias_per_10h: float = 0.0, clip_per_10h: float = 0.0) -> Thresholds:
     """Thresholds for ``model`` from ``mc_windows`` simulated windows (seeded: the same model gives the same
-    thresholds in the CLI and the node)."""
+    thresholds in the CLI and the node). ``gyro_bias_per_10h`` > 0: the gx and gy bias CUSUMs each get that share
+    instead of an equal one of ``budget_per_10h``; ``clip_per_10h`` > 0 likewise each channel's clip count."""
     rng = np.random.default_rng(seed)
     x = noise_sim.model_noise(model, mc_windows * grid.n, grid.dt, rng).reshape(mc_windows, grid.n, 6)
     ws = window_stats(grid, x)
@@ -222,11 +232,15 @@ def monte_carlo(model: SensorModel, grid: WindowGrid, window_s: float, budget_pe
     z = z[bias_warmup_windows(window_s):]
     bias_h = np.full(6, np.inf)
     for i, c in enumerate(BIAS_CHANNELS):
-        bias_h[c] = cusum_threshold(np.column_stack([z[:, i], -z[:, i]]), bias_k[c], target / 2)
+        share = gyro_bias_per_10h if c < 2 and gyro_bias_per_10h > 0 else per_test
+        bias_h[c] = cusum_threshold(np.column_stack([z[:, i], -z[:, i]]), bias_k[c],
+                                    SECONDS_PER_10H / window_s / share / 2)
     line_h = exp_tail_threshold(ws.line.ravel(), per_test * window_s / SECONDS_PER_10H)
     stuck = stuck_run_length(model, grid.dt, per_test, max_run=max(3, grid.n))
     clip_ties = np.maximum(3, ws.ties.max(axis=0) + 2)
+    clip_per_10h = clip_per_10h if clip_per_10h > 0 else per_test
     clip_span = clip_threshold(sample_sigma(model, grid.dt), model_lattice(model, grid.dt), grid.n,
-                               per_test * window_s / SECONDS_PER_10H, seed=seed)
+                               clip_per_10h * window_s / SECONDS_PER_10H, seed=seed)
     return Thresholds(window_s, mu, sd, noise_k, noise_h, white_sd, bias_k, bias_h, tau, line_h, stuck, clip_ties,
-                      clip_span, sample_sigma(model, grid.dt), budget_per_10h, mc_windows)
+                      clip_span, sample_sigma(model, grid.dt), budget_per_10h, mc_windows,
+                      gyro_bias_per_10h, clip_per_10h)
