@@ -74,3 +74,21 @@ def test_an_effect_a_pass_finds_not_separable_is_never_a_finding(monkeypatch):
     assert [f["effect"] for f in out["findings"]] == ["vibration"]
     note = next(t["note"] for t in out["tested"] if t["effect"] == "warmup_drift")
     assert "not separable" in note
+
+
+def test_a_fit_on_the_holds_outside_the_grade_ranks_below_every_plausible_rival():
+    """An isotropic gyro g-sensitivity on a tumble's holds is a gyro scale factor of about +5 on the Earth rate's
+    vertical part there: such a scale factor is no sensor's, so it cannot outrank the g-sensitivity."""
+    from types import SimpleNamespace
+
+    from imu_sim.diagnose import fixture
+    case = SimpleNamespace(model=_model())  # industrial by its gyro noise: scale factor bound 3e-2
+    names = [f"gyro[{a}]" for a in "xyz"]
+    sf = Candidate("scale_factor", 80.0, 20.0, "LR")
+    sf.params = dict.fromkeys(names, 0.0)
+    cov = np.diag(np.full(3, 0.2**2))
+    assert fixture._implausible_on_holds(case, sf, np.array([5.2, -3.5, 4.4]), cov)
+    assert not fixture._implausible_on_holds(case, sf, np.array([0.2, -0.1, 0.3]), cov)  # within noise of 0
+    gs = Candidate("gyro_g_sensitivity", 80.0, 20.0, "LR")
+    gs.params = {f"gyro_coeff_rad_per_s_per_mps2[{a}]": 0.0 for a in "xyz"}
+    assert not fixture._implausible_on_holds(case, gs, np.array([3e-5, -2e-5, 2.5e-5]), np.diag(np.full(3, 1e-12)))

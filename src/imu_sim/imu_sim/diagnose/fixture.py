@@ -274,9 +274,34 @@ def rank_given_tilts(case, cands: list, resid: np.ndarray) -> None:
             continue
         if cand.constant_scale is not None:
             _constant_given_tilts(case, cand, given, theta, cov)
+        elif _implausible_on_holds(case, cand, theta, cov):
+            # its evidence on the holds needs a value no sensor of the grade has (a gyro scale factor of +5 for an
+            # isotropic g-sensitivity: on a still hold the up axis' gyro sees the Earth rate's vertical part,
+            # 5.7e-5 rad/s, along the axis that sees +-g): ranked below every plausible rival
+            cand.rank = IMPLAUSIBLE_RANK
         else:
             own = given - cand.threshold
             cand.rank = own if cand.rank is None else min(cand.rank, own)
+
+
+IMPLAUSIBLE_RANK = -1.0
+"""Ranking key of a candidate whose fit on the holds, given the tilts, is outside its grade's bounds."""
+BOUNDED = ("scale_factor", "axis_misalignment", "gyro_g_sensitivity")
+
+
+def _implausible_on_holds(case, cand, theta: np.ndarray, cov: np.ndarray) -> bool:
+    """Whether the candidate's fit on the holds given the tilts breaks its grade's bounds
+    (:func:`plausibility.violations`: its whole 95 % interval outside, determined to the bound or far out)."""
+    from types import SimpleNamespace
+
+    from imu_sim.diagnose import plausibility
+    names = list(cand.params or {})
+    if cand.effect not in BOUNDED or len(names) != len(theta):
+        return False
+    half = 1.96 * np.sqrt(np.clip(np.diag(cov), 0.0, None))
+    fit = SimpleNamespace(effect=cand.effect, params=dict(zip(names, map(float, theta))), constant_scale=None,
+                          intervals={m: (float(v - h), float(v + h)) for m, v, h in zip(names, theta, half)})
+    return bool(plausibility.violations(fit, plausibility.grade_of(case.model)[0]))
 
 
 def without_tilts(case, columns: dict, resid: np.ndarray):
