@@ -1,7 +1,10 @@
 """A vibration line that lasts keeps its channel WARN for as long as it lasts (it does not join the reference
 spectrum), and the channel returns to OK with a 'cleared' message within seconds of the line going away."""
+import json
+
 import numpy as np
 
+from sensor_health.events import Event, cleared_event
 from sensor_health.status import statuses
 from test_sensor_health_core import RATE, _drive, _model, _thresholds
 from sensor_health.monitor import HealthConfig, HealthMonitor
@@ -27,3 +30,6 @@ def test_a_lasting_line_stays_warn_for_the_whole_fault_and_clears_within_seconds
     assert note["channels"] == ["gx"] and 170.0 <= note["t_s"] <= 176.0
     st = statuses(mon, t[-1], {})["gx"]
     assert st.level == "OK" and "cleared" in st.message and st.cleared_s == note["t_s"]
+    back = Event.from_dict(json.loads(cleared_event(note).to_json()))  # as the node publishes it
+    assert back.cleared and (back.effect, back.channels, back.t_s) == ("vibration", ["gx"], note["t_s"])
+    assert back.statistic["named_s"] == note["since_s"] and not events[0].cleared

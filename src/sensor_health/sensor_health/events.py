@@ -42,7 +42,8 @@ def _finite(x):
 
 @dataclass
 class Event:
-    """One named fault: detected at ``t_s``, began at ``onset_s`` (recording time, s)."""
+    """One named fault: detected at ``t_s``, began at ``onset_s`` (recording time, s); or, with level ``OK`` and
+    ``statistic["cleared"]``, a named fault seen gone at ``t_s`` (:func:`cleared_event`)."""
 
     t_s: float
     onset_s: float
@@ -58,8 +59,13 @@ class Event:
     def __post_init__(self):
         if self.effect not in EFFECTS:
             raise ValueError(f"unknown effect {self.effect!r}; the vocabulary is {sorted(EFFECTS)}")
-        if self.level not in ("WARN", "ERROR"):
-            raise ValueError(f"event level must be WARN or ERROR, not {self.level!r}")
+        if self.level not in ("WARN", "ERROR") and not (self.level == "OK" and self.statistic.get("cleared")):
+            raise ValueError(f"event level must be WARN or ERROR (OK only for a cleared fault), not {self.level!r}")
+
+    @property
+    def cleared(self) -> bool:
+        """A fault that went away, not a new one."""
+        return self.level == "OK"
 
     def to_dict(self) -> dict:
         """The health.json form (plain types, NaN as null)."""
@@ -81,3 +87,12 @@ def bias_shift_event(t_s: float, onset_s: float, channel: str, step: float, sd: 
     """A ``bias_shift`` WARN on one channel: the step (the channel's SI unit) and its 95 % interval from its sd."""
     return Event(t_s, onset_s, "bias_shift", [channel], "WARN", step, [step - Z95 * sd, step + Z95 * sd], message,
                  statistic)
+
+
+def cleared_event(note: dict) -> Event:
+    """A fault that went away (the monitor's ``cleared`` notes: effect, channels, t_s seen gone, since_s named) as an
+    ``OK`` event for the event topic."""
+    chans = ", ".join(note["channels"])
+    return Event(note["t_s"], note["t_s"], note["effect"], list(note["channels"]), "OK", None, None,
+                 f"{note['effect']} on {chans} cleared (named at {note['since_s']:.3f} s)",
+                 {"cleared": True, "named_s": note["since_s"]})

@@ -3,7 +3,9 @@
 Samples are taken in batches every ``intake_period_s`` (as wmra_node takes them) and pushed into
 :class:`sensor_health.monitor.HealthMonitor` with their header stamps, so a recorded bag gives the events the
 ``sensor-health`` CLI gives. Each event is published once on ``events_topic`` (``std_msgs/String``, one JSON
-object, reliable and transient local: a late subscriber, such as the demo report, still gets every event).
+object, reliable and transient local: a late subscriber, such as the demo report, still gets every event); a fault
+that went away (a held vibration line, a start-up noise increase) follows as an ``OK`` event with
+``statistic.cleared`` (``health.json`` lists these under ``cleared``).
 ``/diagnostics`` carries one status per channel (``gx`` .. ``az``) and a ``summary`` (:mod:`sensor_health.status`).
 ``gps/fix`` feeds the yaw scale-factor test (gz against the GNSS course in turns) and is counted in the summary;
 ``odometry/filtered`` is counted only.
@@ -27,6 +29,7 @@ from nav_core.ros_node import (DIAG_LEVELS, SENSOR_QOS_IN, ImuBatchSubscription,
                                run_node)
 from nav_core.units import deg2rad, g2mps2
 from sensor_health import status
+from sensor_health.events import cleared_event
 from sensor_health.monitor import HealthConfig, HealthMonitor
 
 EVENTS_QOS = QoSProfile(depth=1000, reliability=ReliabilityPolicy.RELIABLE,
@@ -113,8 +116,10 @@ class SensorHealthNode(Node):
             log(f"{e.effect} {','.join(e.channels)} at t {e.t_s:.3f} s (onset {e.onset_s:.3f} s): {e.message}")
 
     def _log_cleared(self) -> None:
-        """Log each fault that went away (its channel's status says so too)."""
+        """Publish each fault that went away as an OK event on the event topic, and log it (its channel's status
+        says so too)."""
         for c in self.monitor.cleared[self.stats["cleared"]:]:
+            self.events_pub.publish(String(data=cleared_event(c).to_json()))
             self.get_logger().info(f"cleared: {c['effect']} {','.join(c['channels'])} at t {c['t_s']:.3f} s "
                                    f"(named at {c['since_s']:.3f} s)")
         self.stats["cleared"] = len(self.monitor.cleared)
