@@ -5,7 +5,9 @@ its correction, and the share of epochs it wins is what the theory gives from th
 import numpy as np
 import pytest
 
-from nav_eval.smoother_share import common_epochs, epoch_kinds, linear_monte_carlo, rms_share, share_1d, spans
+from ins_gps_kf.smoother import no_worse_probability
+from nav_eval.smoother_share import (common_epochs, epoch_kinds, linear_monte_carlo, rms_no_worse_probability, rms_share,
+                                     share_1d, spans)
 
 
 def test_an_optimal_smoother_wins_the_share_the_theory_gives_and_not_95_percent_with_gnss_throughout():
@@ -61,3 +63,13 @@ def test_common_epochs_keeps_the_stamps_every_run_has_and_spans_join_close_failu
     np.testing.assert_array_equal(s, [[5.0, 6.0], [1.0, 2.0]])
     t = np.arange(10) * 0.5
     assert spans(t, np.isin(np.arange(10), [1, 2, 4, 9]), 1.5) == [(0.5, 2.0, 3), (4.5, 4.5, 1)]
+
+
+def test_the_optimal_smoothers_chance_per_epoch_over_runs_is_one_run_s_for_one_run_and_near_one_where_it_gains():
+    ratio2 = np.array([0.2, 0.9, 0.99, 1.0])  # smoothed / forward variance, per axis
+    cov_f, cov_s = np.repeat(np.eye(2)[None], 4, 0), ratio2[:, None, None] * np.eye(2)
+    np.testing.assert_array_equal(rms_no_worse_probability(cov_f, cov_s, 1, draws=2000),
+                                  no_worse_probability(cov_f, cov_s, draws=2000))
+    over_20 = rms_no_worse_probability(cov_f, cov_s, 20)
+    assert over_20[0] == 1.0 and over_20[3] == 1.0  # measured 1.0, 0.815, 0.598, 1.0
+    assert 0.5 < over_20[2] < over_20[1] < 0.95

@@ -231,6 +231,13 @@ def run_smoothed(filt, run, *args, **kwargs):
         filt.recorder = None
 
 
+def covariance_root(cov: np.ndarray) -> np.ndarray:
+    """A square root ``L`` (m, k, k) of each covariance (m, k, k) (``L L' = cov``; eigen-decomposition, negative
+    rounding clipped), for drawing ``L z`` with ``z`` standard normal."""
+    w, v = np.linalg.eigh(0.5 * (cov + np.swapaxes(cov, 1, 2)))
+    return v * np.sqrt(np.clip(w, 0.0, None))[:, None, :]
+
+
 def no_worse_probability(cov_forward: np.ndarray, cov_smoothed: np.ndarray, draws: int = 2000,
                          seed: int = 0) -> np.ndarray:
     """Per epoch, the probability that an optimal smoother's error is no larger (in norm) than the forward
@@ -238,11 +245,7 @@ def no_worse_probability(cov_forward: np.ndarray, cov_smoothed: np.ndarray, draw
     difference of the two estimates ``d ~ N(0, P_f - P_s)``, so the forward error is ``e_s + d`` (Monte Carlo, ``draws``
     per epoch). Where the smoother adds little (GNSS throughout) this is well below 1 even with the true model."""
     cov_f, cov_s = np.asarray(cov_forward, float), np.asarray(cov_smoothed, float)
-
-    def root(cov):
-        w, v = np.linalg.eigh(0.5 * (cov + np.swapaxes(cov, 1, 2)))
-        return v * np.sqrt(np.clip(w, 0.0, None))[:, None, :]
-
+    root = covariance_root
     rng = np.random.default_rng(seed)
     m, k = cov_f.shape[:2]
     e_s = np.einsum("mij,mdj->mdi", root(cov_s), rng.standard_normal((m, draws, k)))

@@ -16,7 +16,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.linalg import expm
 
-from ins_gps_kf.smoother import no_worse_probability
+from ins_gps_kf.smoother import covariance_root, no_worse_probability
 
 G = 9.81  # m/s^2
 
@@ -158,6 +158,25 @@ def rms_share(err_f: np.ndarray, err_s: np.ndarray) -> dict:
     no_worse = rms_s <= rms_f
     ratio = np.divide(rms_s, rms_f, out=np.ones_like(rms_s), where=rms_f > 0)
     return {"rms_f": rms_f, "rms_s": rms_s, "no_worse": no_worse, "share": float(np.mean(no_worse)), "ratio": ratio}
+
+
+def rms_no_worse_probability(cov_forward, cov_smoothed, runs: int, draws: int = 400, seed: int = 0,
+                             chunk: int = 64) -> np.ndarray:
+    """Per epoch, the probability that an optimal smoother's RMS error across ``runs`` independent runs is no larger
+    than the forward filter's (:func:`rms_share`'s statistic), from the covariances (m, k, k) (m^2): per run
+    ``e_s ~ N(0, P_s)`` and ``d ~ N(0, P_f - P_s)`` independent, ``e_f = e_s + d`` (as in
+    :func:`ins_gps_kf.smoother.no_worse_probability`); ``draws`` Monte Carlo draws of the ``runs`` runs. Below 1 only
+    where the smoother adds little (the end of the data, a long stop), where the runs' sampling noise decides."""
+    cov_f, cov_s = np.asarray(cov_forward, float), np.asarray(cov_smoothed, float)
+    rng = np.random.default_rng(seed)
+    out = np.empty(len(cov_f))
+    for lo in range(0, len(cov_f), chunk):
+        sl = slice(lo, lo + chunk)
+        m, k = cov_f[sl].shape[:2]
+        e_s = np.einsum("mij,mdrj->mdri", covariance_root(cov_s[sl]), rng.standard_normal((m, draws, runs, k)))
+        d = np.einsum("mij,mdrj->mdri", covariance_root(cov_f[sl] - cov_s[sl]), rng.standard_normal((m, draws, runs, k)))
+        out[sl] = np.mean(np.sum(e_s ** 2, axis=(2, 3)) <= np.sum((e_s + d) ** 2, axis=(2, 3)), axis=1)
+    return out
 
 
 def spans(t: np.ndarray, mask: np.ndarray, gap_s: float) -> list[tuple[float, float, int]]:
