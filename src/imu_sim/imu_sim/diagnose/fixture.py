@@ -143,13 +143,15 @@ def _stack(columns: dict, n: int, k: int) -> np.ndarray:
 
 
 def _rss(x: np.ndarray, y: np.ndarray, prior: np.ndarray | None = None) -> tuple:
-    """Residual sum of squares of y on x (with prior rows on the first parameters) and the fit."""
+    """Residual sum of squares of y on x (with prior rows on the first parameters) and the fit. Solved on the
+    normal equations (p x p): an SVD of the (6 n, p) design took 4 s a call on a 22-dwell rate table."""
+    a, b = x.T @ x, x.T @ y
     if prior is not None:
-        p = np.zeros((prior.shape[0], x.shape[1]))
-        p[:, :prior.shape[1]] = prior
-        theta, *_ = np.linalg.lstsq(np.vstack([x, p]), np.concatenate([y, np.zeros(len(p))]), rcond=None)
-    else:
-        theta, *_ = np.linalg.lstsq(x, y, rcond=None)
+        k = prior.shape[1]
+        a[:k, :k] += prior.T @ prior
+    d = np.sqrt(np.diag(a))
+    d[d == 0] = 1.0
+    theta = np.linalg.lstsq(a / np.outer(d, d), b / d, rcond=1e-12)[0] / d
     return float(np.sum((y - x @ theta) ** 2)), theta
 
 
