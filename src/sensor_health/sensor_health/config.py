@@ -20,6 +20,11 @@ class HealthConfig:
     """False events per 10 h allowed to each of the gx and gy bias CUSUMs, on top of ``false_alarms_per_10h``
     (0: an equal share of it). A step of 10x a MEMS gyro's bias sd is ~1.3 sd of a 1-s mean, at its white-noise
     floor; a larger share of the false-event target shortens its delay (bench_sensor_health --floor)."""
+    track_bias_per_10h: float = 0.1
+    """False events per 10 h allowed to each of the bias tests against the GNSS track (gz, ax), on top of
+    ``false_alarms_per_10h`` (0: an equal share of it): a 10x bias-sd gz step shows against the track no faster than
+    the gyro's white noise allows (the gx/gy floor), and a 25-fix window holding all of it reaches 5.4 sd, just over
+    the 5.1 an equal share gates at."""
     clip_per_10h: float = 0.03
     """False events per 10 h allowed to each channel's flat-top clip count, on top of ``false_alarms_per_10h`` (0: an
     equal share of it): a clip that a peak only touches shows a handful of samples at one value, and on a gyro's

@@ -93,9 +93,9 @@ class HealthMonitor(VibrationCheck):
         self.bias_pending = {}
         """channel -> a fast crossing waiting for BIAS_CONFIRM_WINDOWS more windows."""
         self.yaw_scale = YawScaleMonitor(model, self.thr.budget_per_10h / thr.N_TESTS)
-        per_test = self.thr.budget_per_10h / thr.N_TESTS
-        self.along_track = AlongTrackMonitor(per_test, float(model.accel.bias_instability[0]))
-        self.cross_track = CrossTrackMonitor(float(model.gyro.white_noise[2]), per_test,
+        track = cfg.track_bias_per_10h or self.thr.budget_per_10h / thr.N_TESTS
+        self.along_track = AlongTrackMonitor(track, float(model.accel.bias_instability[0]))
+        self.cross_track = CrossTrackMonitor(float(model.gyro.white_noise[2]), track,
                                              float(model.gyro.bias_instability[2]))
         self.startup = StartupCheck(self, startup_thresholds(model, self.grid, self.thr.noise_mu, self.thr.noise_sd,
                                                              self.thr.bias_sd, self.thr.window_s, seed=cfg.seed))
