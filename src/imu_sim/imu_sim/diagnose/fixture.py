@@ -117,6 +117,26 @@ def _second_order(case, weights: np.ndarray, tilts: np.ndarray) -> np.ndarray:
     return out.T.ravel()
 
 
+def _shortening(case, weights: np.ndarray, tol: float):
+    """(columns (6 n, m), prior precisions (m,)) of a free shortening of each hold's specific force along itself, or
+    None when the holds determine their tilts. With fewer than three holds (an up/down) the accelerometers' turn-on
+    biases and the tilts they see are confounded (3 m readings, 3 + 2 m unknowns), so the fitted tilts cannot fix
+    their second-order term: the cosine error of a tilt within the tolerance, up to (1.5 tol)^2 / 2 of g (3.4e-4 at
+    1 deg), is then a nuisance of its own, with that as its prior sd (an up/down null's accel-x step of 1.5e-3
+    m/s^2 between its holds was fitted as a temperature coefficient, a scale factor and a misalignment)."""
+    w = weights[0]
+    m = w.shape[1]
+    if m >= 3:
+        return None
+    cols = np.zeros((6 * case.n, m))
+    for s in range(m):
+        col = np.zeros((case.n, 6))
+        col[:, 3:] = w[:, s:s + 1] * case.accel_true
+        cols[:, s] = col.T.ravel()
+    sd = 0.5 * (TILT_SLACK * tol) ** 2
+    return cols, np.full(m, 1.0 / sd)
+
+
 GAUSS_NEWTON_STEPS = 3
 """Refits of the tilts with their second-order term from the previous fit (it is ~1e-2 of the first-order one)."""
 
@@ -165,6 +185,9 @@ def _setup(case, cand_columns: dict, resid: np.ndarray):
     n, m = case.n, weights.shape[2]
     k = next(iter(cand_columns.values())).shape[1]
     tilt = _tilt_design(case, weights)
+    short = _shortening(case, weights, tol)
+    if short is not None:
+        tilt = np.hstack([tilt, short[0]])
     eff = _stack(cand_columns, n, k)
     raw = resid.T.ravel()
     _, th = _rss(np.hstack([tilt, eff]), raw)
@@ -172,10 +195,12 @@ def _setup(case, cand_columns: dict, resid: np.ndarray):
     # the moves between holds are left out: the simulator's path between two tilted holds is not the first-order
     # blend of their tilts (a rotation-vector path of up to 180 deg), so only the holds are compared
     hold = np.all(np.isin(weights[0], (0.0, 1.0)), axis=1)
+    if getattr(case, "unstated", None) is not None:  # a hold's first sample may still hold the end of the move
+        hold &= ~case.unstated
     w = np.repeat(1.0 / np.maximum(sigma, 1e-300), n) * np.tile(hold, 6)
     # the tolerance is a Gaussian prior (sd = tolerance) on each tilt: a rotation about the gravity axis, which the
     # specific force cannot see, stays within it instead of fitting the Earth rate's noise with tens of degrees
-    prior = np.diag(np.r_[np.full(3 * m, 1.0 / tol), np.zeros(6)])
+    prior = np.diag(np.r_[np.full(3 * m, 1.0 / tol), np.zeros(6), [] if short is None else short[1]])
     return weights, tol, tilt, eff, raw, w, prior, hold
 
 
@@ -320,7 +345,7 @@ def without_tilts(case, columns: dict, resid: np.ndarray):
     weights, _, tilt, eff, raw, w, prior, hold = setup
     m = weights.shape[2]
     _, theta, off = _fit_tilts(case, weights, tilt, raw, w, prior, eff)
-    nuis = tilt[:, :3 * m] @ theta[:3 * m] + off
+    nuis = tilt[:, :3 * m] @ theta[:3 * m] + tilt[:, 3 * m + 6:] @ theta[3 * m + 6:tilt.shape[1]] + off
     return resid - nuis.reshape(6, case.n).T, hold
 
 
