@@ -21,8 +21,8 @@ def test_no_zero_velocity_update_once_the_vehicle_pulls_away(outage_drive):
 
 def test_a_stop_inside_a_gnss_outage_gets_zero_velocity_updates_when_asked():
     """``zupt_max_ins_speed_outage_mps``: without fresh fixes the stale GPS chord no longer vetoes rest and the INS
-    speed may drift up to its 3 sigma (at most the parameter) before it does; off by default (a slow rover's cruise
-    looks like rest to the IMU). A car with NHC stops for 15 s inside a 40-s outage."""
+    speed may drift up to its 3 sigma (at most the parameter) before it does; off by default. A car with NHC stops for
+    15 s inside a 40-s outage (the outage's ZUPTs at zupt_std_outage_mps, 0.2 m/s)."""
     from ins_gps_kf import config
     from ins_gps_kf import synthetic as syn
     from ins_gps_kf.filter import InsGpsFilter
@@ -48,3 +48,21 @@ def test_a_stop_inside_a_gnss_outage_gets_zero_velocity_updates_when_asked():
     assert out[0.0][0] == 0  # off: the stale chord (10 m/s before the outage) vetoes the stop
     assert out[1.0][0] >= 25 and out[1.0][1] == 0, out  # measured 30 of the stop's 30 epochs, none moving
     assert out[1.0][2] < 0.5 * out[0.0][2], out  # measured 7.35 m against 28.6 m
+
+
+def test_a_zero_velocity_update_in_an_outage_carries_the_std_of_a_cruise_the_imu_cannot_tell_from_rest():
+    """``zupt_std_outage_mps``: without a fresh fix rest is the IMU's word alone, and a rover's 0.2-m/s cruise looks
+    like rest to it (Katwijk: hard 0.02-m/s ZUPTs in its outages made the smoothed error worse, 1.59 -> 6.79 m; at
+    0.2 m/s 1.38 m, better than none); with a fresh fix the GPS chord confirms rest and the std is zupt_std_mps."""
+    from types import SimpleNamespace
+
+    from ins_gps_kf import config
+    from ins_gps_kf.updates import ZeroVelocity
+
+    cfg = config.from_params({"zupt_max_ins_speed_outage_mps": 2.0})
+    fresh, stale = SimpleNamespace(gnss_fresh=True), SimpleNamespace(gnss_fresh=False)
+    assert ZeroVelocity(cfg).std(fresh) == 0.02 and ZeroVelocity(cfg).std(stale) == 0.2
+    tight = config.from_params({"zupt_max_ins_speed_outage_mps": 2.0, "zupt_std_outage_mps": 0.0})
+    assert ZeroVelocity(tight).std(stale) == 0.02  # never below zupt_std_mps
+    off = config.from_params({"zupt_std_outage_mps": 0.5})
+    assert ZeroVelocity(off).std(stale) == 0.02  # no ZUPT in outages asked: a stale epoch is not judged as one

@@ -72,6 +72,9 @@ PARAMETERS = (
           "looks like rest to the IMU): without a fresh fix the stale GPS speed does not veto and the INS speed limit "
           "rises to 3 sigma of the INS's own horizontal speed, at most this, m/s", 0.0, 100.0),
     Param("zupt_std_mps", 0.02, "zero-velocity measurement std, m/s", 1e-4, 10.0),
+    Param("zupt_std_outage_mps", 0.2, "zero-velocity std in a GNSS outage (zupt_max_ins_speed_outage_mps), at least "
+          "zupt_std_mps: without a fresh fix rest is the IMU's word alone, and it cannot tell a slow cruise (a rover's "
+          "0.2 m/s) from rest, m/s", 0.0, 10.0),
     Param("zupt_gate_probability", 0.99, "chi-square gate of the zero-velocity update: a vehicle pulling away gently, "
           "which the IMU and the GPS chord cannot yet tell from rest, fails it", 0.5, 1.0),
     Param("nhc_enabled", False, "non-holonomic constraints: a land vehicle's lateral and vertical velocity at the "
@@ -170,6 +173,7 @@ class FilterConfig:
     max_rejected_fixes: int = 5
     zupt_enabled: bool = True
     zupt_std: float = 0.02
+    zupt_std_outage: float = 0.2  # m/s, in a GNSS outage
     zupt_gate_probability: float = 0.99
     zupt_max_gps_speed: float = 0.1
     zupt_max_ins_speed: float = 0.2
@@ -251,6 +255,7 @@ def from_params(params: dict) -> FilterConfig:
         gate_probability=float(p["gate_probability"]), reuse_last_fix=bool(p["reuse_last_fix"]),
         max_rejected_fixes=int(p["max_rejected_fixes"]),
         zupt_enabled=bool(p["zupt_enabled"]), zupt_std=float(p["zupt_std_mps"]),
+        zupt_std_outage=float(p["zupt_std_outage_mps"]),
         zupt_gate_probability=float(p["zupt_gate_probability"]),
         zupt_max_gps_speed=float(p["zupt_max_gps_speed_mps"]),
         zupt_max_ins_speed=float(p["zupt_max_ins_speed_mps"]),
