@@ -52,8 +52,8 @@ MOUNTINGS = {"estimated": {}, "given true": {"nhc_mounting": "given", **{
     "given zero": {"nhc_mounting": "given"}}
 CASES = {"forward": {}, "NHC": {"nhc_enabled": True}, "NHC + odometer": {"nhc_enabled": True, "odometer_enabled": True}}
 OPTIONS = {"scale factors estimated": {"estimate_scale_factors": True},
-           "ZUPT in outages": {"zupt_max_ins_speed_outage_mps": 1.0},
-           "scale factors + ZUPT in outages": {"estimate_scale_factors": True, "zupt_max_ins_speed_outage_mps": 1.0}}
+           "ZUPT in outages": {"zupt_max_ins_speed_outage_mps": 2.0},
+           "scale factors + ZUPT in outages": {"estimate_scale_factors": True, "zupt_max_ins_speed_outage_mps": 2.0}}
 """Options measured besides (not --quick): the 21-state model (the simulated IMU has scale factors and misalignment
 the 15 states omit) and zero-velocity updates at stops inside outages (with the odometer a stop is seen anyway)."""
 ODOMETER_SCALE, ODOMETER_STD_MPS, ODOMETER_RATE_HZ = 0.005, 0.05, 10.0
