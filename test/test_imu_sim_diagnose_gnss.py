@@ -165,3 +165,58 @@ def test_known_constant_is_scored_held_out_at_its_value_not_trained():
     expected = np.sqrt(np.mean((yb[test] - xb[test] - bias) ** 2) / metrics.robust_var(yb))
     assert fixed == pytest.approx(expected)
     assert fixed < before
+
+
+def _wandering_truth_case(seed: int = 4, n: int = 12000, dt: float = 0.02):
+    """A car-like truth (turns, speed changes) whose attitude the reference gets wrong by a slow rotation d(t) of a
+    few hundredths of a degree: (case, residual of that error plus white noise, the true rates and forces)."""
+    from types import SimpleNamespace
+    rng = np.random.default_rng(seed)
+    t = dt * np.arange(1, n + 1)
+    yaw_rate = 0.15 * np.sin(2 * np.pi * t / 23.0) ** 3
+    gyro = np.column_stack([0.01 * np.sin(t / 3.0), 0.005 * np.cos(t / 5.0), yaw_rate])
+    accel = np.column_stack([1.5 * np.sin(2 * np.pi * t / 17.0), 10.0 * yaw_rate, np.full(n, 9.81)])
+    d = np.column_stack([np.radians(0.03) * np.sin(2 * np.pi * t / p + ph) for p, ph in ((140, 0), (90, 1), (200, 2))])
+    err = np.column_stack([np.cross(d, gyro), np.cross(d, accel)])
+    sd = np.array([1.5e-6, 1.5e-6, 1.5e-6, 2e-5, 2e-5, 2e-5]) / np.sqrt(dt)
+    resid = err + rng.standard_normal((n, 6)) * sd
+    case = SimpleNamespace(t=t, n=n, dt=dt, gyro_true=gyro, accel_true=accel, cache={"moving_file_truth": True},
+                           scenario=SimpleNamespace(source="trajectory"))
+    return case, resid, sd
+
+
+def _ctx(case, resid, sd):
+    from types import SimpleNamespace
+
+    from imu_sim.diagnose.spectral import Whitener
+    from imu_sim.diagnose import reference
+    psd = np.repeat((sd**2 * case.dt)[:, None], case.n // 2 + 1, axis=1)
+    psd = reference.with_reference_error(case, resid, psd)  # as the tests weight a moving truth's residual
+    return SimpleNamespace(case=case, wh=Whitener.from_psd(psd, resid, case.dt), resid_f=np.fft.rfft(resid, axis=0))
+
+
+def test_a_reference_whose_attitude_wanders_is_not_a_scale_factor_and_leaves_a_known_constant_at_its_value():
+    """A navigation-grade drive against a truth smoothed from GNSS: the truth's slowly varying attitude error makes
+    scale-factor-shaped residuals far above their threshold; given the slow reference error they are not separable,
+    a real scale factor still is, and a known constant fitted with it comes back at its value."""
+    from types import SimpleNamespace
+
+    from imu_sim.diagnose import reference
+    from imu_sim.diagnose.spectral import gls
+    case, resid, sd = _wandering_truth_case()
+    true = np.column_stack([case.gyro_true, case.accel_true])  # scale factors of 5 channels (az is constant)
+    cols = {c: np.column_stack([true[:, c] if j == c else np.zeros(case.n) for j in range(5)]) for c in range(5)}
+    sf = SimpleNamespace(effect="scale_factor", significant=True, columns=cols, threshold=22.4)
+    ctx = _ctx(case, resid, sd)
+    assert gls(ctx.wh, ctx.resid_f, cols, 5).lr > 1000  # alone: the truth's attitude error looks like scale factors
+    assert "not separable from the reference" in reference.slow_reference_note(ctx, sf)
+    real = resid + np.column_stack([np.zeros((case.n, 2)), 5e-4 * case.gyro_true[:, 2], np.zeros((case.n, 3))])
+    assert reference.slow_reference_note(_ctx(case, real, sd), sf) == ""
+    # a known constant (regressor: a shaped horizontal force, like 2 Omega x v) left out of the model
+    shape = 2e-3 * np.column_stack([np.sin(2 * np.pi * case.t / 17.0), np.cos(2 * np.pi * case.t / 29.0)])
+    known = resid + np.column_stack([np.zeros((case.n, 3)), shape, np.zeros(case.n)])
+    kc = SimpleNamespace(effect="coriolis", constant_scale=0.0, identifiable=True, stat=0.0, threshold=8.7,
+                         reason="", columns={3: shape[:, [0]], 4: shape[:, [1]]})
+    reference.constant_given_slow_reference(_ctx(case, known, sd), kc)
+    lo, hi = kc.intervals["coriolis_scale"]
+    assert lo < 1.0 < hi and hi - lo < 1.0 and kc.stat > kc.threshold and "given it" in kc.reason

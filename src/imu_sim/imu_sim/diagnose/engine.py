@@ -57,6 +57,7 @@ def evaluate(case: Case, model: SensorModel, resid: np.ndarray, exclude=(), fact
     out = [gnss[effect] if effect in GNSS_EFFECTS else TESTS[effect](ctx) for effect in EFFECTS
            if effect not in exclude]
     for cand in out:
+        reference.constant_given_slow_reference(ctx, cand)  # a known regressor, fitted with the truth's slow error
         if cand.effect == "coriolis" and cand.identifiable is False and "constant" in cand.reason:
             cand.reason = "the truth has no velocity here (static): Coriolis cannot show"
         if cand.effect in ("gauss_markov_bias", "bias_random_walk", "warmup_drift") and reference.moving_file_truth(case):
