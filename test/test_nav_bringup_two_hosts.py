@@ -12,8 +12,8 @@ from types import SimpleNamespace
 
 import pytest
 
-from ins_gps_kf.status import FilterStatus, mark_stale
-from nav_bringup import demo, hosts
+from ins_gps_kf.status import INPUT_STALE_S, FilterStatus, mark_stale
+from nav_bringup import demo, hosts, link_report
 from nav_bringup.description import NodeSpec
 from nav_bringup.graph import PARAMS_FILE
 
@@ -28,6 +28,19 @@ def test_cut_link_is_two_numbers_and_needs_two_hosts():
     with pytest.raises(ValueError, match="needs --hosts 2"):
         hosts.plan(1, "60:10")
     assert hosts.plan(1, None) is None
+
+
+def test_a_cut_not_over_before_the_drive_ends_is_refused_and_a_missed_cut_says_so(monkeypatch, tmp_path):
+    monkeypatch.setattr(hosts, "check_permitted", lambda: None)
+    with pytest.raises(ValueError, match="down at the end of the drive"):
+        hosts.plan(2, "60:5", duration_s=65.0)
+    assert hosts.plan(2, "60:5", duration_s=66.0) == hosts.plan(2, "60:5") == (60.0, 5.0)
+    cutter = hosts.LinkCutter(None, 60.0, 5.0, 6.0)
+    for t in (31.5, 40.0, 59.9):  # a drive seen from 31.5 s (a probe started late) that ended before 60 s
+        cutter.on_clock(t, 1.7e9 + t)
+    assert cutter.finish(tmp_path / "link_cuts.json") == [] and (tmp_path / "link_cuts.json").read_text() == "[]\n"
+    assert cutter.missed() == ("the link cut at t = 60 s did not happen: the compute host's /clock showed the drive "
+                               "from t = 31.5 to 59.9 s (link_cuts.json is empty)")
 
 
 def test_sensor_data_crossing_the_link_is_reliable_and_kept_for_a_cut():
@@ -81,12 +94,29 @@ def test_without_root_two_hosts_is_one_line_and_exit_2(monkeypatch, capsys, tmp_
     assert not (tmp_path / "out").exists()  # refused before any work
 
 
-def _diag_statuses(bag):
-    from nav_core import bagio
-    for _, _, msg in bagio.iter_messages(bag, ["diagnostics"]):
-        for st in msg.status:
-            if st.name.startswith("ins_gps_kf"):
-                yield st
+def assert_stale_during_the_cut(statuses: list, cuts: list) -> None:
+    """The filter said its input was stale (input_stale_s over 1 s, past INPUT_STALE_S: its status is a warning
+    saying so) during a cut of ``cuts`` (link_cuts.json), by ``statuses`` as link_report.filter_statuses reads them
+    from the bag; the staleness every run shows after the drive ends is not the cut's."""
+    assert cuts, "link_cuts.json is empty: the link was never cut"
+    stale = link_report.stale_during_cuts(statuses, cuts, cuts[0]["epoch_s"])
+    assert max(stale, default=0.0) > max(1.0, INPUT_STALE_S), (
+        f"the filter never said its input was stale during the cut {cuts}: stale up to {max(stale, default=0.0)} s "
+        f"then, {max((s for _, _, s in statuses), default=0.0)} s in the whole run")
+
+
+def test_only_a_stale_status_during_the_cut_counts_not_the_one_after_the_drive():
+    epoch, cut = 1.7e9, {"at_s": 180.0, "for_s": 10.0, "restored_at_s": 190.6, "epoch_s": 1.7e9}
+    # as recorded: a status a simulated second, logged at the compute host's last /clock, which stops in the cut
+    # and at the drive's end (240 s), while the filter's steady-clock staleness grows
+    fresh = [(epoch + t, int(t), 0.02) for t in range(0, 241)]
+    after_drive = [(epoch + 240.0, 240, s) for s in (1.4, 2.4, 3.4)]
+    with pytest.raises(AssertionError, match="never said its input was stale during the cut"):
+        assert_stale_during_the_cut(fresh + after_drive, [cut])
+    in_cut = [(epoch + 180.0, 180, s) for s in (0.9, 1.4)]
+    assert_stale_during_the_cut(sorted(fresh + in_cut + after_drive), [cut])
+    with pytest.raises(AssertionError, match="link_cuts.json is empty"):
+        assert_stale_during_the_cut(fresh + in_cut, [])
 
 
 def check_two_hosts_run(stdout: str, out, at_s: float, for_s: float) -> None:
@@ -97,7 +127,8 @@ def check_two_hosts_run(stdout: str, out, at_s: float, for_s: float) -> None:
     assert f"link cut at t = {at_s:g}" in stdout and "link restored" in stdout, stdout[-3000:]
     run_dir = next(out.glob("run_*"))
     summary = json.loads((run_dir / "summary.json").read_text())
-    assert summary["hosts"] == 2
+    cuts = json.loads((run_dir / "link_cuts.json").read_text())
+    assert summary["hosts"] == 2 and cuts, "link_cuts.json is empty: the link was never cut"
     assert summary["link_cuts"][0]["for_s"] == for_s and at_s <= summary["link_cuts"][0]["at_s"] < at_s + 1.0
     assert for_s - 1.0 < summary["odometry_max_gap_s"] < for_s + 6.0  # the cut shows as the gap, nothing else as long
     # ... as received: the cut's samples came after the link returned (reliable, kept on the sensor host), and the
@@ -109,9 +140,7 @@ def check_two_hosts_run(stdout: str, out, at_s: float, for_s: float) -> None:
     assert summary["horizontal_rms_m"] < 1.0
     assert summary["offline"]["live stamps going back"] == 0
     assert all(code == 0 for code in summary["exit_codes"].values()), summary["exit_codes"]
-    stale = [st for st in _diag_statuses(run_dir / "bag") if "input stale" in st.message]
-    assert stale, "the filter never said its input was stale"
-    assert max(float({kv.key: kv.value for kv in st.values}["input_stale_s"]) for st in stale) > 1.0
+    assert_stale_during_the_cut(link_report.filter_statuses(run_dir / "bag"), cuts)
     assert (run_dir / "link.png").stat().st_size > 1000 and "Two hosts" in (run_dir / "report.html").read_text()
     ours = re.search(r"sensor (navs-\d+)", stdout).group(1)
     left = subprocess.run(["ip", "netns", "list"], capture_output=True, text=True).stdout

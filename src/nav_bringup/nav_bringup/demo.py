@@ -209,7 +209,7 @@ def main(argv=None) -> int:
         env = hosts.discovery_env(env)  # across the link: no localhost-only discovery
     os.environ.update({k: env[k] for k in ("ROS_DOMAIN_ID", "ROS_AUTOMATIC_DISCOVERY_RANGE")})
     try:
-        cut = hosts.plan(args.hosts, args.cut_link)  # not root: one line, exit 2, before any work
+        cut = hosts.plan(args.hosts, args.cut_link, args.duration)  # not root: one line, exit 2, before any work
         check_inputs(args)
         check_out_dir(args.out, allow_existing=True)  # a file or an unwritable --out fails before any work
         sim_dir = None if args.recording else simulate_once(args.scenario, args.model, args.seed, args.out)
@@ -227,10 +227,9 @@ def main(argv=None) -> int:
     player = "bag_play" if args.recording else "scenario_player"
     print(f"[demo] starting the graph (ROS_DOMAIN_ID={env['ROS_DOMAIN_ID']}); output in {run_dir}")
     try:
-        graph.start()
         from nav_bringup.live_status_ros import watch
 
-        watch(graph, player, sim_dir, on_clock=two.on_clock if two else None)
+        watch(graph, player, sim_dir, on_clock=two.on_clock if two else None, start=graph.start)
     except GraphError as err:
         print(f"[demo] {err}", file=sys.stderr)
         graph.stop()
@@ -246,6 +245,9 @@ def main(argv=None) -> int:
     print(summary)
     if two:
         print(two.finish(run_dir, sim_dir))
+        if two.cutter is not None and two.cutter.missed():
+            print(f"nav-demo: error: {two.cutter.missed()}", file=sys.stderr)
+            return 1
     return 0 if all(c == 0 for c in codes.values()) else 1
 
 

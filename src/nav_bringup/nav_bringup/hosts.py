@@ -187,7 +187,7 @@ class LinkCutter:
 
     :meth:`on_clock` is called with the simulated time (s from the start of the drive) of each ``/clock`` the
     compute host receives; the cut and the restore run on a thread of their own. ``cuts`` records each cut with
-    its simulated start and the wall time it lasted.
+    its simulated start, the wall time it lasted and ``epoch_s`` (the ``/clock`` at the drive's start, s).
     """
 
     def __init__(self, hosts: TwoHosts, at_s: float, for_s: float, rate: float):
@@ -196,11 +196,13 @@ class LinkCutter:
         self.epoch_s = 0.0  # the /clock time of the drive's start, s
         self._started = False
         self._thread: threading.Thread | None = None
+        self.seen_s: list[float] = []  # the first and the newest simulated time the compute host's /clock showed
 
     def on_clock(self, sim_t: float, clock_s: float) -> None:
         """Start the cut once the simulated time ``sim_t`` (s from the start of the drive; ``clock_s`` as the
         ``/clock`` sent it) reaches ``at_s``."""
         self.epoch_s = clock_s - sim_t
+        self.seen_s[1:] = [sim_t]
         if not self._started and sim_t >= self.at_s:
             self._started = True
             self._thread = threading.Thread(target=self._cut, args=(sim_t,), name="link_cut", daemon=True)
@@ -214,26 +216,42 @@ class LinkCutter:
         self.hosts.link_up(True)
         wall = time.monotonic() - start
         self.cuts.append({"at_s": round(sim_t, 3), "for_s": self.for_s, "wall_s": round(wall, 3),
-                          "restored_at_s": round(sim_t + wall * self.rate, 3)})
+                          "restored_at_s": round(sim_t + wall * self.rate, 3), "epoch_s": self.epoch_s})
         print(f"[demo] link restored at t = {sim_t + wall * self.rate:.1f} s", flush=True)
 
     def finish(self, path: Path) -> list:
         """Wait for a cut in progress to end (the link comes back before the graph stops); write ``path``."""
         if self._thread is not None:
             self._thread.join()
+        if self.seen_s:  # the cut is scheduled on this /clock: one first seen late is a cut made late or never
+            print(f"[demo] the compute host's /clock showed the drive from t = {self.seen_s[0]:.1f} s "
+                  f"to {self.seen_s[-1]:.1f} s", flush=True)
         path.write_text(json.dumps(self.cuts, indent=1) + "\n")
         return self.cuts
 
+    def missed(self) -> str | None:
+        """What did not happen when no cut was made (None after a cut): the compute host's /clock never showed AT_S."""
+        if self.cuts:
+            return None
+        seen = (f"from t = {self.seen_s[0]:.1f} to {self.seen_s[-1]:.1f} s" if self.seen_s else "at no time")
+        return (f"the link cut at t = {self.at_s:g} s did not happen: the compute host's /clock showed the drive "
+                f"{seen} (link_cuts.json is empty)")
 
-def plan(hosts: int, cut_link: str | None):
+
+def plan(hosts: int, cut_link: str | None, duration_s: float = 0.0):
     """Check ``--hosts``/``--cut-link`` before any work: (at_s, for_s) or None; HostsError when namespaces cannot
-    be made here, ValueError for a malformed cut or a cut without two hosts."""
+    be made here, ValueError for a malformed cut, a cut without two hosts or one not over before the drive's
+    ``duration_s`` (0: the whole scenario, not known here) ends."""
     if hosts == 1:
         if cut_link is not None:
             raise ValueError("--cut-link needs --hosts 2 (there is no link on one host)")
         return None
     check_permitted()
-    return parse_cut(cut_link) if cut_link is not None else None
+    cut = parse_cut(cut_link) if cut_link is not None else None
+    if cut and 0 < duration_s <= sum(cut):
+        raise ValueError(f"--cut-link {cut_link}: the link would be down at the end of the drive (--duration "
+                         f"{duration_s:g}); the cut must end before it, or nothing shows the recovery")
+    return cut
 
 
 def discovery_env(env: dict) -> dict:

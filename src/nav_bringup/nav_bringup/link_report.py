@@ -44,6 +44,21 @@ def _series(bag: Path):
     return np.array(odom), diag
 
 
+def filter_statuses(bag: Path) -> list:
+    """[(log time s, fixes fused, input_stale_s)] of the filter's statuses in ``bag``, in log order."""
+    return _series(bag)[1]
+
+
+def stale_during_cuts(statuses: list, cuts: list, epoch_s: float) -> list:
+    """The input staleness (s) the filter reported during the cuts, from ``statuses`` as :func:`filter_statuses`
+    gives them: logged from a status period before a cut's start (they are logged at the last ``/clock`` the
+    compute host received, which the cut's start, the probe's ``/clock``, can be a hair past) to
+    :data:`STALE_AFTER_S` after the link's return; ``epoch_s``: the drive's start, clock s. The staleness every run
+    shows after the drive (the player done, the graph not yet stopped) is not the cut's and is left out."""
+    return [s for cut in cuts for t, _, s in statuses
+            if epoch_s + cut["at_s"] - 1.0 <= t <= epoch_s + cut["restored_at_s"] + STALE_AFTER_S]
+
+
 def _summary(run_dir: Path) -> dict:
     """The report's summary.json ({} when the run had no odometry to report)."""
     path = Path(run_dir) / "summary.json"
@@ -70,13 +85,13 @@ def link_figures(run_dir: Path, cuts: list, epoch_s: float, sim_dir=None) -> dic
     from nav_core import recording
 
     odom, diag = _series(Path(run_dir) / "bag")
-    stamped = recording.read_odometry(Path(run_dir) / "bag")
-    resumed, stale = [], [0.0]
+    try:
+        stamped = recording.read_odometry(Path(run_dir) / "bag")
+    except recording.RecordingError:  # a drive too short to align: the report says so, these figures are None
+        stamped = []
+    resumed, stale = [], [0.0] + stale_during_cuts(diag, cuts, epoch_s)
     for cut in cuts:
-        at, back = epoch_s + cut["at_s"], epoch_s + cut["restored_at_s"]
-        # from a status period before the cut: the stale statuses are logged at the last /clock the compute host
-        # received, which the cut's start (the probe's /clock) can be a hair past
-        stale += [s for t, _, s in diag if at - 1.0 <= t <= back + STALE_AFTER_S]
+        back = epoch_s + cut["restored_at_s"]
         # every fix fused before the link returned counts as before, those queued before the cut and fused in it
         # too (the status then comes on the steady clock, logged at the stopped simulated time)
         before = max((f for t, f, _ in diag if t <= back), default=0)
@@ -92,7 +107,7 @@ def link_figures(run_dir: Path, cuts: list, epoch_s: float, sim_dir=None) -> dic
             "input_stale_max_s": round(max(stale), 3),
             "live_vs_offline_max_m": offline.get("largest difference (m)"),
             "horizontal_rms_m": (summary.get("rms") or {}).get("horizontal position (m)"),
-            "horizontal_rms_outside_cuts_m": rms_outside_cuts(stamped, cuts, epoch_s, sim_dir) if cuts else None}
+            "horizontal_rms_outside_cuts_m": rms_outside_cuts(stamped, cuts, epoch_s, sim_dir) if cuts and len(stamped) else None}
 
 
 def plot_link(run_dir: Path, cuts: list, epoch_s: float, path: Path) -> Path:
