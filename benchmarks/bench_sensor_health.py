@@ -1,7 +1,7 @@
 """Sensor health on drives it did not make: detection delay, naming, onset error and false events per 10 h.
 
-    .venv/bin/python benchmarks/bench_sensor_health.py [--healthy-hours 20] [--healthy-first-seed 9000] [--seeds 20] [--quick]
-        [--faults saturation bias_shift_gyro ...] [--no-scale] [--only-scale] [--no-gnss]
+    .venv/bin/python benchmarks/bench_sensor_health.py [--healthy-hours 20] [--healthy-first-seed 9000] [--seeds 20]
+        [--quick] [--faults saturation bias_shift_gyro ...] [--no-scale] [--only-scale] [--no-gnss]
 
 The drives come from ``health_drives`` (motion and true IMU output by ``independent_gen``, no imu_sim code); the
 sensor model is fitted by ``imu-calib allan`` from a 1-h static run of the same unit, as a user would. Faults
@@ -160,7 +160,8 @@ def floor_section(share_per_10h: float, runs: int = 4000) -> None:
     """The information floor of a gyro bias step (10 x the unit's bias sd): a test that knew the true rate exactly
     (a perfect attitude reference) still sees the bias through the gyro's own white noise, so the ideal test is a
     CUSUM on 1-s means of white noise (the step in sd of a 1-s mean, k 0.5, h at the run length of the test's share
-    of the false-event budget, ``share_per_10h``) and the best change point is maximum likelihood over the samples. Prints the delays and onset errors that allows."""
+    of the false-event budget, ``share_per_10h``) and the best change point is maximum likelihood over the samples.
+    Prints the delays and onset errors that allows."""
     rng = np.random.default_rng(0)
     white = hd.SENSOR["gyro"]["white"]
     delta = 10 * hd.SENSOR["gyro"]["gm_sd"] / white  # the step in sd of a 1-s mean
@@ -219,7 +220,7 @@ def main(argv=None) -> int:
     start = time.time()
     if args.floor:
         cfg = HealthConfig()
-        for share in sorted({cfg.false_alarms_per_10h / thr.N_TESTS, cfg.gyro_bias_per_10h}):
+        for share in sorted({cfg.false_alarms_per_10h / thr.N_TESTS, cfg.gyro_bias_per_10h or 0.1}):
             floor_section(share)
         return 0
     with tempfile.TemporaryDirectory() as tmp:
@@ -263,7 +264,8 @@ def main(argv=None) -> int:
     count = healthy(model, base, args.healthy_hours, gnss=not args.no_gnss, first_seed=args.healthy_first_seed)
     total = sum(count.values())
     rate = 10 * total / max(args.healthy_hours, 1)
-    print(f"healthy drives: {args.healthy_hours} h from seed {args.healthy_first_seed}, {total} false events = {rate:.2f} per 10 h (target <= 1) "
+    print(f"healthy drives: {args.healthy_hours} h from seed {args.healthy_first_seed}, {total} false events = "
+          f"{rate:.2f} per 10 h (target <= 1) "
           f"{dict(count)}")
     print(f"wall time {time.time() - start:.0f} s")
     return 0
