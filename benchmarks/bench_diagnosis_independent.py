@@ -76,6 +76,10 @@ COLORED_SIGMA_REALISTIC = [1.0, 1.0, 2.0]
 atmospheric error (1-5 m at correlation times of tens of seconds to minutes, Groves 9.3-9.4). The plain cases' 0.3,
 0.3, 0.5 m is what a truth smoothed from a GNSS track carries itself (up to 0.3 m horizontal, 0.6 m vertical), so on
 a realistic drive it is not separable from the reference by design."""
+TABLE_TOLERANCE_DEG = 0.01
+"""The realistic rate table's fixture is machined and aligned to this (deg, stated as the scenario's
+attitude_tolerance_deg); the unit sits on it tilted by up to that in roll and pitch. A misalignment no larger than
+such a tilt is not separable from the mounting on a one-axis table (navigation and tactical grades)."""
 TABLE_DWELL_S = (4.0, 8.0)
 """A realistic rate table dwells at each rate for a time drawn from this range (s)."""
 TABLE_ACCEL_DPS2 = (20.0, 150.0)
@@ -188,7 +192,8 @@ def dwell_table(real):
     steps = np.abs(np.diff(np.r_[0.0, rates, 0.0]))
     ramp = np.maximum(steps / real.uniform(*TABLE_ACCEL_DPS2, len(steps)), 0.3)
     shapes = real.choice(["linear", "smooth", "quintic"], len(steps))
-    return gen.DwellTable(rates, dwell, ramp, shapes, rest_s=20.0)
+    mount = real.uniform(-TABLE_TOLERANCE_DEG, TABLE_TOLERANCE_DEG, 2)
+    return gen.DwellTable(rates, dwell, ramp, shapes, rest_s=20.0, mount_deg=mount)
 
 
 def motion_of(kind: str):
@@ -282,7 +287,7 @@ def generate(name: str, seed: int, folder: Path) -> dict:
                                           "pitch_deg": 0.0, "yaw_deg": 0.0}])
     elif real is not None and kind == "table":
         scenario.update(latitude_deg=SITE[0], longitude_deg=SITE[1], height_m=SITE[2], gps=False,
-                        static_segments=_table_holds(motion))
+                        attitude_tolerance_deg=TABLE_TOLERANCE_DEG, static_segments=_table_holds(motion))
     elif real is not None and kind == "drive":
         gen.write_csv(folder / "truth.csv", _smoothed_gnss_truth(site, motion, real))
         scenario.update(trajectory="truth.csv", gps=False)

@@ -195,7 +195,8 @@ class DwellTable(Motion):
     reached by its own ramp (``ramp_s[k]`` long, shape ``shapes[k]`` of :func:`ramp_step`), then a ramp to rest
     and ``rest_s`` at rest. ``rates`` includes both rests (0)."""
 
-    def __init__(self, rates_dps, dwell_s, ramp_s, shapes, rest_s: float = 20.0):
+    def __init__(self, rates_dps, dwell_s, ramp_s, shapes, rest_s: float = 20.0, mount_deg=(0.0, 0.0)):
+        self.mount = np.radians(np.asarray(mount_deg, float))  # the unit's roll, pitch on the table (a mounting tilt)
         self.rates = np.radians(np.r_[0.0, np.asarray(rates_dps, float), 0.0])
         m = len(self.rates) - 1  # ramps
         self.ramps = np.broadcast_to(np.asarray(ramp_s, float), (m,)).copy()
@@ -232,7 +233,7 @@ class DwellTable(Motion):
         yaw = np.where(rest, 0.0, self.before[k] + within)
         rate = np.where(rest, 0.0, rate)
         z = np.zeros_like(t)
-        return (z, z.copy(), yaw), (z.copy(), z.copy(), rate)
+        return (z + self.mount[0], z + self.mount[1], yaw), (z.copy(), z.copy(), rate)
 
 
 class FigureEight(Motion):
