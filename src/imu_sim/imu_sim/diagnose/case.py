@@ -56,7 +56,7 @@ class Case:
     them): residual and truth set to 0 there, so they carry no information."""
     unstated: np.ndarray | None = None
     """Samples a rate table's scenario does not state (the ramps between its dwells): truth set to 0 there and the
-    residual filled with what carries no information (:func:`reference.unstated_moves`, :func:`reference.fill_unstated`)."""
+    residual filled with what carries no information (:func:`unstated.unstated_moves`, :func:`unstated.fill_unstated`)."""
 
     @property
     def n(self) -> int:
@@ -126,7 +126,7 @@ def make_case(rec: ImuRecording, sc: Scenario, model: SensorModel, gnss=None, wh
         notes.append(f"{int(masked.sum())} samples where the scenario turns the IMU faster than anything recorded "
                      f"(at t = {', '.join(f'{x:.2f}' for x in t[masked][:5])} s; files joined without the move?) "
                      "carry no information (residual and truth set to 0 there)")
-    from imu_sim.diagnose.reference import unstated_moves
+    from imu_sim.diagnose.unstated import unstated_moves
     unstated = unstated_moves(sc, t_abs[:n], 1.0 / rate)
     if unstated is not None:
         gyro_true[unstated], accel_true[unstated] = 0.0, 0.0
@@ -223,7 +223,7 @@ def residual(case: Case, model: SensorModel) -> np.ndarray:
     if case.masked is not None:
         out[case.masked] = 0.0
     if case.unstated is not None:
-        from imu_sim.diagnose.reference import fill_unstated
+        from imu_sim.diagnose.unstated import fill_unstated
         out = fill_unstated(out, case.unstated)
     return out
 
