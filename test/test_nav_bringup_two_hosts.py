@@ -79,6 +79,26 @@ def test_after_a_stale_spell_the_filter_waits_for_the_fixes_backlog_then_runs():
     assert released == [1, 1]
 
 
+def test_a_stale_input_is_said_within_a_tick_of_passing_the_limit_then_once_a_second():
+    from ins_gps_kf.ins_gps_kf_node import INPUT_STALE_S, STALE_TICK_S, InsGpsKfNode
+
+    said = []
+    now = time.monotonic()
+    node = SimpleNamespace(_last_input_wall=now - 0.5, _stale_said_wall=-math.inf,
+                           publish_diagnostics=lambda: said.append(1))
+    InsGpsKfNode._diagnostics_if_stale(node)  # fresh: nothing
+    node._last_input_wall = time.monotonic() - INPUT_STALE_S - STALE_TICK_S  # a tick after the limit: said
+    InsGpsKfNode._diagnostics_if_stale(node)
+    InsGpsKfNode._diagnostics_if_stale(node)  # the next tick: not again within the second
+    assert said == [1]
+    node._stale_said_wall -= 1.0
+    InsGpsKfNode._diagnostics_if_stale(node)  # a second on: said again
+    node._last_input_wall = time.monotonic() - INPUT_STALE_S - 0.01  # input came, then a new stale spell
+    node._stale_said_wall = node._last_input_wall - 0.01  # the last spell said just before it
+    InsGpsKfNode._diagnostics_if_stale(node)
+    assert said == [1, 1, 1]
+
+
 def test_stale_input_turns_the_status_to_a_warning_saying_for_how_long():
     st = mark_stale(FilterStatus(level="OK", message="navigating"), 7.25)
     assert st.level == "WARN" and st.message.startswith("input stale for 7.2 s") and "navigating" in st.message

@@ -107,7 +107,8 @@ def link_figures(run_dir: Path, cuts: list, epoch_s: float, sim_dir=None) -> dic
             "input_stale_max_s": round(max(stale), 3),
             "live_vs_offline_max_m": offline.get("largest difference (m)"),
             "horizontal_rms_m": (summary.get("rms") or {}).get("horizontal position (m)"),
-            "horizontal_rms_outside_cuts_m": rms_outside_cuts(stamped, cuts, epoch_s, sim_dir) if cuts and len(stamped) else None}
+            "horizontal_rms_outside_cuts_m":
+                rms_outside_cuts(stamped, cuts, epoch_s, sim_dir) if cuts and len(stamped) else None}
 
 
 def plot_link(run_dir: Path, cuts: list, epoch_s: float, path: Path) -> Path:
