@@ -40,7 +40,8 @@ def unstated_moves(scenario, t_abs: np.ndarray, dt: float) -> np.ndarray | None:
 
 def fill_unstated(resid: np.ndarray, unstated: np.ndarray) -> np.ndarray:
     """The residual (n, 6) with its unstated samples replaced by what carries no information there: each channel's
-    mean over the stated samples (the turn-on bias, so no square wave of it reaches the line and noise tests) plus
+    level passing linearly from the stated samples before to those after the gap (the turn-on bias and each hold's
+    tilt, so no square wave of them reaches the line and noise tests) plus
     white noise at the stated samples' level (robust sd of first differences / sqrt 2, so the GLS noise scale, a
     median over the whole record, is not shrunk by the gap). Regressors are 0 there (the truth is set to 0)."""
     out = resid.copy()
@@ -50,4 +51,19 @@ def fill_unstated(resid: np.ndarray, unstated: np.ndarray) -> np.ndarray:
     sd = 1.4826 * np.median(np.abs(diffs - np.median(diffs, axis=0)), axis=0) / np.sqrt(2.0)
     noise = np.random.default_rng(FILL_SEED).standard_normal((int(unstated.sum()), resid.shape[1]))
     out[unstated] = level + noise * sd
+    # a fixture's holds differ by their tilts (0.17 m/s^2 at 1 deg): a fill at one level made a step at every edge of
+    # a move, whose broadband power was a 'vibration' on every hand-turned null and hid a real line; the fill passes
+    # from the hold before to the hold after instead (their medians over EDGE_SAMPLES), so no step reaches any test
+    edges = np.flatnonzero(np.diff(np.r_[0, unstated.astype(int), 0]))
+    for a, b in zip(edges[::2], edges[1::2]):
+        left = resid[max(0, a - EDGE_SAMPLES):a]
+        right = resid[b:b + EDGE_SAMPLES]
+        lo = np.median(left, axis=0) if len(left) else (np.median(right, axis=0) if len(right) else level)
+        hi = np.median(right, axis=0) if len(right) else lo
+        u = (np.arange(b - a) + 1.0)[:, None] / (b - a + 1.0)
+        out[a:b] += lo + (hi - lo) * u - level
     return out
+
+
+EDGE_SAMPLES = 50
+"""Samples either side of a gap whose median sets the fill's level at that edge."""
