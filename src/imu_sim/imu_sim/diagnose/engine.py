@@ -59,7 +59,10 @@ def evaluate(case: Case, model: SensorModel, resid: np.ndarray, exclude=(), fact
     for cand in out:
         reference.constant_given_slow_reference(ctx, cand)  # a known regressor, fitted with the truth's slow error
         if cand.effect == "coriolis" and cand.identifiable is False and "constant" in cand.reason:
-            cand.reason = "the truth has no velocity here (static): Coriolis cannot show"
+            # a moving truth file's Coriolis is weak only under the weight of its own slow error (a slow vehicle,
+            # a navigation-grade unit): not a static truth (blind drive, 2cf2e33: 'no velocity' on a 1.4-km drive)
+            cand.reason = (reference.CORIOLIS_WEAK if reference.moving_file_truth(case)
+                           else "the truth has no velocity here (static): Coriolis cannot show")
         if cand.effect in ("gauss_markov_bias", "bias_random_walk", "warmup_drift") and reference.moving_file_truth(case):
             cand.identifiable, cand.reason = False, reference.NOT_SEPARABLE
         if (cand.effect in KNOWN_CONSTANTS and cand.identifiable and cand.constant_se

@@ -35,6 +35,12 @@ NOT_SEPARABLE = ("not separable from the reference on this record: a moving trut
                  "ranked")
 
 
+CORIOLIS_WEAK = ("not separable from the reference on this record: the truth moves, but weighted by its own slow "
+                 "error (a smoothed track's position and attitude error at the frequencies where 2 Omega x v has its "
+                 "power: a slow vehicle, long straight legs) the Coriolis regressor determines its scale no better "
+                 "than +-1; not ranked")
+
+
 TRACK_ERROR_M = 0.3
 """Slow horizontal position error (m) of a truth smoothed from a GNSS track: a coloured fix error no larger is the
 truth's."""
