@@ -124,3 +124,17 @@ def test_an_up_down_fixture_tilt_cosine_error_is_not_a_scale_factor_or_temperatu
     for effect in ("scale_factor", "axis_misalignment", "temperature_bias", "warmup_drift"):
         assert cands[effect].stat > cands[effect].threshold  # the tilts' own signal, on its own
         assert not cands[effect].significant, (effect, cands[effect].rank, cands[effect].reason)
+
+
+def test_moves_are_unstated_unless_the_scenario_says_the_simulator_made_them():
+    from imu_sim.diagnose.unstated import unstated_moves
+    import pytest
+    from imu_sim.scenario import ScenarioError
+    spans = [(0.0, 8.5), (10.5, 23.0), (25.5, 36.0), (38.5, 50.0)]
+    t = np.arange(1, 1001) / 20.0
+    by_hand = unstated_moves(from_dict(_scenario(spans), where="hand"), t, 0.05)
+    assert by_hand is not None and 0 < by_hand.sum() < len(t) and by_hand[(t > 9.0) & (t < 10.0)].all()
+    motorised = from_dict({**_scenario(spans), "moves_known": True}, where="motorised")
+    assert unstated_moves(motorised, t, 0.05) is None
+    with pytest.raises(ScenarioError, match="moves_known"):
+        from_dict({**_scenario(spans), "moves_known": "yes"}, where="typo")

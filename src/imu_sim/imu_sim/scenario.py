@@ -26,7 +26,7 @@ from imu_sim.gnss import GpsConfig
 KNOWN_KEYS = {"name", "description", "latitude_deg", "longitude_deg", "height_m", "segments", "trajectory",
               "gnss_track", "static_segments", "yaw0_deg", "duration_s", "rate_hz", "gps", "gps_lever_arm_m",
               "temperature", "physics", "error_terms", "sensor_model", "seed", "notes", "faults",
-              "attitude_tolerance_deg"}
+              "attitude_tolerance_deg", "moves_known"}
 SOURCES = ("segments", "trajectory", "gnss_track", "static_segments")
 BUILTIN_TRAJECTORIES = ("paper_drive",)
 SEGMENT_KEYS = {"stand": (), "cruise": (), "stop": (), "accelerate": ("speed_mps",), "turn": ("angle_deg",)}
@@ -71,6 +71,10 @@ class Scenario:
     attitude_tolerance_deg: float = 1.0
     """How far each static segment's fixture may be from its stated attitude (deg); the diagnosis treats it as a
     nuisance (:mod:`imu_sim.diagnose.fixture`)."""
+    moves_known: bool = False
+    """Whether the moves between static segments follow the simulator's own profile (a motorised fixture or table
+    driven by this scenario); by default they are the operator's or the table controller's, and the diagnosis
+    treats them as carrying no reference (:mod:`imu_sim.diagnose.unstated`)."""
 
 
 def _num(data, key, where, default=None, positive=False, low=None, high=None, prefix=""):
@@ -222,6 +226,9 @@ def from_dict(data, where: str = "<scenario>", base_dir: Path = Path(".")) -> Sc
         raise ScenarioError(f"{where}: latitude_deg and longitude_deg are required with {source}")
     sc.yaw0_deg = _num(data, "yaw0_deg", where, 0.0, low=-360.0, high=360.0)
     sc.attitude_tolerance_deg = _num(data, "attitude_tolerance_deg", where, 1.0, low=0.0, high=90.0)
+    sc.moves_known = data.get("moves_known", False)
+    if not isinstance(sc.moves_known, bool):
+        raise ScenarioError(f"{where}: moves_known: expected true or false, got {sc.moves_known!r}")
     sc.duration_s = _num(data, "duration_s", where, None, positive=True, high=MAX_DURATION_S)
     sc.rate_hz = _num(data, "rate_hz", where, 64.0, positive=True, high=MAX_RATE_HZ)
     sc.gps = _gps(data.get("gps"), where)

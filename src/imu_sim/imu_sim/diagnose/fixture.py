@@ -301,7 +301,7 @@ def rank_given_tilts(case, cands: list, resid: np.ndarray) -> None:
             continue
         if cand.constant_scale is not None:
             _constant_given_tilts(case, cand, given, theta, cov)
-        elif _implausible_on_holds(case, cand, theta, cov):
+        elif _implausible_on_holds(case, cand, theta, cov) and not _implausible_overall(case, cand):
             # its evidence on the holds needs a value no sensor of the grade has (a gyro scale factor of +5 for an
             # isotropic g-sensitivity: on a still hold the up axis' gyro sees the Earth rate's vertical part,
             # 5.7e-5 rad/s, along the axis that sees +-g): ranked below every plausible rival
@@ -314,6 +314,15 @@ def rank_given_tilts(case, cands: list, resid: np.ndarray) -> None:
 IMPLAUSIBLE_RANK = -1.0
 """Ranking key of a candidate whose fit on the holds, given the tilts, is outside its grade's bounds."""
 BOUNDED = ("scale_factor", "axis_misalignment", "gyro_g_sensitivity")
+
+
+def _implausible_overall(case, cand) -> bool:
+    """Whether the candidate's own fit on the whole record breaks its grade's bounds: then it is picked and reported
+    as ``reference_or_model_error`` as before (a +100 % gyro scale factor on a rate table), not ranked away behind a
+    plausible rival that would use up the rounds; only a fit that looks plausible overall and needs an implausible
+    value on the holds (its evidence is the moves') is ranked below its rivals."""
+    from imu_sim.diagnose import plausibility
+    return bool(plausibility.violations(cand, plausibility.grade_of(case.model)[0], cand.constant_scale))
 
 
 def _implausible_on_holds(case, cand, theta: np.ndarray, cov: np.ndarray) -> bool:

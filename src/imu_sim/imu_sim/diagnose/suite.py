@@ -100,7 +100,8 @@ def suite_scenario(single: bool = False) -> dict:
             seg.update(rate_dps=rate, axis_body=axis)
         segs.append(seg)
     return {"latitude_deg": 51.0784, "longitude_deg": -114.13, "height_m": 1100.0, "static_segments": segs,
-            "rate_hz": RATE_HZ, "gps": False, "temperature": {"start_c": 15.0, "end_c": 35.0, "time_constant_s": 900.0}}
+            "rate_hz": RATE_HZ, "gps": False, "temperature": {"start_c": 15.0, "end_c": 35.0, "time_constant_s": 900.0},
+            "moves_known": True}  # a motorised sequence: the simulator's moves are the record's
 
 
 def long_scenario() -> dict:

@@ -21,8 +21,9 @@ def unstated_moves(scenario, t_abs: np.ndarray, dt: float) -> np.ndarray | None:
     acceleration and shape differ from ramp to ramp), a fixture's moves the operator's (a six-position test turned by
     hand: its profile, duration and wobble); the simulator's own smooth move there is a guess, and its error (tens of
     deg/s for a second) would be fitted as a scale factor, misalignment or warm-up. Such samples are a reference
-    error: they carry no information."""
-    if getattr(scenario, "source", None) != "static_segments":
+    error: they carry no information. A scenario stating ``moves_known: true`` (a motorised fixture or table
+    driven by it, as the simulator moves) has none."""
+    if getattr(scenario, "source", None) != "static_segments" or getattr(scenario, "moves_known", False):
         return None
     segs = list(scenario.spec or [])
     # a fixture's moves (a six-position or up/down test turned by hand) are as unknown as a table's ramps: their
