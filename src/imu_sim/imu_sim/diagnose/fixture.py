@@ -301,7 +301,8 @@ def rank_given_tilts(case, cands: list, resid: np.ndarray) -> None:
             continue
         if cand.constant_scale is not None:
             _constant_given_tilts(case, cand, given, theta, cov)
-        elif _implausible_on_holds(case, cand, theta, cov) and not _implausible_overall(case, cand):
+        elif _implausible_on_holds(case, cand, theta, cov) and not (
+                getattr(case.scenario, "moves_known", False) and _implausible_overall(case, cand)):
             # its evidence on the holds needs a value no sensor of the grade has (a gyro scale factor of +5 for an
             # isotropic g-sensitivity: on a still hold the up axis' gyro sees the Earth rate's vertical part,
             # 5.7e-5 rad/s, along the axis that sees +-g): ranked below every plausible rival
@@ -317,10 +318,12 @@ BOUNDED = ("scale_factor", "axis_misalignment", "gyro_g_sensitivity")
 
 
 def _implausible_overall(case, cand) -> bool:
-    """Whether the candidate's own fit on the whole record breaks its grade's bounds: then it is picked and reported
-    as ``reference_or_model_error`` as before (a +100 % gyro scale factor on a rate table), not ranked away behind a
-    plausible rival that would use up the rounds; only a fit that looks plausible overall and needs an implausible
-    value on the holds (its evidence is the moves') is ranked below its rivals."""
+    """Whether the candidate's own fit on the whole record breaks its grade's bounds. Where the scenario states its
+    moves (``moves_known``) the whole record is the reference: such a candidate is picked and reported as
+    ``reference_or_model_error`` as before (a +100 % gyro scale factor on a rate table), not ranked away behind a
+    plausible rival that would use up the rounds. Where the moves are unstated the holds are the only reference,
+    and a fit implausible on them ranks below its rivals (a partly out-of-bound fit would otherwise be refitted
+    without its bad parameters and win: a misalignment on a hand-turned fixture)."""
     from imu_sim.diagnose import plausibility
     return bool(plausibility.violations(cand, plausibility.grade_of(case.model)[0], cand.constant_scale))
 
