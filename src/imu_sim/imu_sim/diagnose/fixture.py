@@ -11,7 +11,11 @@ holds with the tilts removed (:func:`without_tilts`).
 """
 from __future__ import annotations
 
+from types import SimpleNamespace
+
 import numpy as np
+
+from imu_sim.diagnose import plausibility
 
 NOT_SEPARABLE = "not separable from the reference on this record"
 TILT_EFFECTS = ("axis_misalignment", "scale_factor", "gyro_g_sensitivity", "gravity_model", "earth_rotation",
@@ -301,8 +305,7 @@ def rank_given_tilts(case, cands: list, resid: np.ndarray) -> None:
             continue
         if cand.constant_scale is not None:
             _constant_given_tilts(case, cand, given, theta, cov)
-        elif _implausible_on_holds(case, cand, theta, cov) and not (
-                getattr(case.scenario, "moves_known", False) and _implausible_overall(case, cand)):
+        elif _implausible_on_holds(case, cand, theta, cov) and not _reported_as_model_error(case, cand):
             # its evidence on the holds needs a value no sensor of the grade has (a gyro scale factor of +5 for an
             # isotropic g-sensitivity: on a still hold the up axis' gyro sees the Earth rate's vertical part,
             # 5.7e-5 rad/s, along the axis that sees +-g): ranked below every plausible rival
@@ -317,23 +320,20 @@ IMPLAUSIBLE_RANK = -1.0
 BOUNDED = ("scale_factor", "axis_misalignment", "gyro_g_sensitivity")
 
 
-def _implausible_overall(case, cand) -> bool:
-    """Whether the candidate's own fit on the whole record breaks its grade's bounds. Where the scenario states its
-    moves (``moves_known``) the whole record is the reference: such a candidate is picked and reported as
+def _reported_as_model_error(case, cand) -> bool:
+    """Whether the scenario states its moves (``moves_known``) and the candidate's own fit on the whole record breaks
+    its grade's bounds. There the whole record is the reference: such a candidate is picked and reported as
     ``reference_or_model_error`` as before (a +100 % gyro scale factor on a rate table), not ranked away behind a
     plausible rival that would use up the rounds. Where the moves are unstated the holds are the only reference,
     and a fit implausible on them ranks below its rivals (a partly out-of-bound fit would otherwise be refitted
     without its bad parameters and win: a misalignment on a hand-turned fixture)."""
-    from imu_sim.diagnose import plausibility
-    return bool(plausibility.violations(cand, plausibility.grade_of(case.model)[0], cand.constant_scale))
+    return bool(getattr(case.scenario, "moves_known", False)
+                and plausibility.violations(cand, plausibility.grade_of(case.model)[0], cand.constant_scale))
 
 
 def _implausible_on_holds(case, cand, theta: np.ndarray, cov: np.ndarray) -> bool:
     """Whether the candidate's fit on the holds given the tilts breaks its grade's bounds
     (:func:`plausibility.violations`: its whole 95 % interval outside, determined to the bound or far out)."""
-    from types import SimpleNamespace
-
-    from imu_sim.diagnose import plausibility
     names = list(cand.params or {})
     if cand.effect not in BOUNDED or len(names) != len(theta):
         return False
