@@ -7,12 +7,15 @@ object, reliable and transient local: a late subscriber, such as the demo report
 that went away (a held vibration line, a start-up noise increase) follows as an ``OK`` event with
 ``statistic.cleared`` (``health.json`` lists these under ``cleared``).
 ``/diagnostics`` carries one status per channel (``gx`` .. ``az``) and a ``summary`` (:mod:`sensor_health.status`).
-``gps/fix`` feeds the yaw scale-factor test (gz against the GNSS course in turns) and is counted in the summary;
-``odometry/filtered`` is counted only.
+``gps/fix`` feeds the yaw scale-factor and track tests and is counted in the summary. ``odometry/filtered``
+(ins_gps_kf's epoch rates, bias-corrected) gives the filter's gyro bias estimate
+(:class:`sensor_health.odometry_bias.OdometryBias`), reported on gx gy gz in ``/diagnostics`` beside the monitor's
+own tests; it feeds no test, so the events are the CLI's with or without it.
 This module is wiring.
 """
 from __future__ import annotations
 
+import json
 import threading
 import time
 
@@ -29,8 +32,9 @@ from nav_core.ros_node import (DIAG_LEVELS, SENSOR_QOS_IN, ImuBatchSubscription,
                                run_node)
 from nav_core.units import deg2rad, g2mps2
 from sensor_health import status
-from sensor_health.events import cleared_event
+from sensor_health.events import CHANNELS, cleared_event
 from sensor_health.monitor import HealthConfig, HealthMonitor
+from sensor_health.odometry_bias import OdometryBias
 
 EVENTS_QOS = QoSProfile(depth=1000, reliability=ReliabilityPolicy.RELIABLE,
                         durability=DurabilityPolicy.TRANSIENT_LOCAL)
@@ -48,6 +52,10 @@ PARAMS = (
     Param("intake_period_s", 0.1, "imu/data_raw is taken in batches at this period, s", 0.001, 5.0),
     Param("diagnostics_period_s", 1.0, "period of the /diagnostics statuses, s", 0.05, 60.0),
     Param("input_queue_depth", 20000, "imu/data_raw messages held until taken", 100, 1000000),
+    Param("filter_bias_average_s", 10.0, "the filter's gyro bias (odometry/filtered) is averaged over this, s",
+          0.5, 3600.0),
+    Param("filter_epoch_max_s", 1.0, "odometry/filtered stamps further apart than this are not one filter epoch "
+          "(ins_gps_kf's 1 / filter_rate_hz; after alignment or a reset the span is unknown), s", 0.01, 60.0),
 )
 
 
@@ -75,7 +83,8 @@ class SensorHealthNode(Node):
         self.events_pub = self.create_publisher(String, values["events_topic"], EVENTS_QOS)
         self.diag_pub = self.create_publisher(DiagnosticArray, "/diagnostics", 10)
         self.create_subscription(NavSatFix, "gps/fix", self.on_fix, SENSOR_QOS_IN)
-        self.create_subscription(Odometry, "odometry/filtered", lambda _m: self._count("odometry"), 10)
+        self.filter_bias = OdometryBias(values["filter_bias_average_s"], values["filter_epoch_max_s"])
+        self.create_subscription(Odometry, "odometry/filtered", self.on_odometry, 100)
         qos = QoSProfile(depth=values["input_queue_depth"], reliability=ReliabilityPolicy.BEST_EFFORT)
         self.intake = ImuBatchSubscription(self, "imu/data_raw", self.on_batch, None, qos=qos)
         self.lock = threading.Lock()
@@ -99,10 +108,19 @@ class SensorHealthNode(Node):
                                             [float(msg.altitude)])
             self._publish_events(events)
 
+    def on_odometry(self, msg) -> None:
+        """One filter epoch: its bias-corrected body rate against imu/data_raw (the filter's gyro bias)."""
+        self._count("odometry")
+        t = msg.header.stamp.sec + 1e-9 * msg.header.stamp.nanosec
+        w = msg.twist.twist.angular
+        with self.lock:
+            self.filter_bias.push_odometry(t, (w.x, w.y, w.z))
+
     def on_batch(self, batch) -> None:
         """Push a batch into the monitor; publish each event it names."""
         start = time.perf_counter()
         events = self.monitor.push(batch.t_s, batch.gyro, batch.accel)
+        self.filter_bias.push_imu(batch.t_s, batch.gyro)
         self.stats["received"] += len(batch.t_s)
         self._publish_events(events)
         self._log_cleared()
@@ -133,10 +151,16 @@ class SensorHealthNode(Node):
         now = self.monitor.checked_s[1] if self.monitor.checked_s[1] is not None else 0.0
         arr = DiagnosticArray()
         arr.header.stamp = self.get_clock().now().to_msg()
+        bias = self.filter_bias.estimate()
         for name, s in status.statuses(self.monitor, now, self.counts).items():
             values = s.to_values()
+            if bias is not None and name in CHANNELS[:3]:
+                c = CHANNELS.index(name)
+                values["filter_bias_rad_s"] = repr(float(bias[0][c]))
+                values["filter_bias_interval_95"] = json.dumps(bias[1][c].tolist())
             if name == status.SUMMARY:
                 values.update({k: str(v) for k, v in self.stats.items()})
+                values["filter_bias_epochs"] = str(bias[2] if bias is not None else 0)
                 values["processing_mean_us"] = f"{1e6 * self.stats['busy_s'] / max(self.stats['received'], 1):.1f}"
                 if not self.stats["received"]:
                     s.message = "waiting for imu/data_raw"
