@@ -109,6 +109,10 @@ def test_every_reader_gets_the_replayed_bag_from_its_first_message_and_live_equa
     assert float(kf["first_imu_stamp_s"]) == pytest.approx(den.t[0], abs=1e-6), (kf, den.t[:3])
     health = last_diagnostics(bag)["sensor_health_node: summary"][2]
     assert int(health["received"]) > 0 and int(health["gps_fix"]) > 0, health
+    # the filter's odometry reached the monitor: its gyro bias beside the monitor's channels (sensor_health_node)
+    gz = last_diagnostics(bag)["sensor_health_node: gz"][2]
+    assert int(health["odometry"]) > 0 and int(health["filter_bias_epochs"]) >= 2, health
+    assert abs(float(gz["filter_bias_rad_s"])) < 0.01, gz  # finite, and of a gyro bias's size (0.6 deg/s)
     # the monitor on the same input does not change the filter: live = offline on the run's own bag
     summary = write_report(run_dir, exit_codes=codes, filter_params=demo.filter_params(args.params, graph.specs))
     assert (run_dir / "summary.json").is_file(), summary

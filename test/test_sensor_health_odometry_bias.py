@@ -1,8 +1,13 @@
-"""The filter's gyro bias from odometry/filtered (sensor_health.odometry_bias): the raw gyro over each filter epoch
-less the epoch's bias-corrected rate recovers the filter's bias, through turns, with the odometry arriving before or
-after the raw samples of its epoch; spans that are not one epoch are skipped; a step shows within the average."""
+"""The filter's gyro bias from odometry/filtered (sensor_health.odometry_bias): the calibrated raw gyro over each
+filter epoch less the epoch's bias-corrected rate is ins_gps_kf's own bias state on a drive; it is recovered through
+turns, with the odometry arriving before or after the raw samples of its epoch; spans that are not one epoch are
+skipped; a step shows within the average."""
 import numpy as np
 
+from ins_gps_kf import config, synthetic
+from ins_gps_kf.filter import InsGpsFilter
+from ins_gps_kf.offline import run
+from nav_core.sensor_model import TriadModel, corrector
 from sensor_health.odometry_bias import OdometryBias
 
 FS, EPOCH_S = 64.0, 0.5
@@ -49,3 +54,23 @@ def test_a_step_of_the_filter_bias_shows_within_the_average_and_long_gaps_are_sk
     for te in (1.0, 3.0, 5.0, 5.5, 8.0):  # only 5.0 -> 5.5 is one epoch
         gap.push_odometry(te, np.zeros(3))
     assert gap.epochs == 1 and gap.estimate() is None
+
+
+def test_it_is_the_filters_own_gyro_bias_state_on_a_drive_with_a_calibrated_input():
+    cfg = config.from_params({"alignment_time_s": 10.0})  # 64 Hz in, 2-Hz epochs
+    motion = synthetic.circle(still_s=15.0, accel_s=5.0, straight_s=10.0, turn_s=30.0)
+    rng = np.random.default_rng(3)
+    imu = synthetic.add_imu_errors(synthetic.ideal_imu(motion, cfg.imu_rate_hz), rng, gyro_bias=2e-3,
+                                   gyro_white=1e-3, accel_white=1e-3)  # what the filter's bias state must learn
+    calib = TriadModel(bias=np.array([1e-2, -5e-3, 3e-3]), scale_factor=np.array([0.01, -0.02, 0.015]))
+    raw = calib.apply(imu.gyro)  # imu/data_raw; the filter gets it calibrated (wmra_node, denoising aside)
+    estimates = run(InsGpsFilter(cfg), imu, synthetic.gnss(motion, cfg.imu_rate_hz, 0.5, rng))
+    view = OdometryBias(average_s=10.0)
+    view.push_imu(imu.t, corrector(calib)(raw))
+    for e in estimates:
+        view.push_odometry(e.t, e.angular_rate_b)
+    bias, interval, n = view.estimate()
+    state = np.mean([e.gyro_bias for e in estimates if e.t > estimates[-1].t - 10.0], axis=0)
+    assert n == 20 and estimates[-1].status == "navigating"
+    np.testing.assert_allclose(bias, state, atol=1e-5)  # the state moves within the 10 s by a few 1e-6
+    assert np.all(np.abs(state - 2e-3) < 5e-4)  # and it has learned the bias: the comparison is not of zeros

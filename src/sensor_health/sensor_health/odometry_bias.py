@@ -1,10 +1,11 @@
 """The navigation filter's gyro bias as its output shows it, beside the monitor's own tests. No ROS; rad/s, s.
 
 ins_gps_kf publishes no bias topic, but ``odometry/filtered`` carries in ``twist.twist.angular`` the epoch's mean
-*bias-corrected* body rate (the mean over the samples since its previous epoch, body = IMU axes). ``imu/data_raw``
-averaged over the same span, less that rate, is the filter's gyro bias estimate (plus what the stages between
-``imu/data_raw`` and the filter's input remove: wmra_node's denoising has zero mean). Averaged over the last
-``average_s`` (the epochs' differences carry the raw white noise of one epoch, independent from epoch to epoch).
+*bias-corrected* body rate (the mean over its input samples since its previous epoch; body = IMU axes). Its input
+is ``imu/data_raw`` calibrated by the sensor model and denoised (wmra_node; the denoising keeps the mean). The
+calibrated raw gyro averaged over the same span, less that rate, is the filter's gyro bias state; averaged over the
+last ``average_s`` (the epochs' differences carry one epoch's white noise, independent from epoch to epoch).
+``test_sensor_health_odometry_bias`` checks it against ins_gps_kf's own bias state on a drive.
 
 The estimate feeds no test: a threshold on it would need the false-alarm rate measured through the filter, which
 it is not. It is reported (``/diagnostics``, gx gy gz) so a ``bias_shift`` the monitor names can be set against
@@ -35,7 +36,8 @@ class OdometryBias:
         self.epochs = 0
 
     def push_imu(self, t, gyro) -> None:
-        """Raw gyro samples t (m,) s, gyro (m, 3) rad/s, in time order."""
+        """Gyro samples as the filter's input has them before its bias (calibrated): t (m,) s, gyro (m, 3) rad/s,
+        in time order."""
         t = np.asarray(t, float).reshape(-1)
         if len(t) == 0:
             return

@@ -8,8 +8,9 @@ that went away (a held vibration line, a start-up noise increase) follows as an 
 ``statistic.cleared`` (``health.json`` lists these under ``cleared``).
 ``/diagnostics`` carries one status per channel (``gx`` .. ``az``) and a ``summary`` (:mod:`sensor_health.status`).
 ``gps/fix`` feeds the yaw scale-factor and track tests and is counted in the summary. ``odometry/filtered``
-(ins_gps_kf's epoch rates, bias-corrected) gives the filter's gyro bias estimate
-(:class:`sensor_health.odometry_bias.OdometryBias`), reported on gx gy gz in ``/diagnostics`` beside the monitor's
+(ins_gps_kf's epoch rates, bias-corrected) gives the filter's gyro bias estimate against imu/data_raw calibrated
+by the sensor model, as wmra_node calibrates the filter's input (:class:`sensor_health.odometry_bias.OdometryBias`),
+reported on gx gy gz in ``/diagnostics`` beside the monitor's
 own tests; it feeds no test, so the events are the CLI's with or without it.
 This module is wiring.
 """
@@ -84,6 +85,7 @@ class SensorHealthNode(Node):
         self.diag_pub = self.create_publisher(DiagnosticArray, "/diagnostics", 10)
         self.create_subscription(NavSatFix, "gps/fix", self.on_fix, SENSOR_QOS_IN)
         self.filter_bias = OdometryBias(values["filter_bias_average_s"], values["filter_epoch_max_s"])
+        self.correct_gyro = sensor_model.corrector(model.gyro)  # the filter's input is calibrated (wmra_node)
         self.create_subscription(Odometry, "odometry/filtered", self.on_odometry, 100)
         qos = QoSProfile(depth=values["input_queue_depth"], reliability=ReliabilityPolicy.BEST_EFFORT)
         self.intake = ImuBatchSubscription(self, "imu/data_raw", self.on_batch, None, qos=qos)
@@ -120,7 +122,7 @@ class SensorHealthNode(Node):
         """Push a batch into the monitor; publish each event it names."""
         start = time.perf_counter()
         events = self.monitor.push(batch.t_s, batch.gyro, batch.accel)
-        self.filter_bias.push_imu(batch.t_s, batch.gyro)
+        self.filter_bias.push_imu(batch.t_s, self.correct_gyro(batch.gyro))
         self.stats["received"] += len(batch.t_s)
         self._publish_events(events)
         self._log_cleared()
