@@ -88,16 +88,18 @@ def test_node_names_faults_like_the_core_with_their_cleared_ok_event_on_a_transi
         tmp_path, ros_env, rclpy_context):
     path = sensor_model.save(_model(), tmp_path / "model.yaml")
     t, x = _samples()
-    core = HealthMonitor(_model(), keep_trace=False)
-    expected = core.push(t, x[:, :3], x[:, 3:])
-    assert [(e.effect, e.channels) for e in expected] == [("white_noise_increase", ["ax"]), ("stuck_output", ["gz"])]
-    (note,) = core.cleared  # ax's noise went at 5 s: its OK event follows on the topic, before gz's
-    published = sorted([e.to_dict() for e in expected] + [cleared_event(note).to_dict()], key=lambda d: d["t_s"])
-    assert [d["level"] for d in published] == ["WARN", "OK", "ERROR"]
     epochs = T0 + np.arange(0.5, 12.0, 0.5)  # the filter's 2-Hz epochs
     node = NodeProcess("sensor_health_node", env=ros_env, ros_args={"sensor_model_path": str(path),
                                                                     "diagnostics_period_s": 0.2})
     try:
+        # the core runs while the node starts (each its own Monte Carlo, in its own process)
+        core = HealthMonitor(_model(), keep_trace=False)
+        expected = core.push(t, x[:, :3], x[:, 3:])
+        assert [(e.effect, e.channels) for e in expected] == [("white_noise_increase", ["ax"]),
+                                                              ("stuck_output", ["gz"])]
+        (note,) = core.cleared  # ax's noise went at 5 s: its OK event follows on the topic, before gz's
+        published = sorted([e.to_dict() for e in expected] + [cleared_event(note).to_dict()], key=lambda d: d["t_s"])
+        assert [d["level"] for d in published] == ["WARN", "OK", "ERROR"]
         assert node.wait_for_line("ready", 60), node.output
         probe = Probe({"/diagnostics": DiagnosticArray})
         feeder = rclpy.create_node("feeder")
