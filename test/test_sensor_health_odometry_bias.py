@@ -1,14 +1,14 @@
 """The filter's gyro bias from odometry/filtered (sensor_health.odometry_bias): the calibrated raw gyro over each
 filter epoch less the epoch's bias-corrected rate is ins_gps_kf's own bias state on a drive; it is recovered through
 turns, with the odometry arriving before or after the raw samples of its epoch; spans that are not one epoch are
-skipped; a step shows within the average."""
+skipped, odometry the IMU never reaches is not held without bound; a step shows within the average."""
 import numpy as np
 
 from ins_gps_kf import config, synthetic
 from ins_gps_kf.filter import InsGpsFilter
 from ins_gps_kf.offline import run
 from nav_core.sensor_model import TriadModel, corrector
-from sensor_health.odometry_bias import OdometryBias
+from sensor_health.odometry_bias import MAX_QUEUED, OdometryBias
 
 FS, EPOCH_S = 64.0, 0.5
 
@@ -54,6 +54,10 @@ def test_a_step_of_the_filter_bias_shows_within_the_average_and_long_gaps_are_sk
     for te in (1.0, 3.0, 5.0, 5.5, 8.0):  # only 5.0 -> 5.5 is one epoch
         gap.push_odometry(te, np.zeros(3))
     assert gap.epochs == 1 and gap.estimate() is None
+    other_clock = OdometryBias()  # odometry the IMU stamps never reach is held, but not without bound
+    for k in range(5000):
+        other_clock.push_odometry(1e9 + 0.5 * k, np.zeros(3))
+    assert len(other_clock.queue) == MAX_QUEUED and other_clock.epochs == 0
 
 
 def test_it_is_the_filters_own_gyro_bias_state_on_a_drive_with_a_calibrated_input():

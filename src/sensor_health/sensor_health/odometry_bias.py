@@ -19,6 +19,9 @@ import numpy as np
 
 from nav_core.noise_stats import Z95
 
+MAX_QUEUED = 1000
+"""Odometry messages held for IMU samples not yet received (500 s of 2-Hz epochs)."""
+
 
 class OdometryBias:
     """Streaming: :meth:`push_imu` raw gyro samples, :meth:`push_odometry` the filter's epoch rates;
@@ -30,7 +33,9 @@ class OdometryBias:
         comes late (the filter's intake waits for reordering)."""
         self.average_s, self.max_epoch_s, self.keep_s = float(average_s), float(max_epoch_s), float(keep_s)
         self.imu_t, self.gyro = np.zeros(0), np.zeros((0, 3))
-        self.queue = deque()  # odometry (t, rate) waiting for the raw samples of its epoch
+        # odometry (t, rate) waiting for the raw samples of its epoch; bounded: stamps the IMU never reaches (another
+        # clock) must not pile up
+        self.queue = deque(maxlen=MAX_QUEUED)
         self.last_t = None
         self.diffs = deque()  # (t, raw mean - filter rate (3,))
         self.epochs = 0

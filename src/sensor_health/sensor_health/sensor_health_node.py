@@ -8,10 +8,10 @@ that went away (a held vibration line, a start-up noise increase) follows as an 
 ``statistic.cleared`` (``health.json`` lists these under ``cleared``).
 ``/diagnostics`` carries one status per channel (``gx`` .. ``az``) and a ``summary`` (:mod:`sensor_health.status`).
 ``gps/fix`` feeds the yaw scale-factor and track tests and is counted in the summary. ``odometry/filtered``
-(ins_gps_kf's epoch rates, bias-corrected) gives the filter's gyro bias estimate against imu/data_raw calibrated
-by the sensor model, as wmra_node calibrates the filter's input (:class:`sensor_health.odometry_bias.OdometryBias`),
-reported on gx gy gz in ``/diagnostics`` beside the monitor's
-own tests; it feeds no test, so the events are the CLI's with or without it.
+(ins_gps_kf's epoch rates, bias-corrected) against imu/data_raw calibrated by the sensor model (as wmra_node
+calibrates the filter's input) gives the filter's gyro bias (:class:`sensor_health.odometry_bias.OdometryBias`),
+reported on gx gy gz in ``/diagnostics`` beside the monitor's own tests; it feeds no test, so the events are the
+CLI's with or without it.
 This module is wiring.
 """
 from __future__ import annotations
