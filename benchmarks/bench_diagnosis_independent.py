@@ -37,6 +37,7 @@ import independent_gen as gen  # noqa: E402
 
 SITE = (51.0784, -114.13, 1100.0)
 REALISTIC = False
+SLOW_SPEED = 0.62
 """Set by ``--realistic`` (see the module docstring)."""
 DRIVE = "figure8"
 """``--drive town``: the drive cases run on a 240-s town drive (stops, quintic speed changes <= 2 m/s^2, turns with
@@ -67,7 +68,7 @@ TABLE_RATES = [10, -10, 20, -20, 30, -30, 40, -40, 60, -60]
 MIS_XZ = 7e-4
 """Gyro x senses this fraction (rad) of the z rate (the rate-table misalignment case)."""
 TEMP_COEF = np.array([1.0e-6, -0.8e-6, 1.2e-6])
-GRADE_KINDS = ("table", "drive")
+GRADE_KINDS = ("table", "drive", "mtable")
 """The realistic table and drive cases cycle over GRADES by seed (noise, turn-on biases and the table's scale factor
 and misalignment are the industrial ones times the grade's factor); their model states the noise to +-10 % and no
 grade, so the diagnosis infers it (navigation: ARW 0.007 deg/sqrt(h), flicker B 0.04 deg/h)."""
@@ -80,6 +81,23 @@ TABLE_TOLERANCE_DEG = 0.01
 """The realistic rate table's fixture is machined and aligned to this (deg, stated as the scenario's
 attitude_tolerance_deg); the unit sits on it tilted by up to that in roll and pitch. A misalignment no larger than
 such a tilt is not separable from the mounting on a one-axis table (navigation and tactical grades)."""
+MTABLE_TOLERANCE_DEG = 1.0
+"""The unit remounted by hand on the table for each spin axis sits within this of its nominal mounting (deg, stated
+as attitude_tolerance_deg); each mounting's tilt is drawn up to it per body axis."""
+MTABLE_MOUNTS = [(0.0, 0.0), (0.0, -90.0), (90.0, 0.0)]
+"""(roll, pitch) deg of the mounted table's mountings: body z, x, then y up (the spin axis)."""
+MTABLE_RATES = [10, -10, 30, -30, 60, -60]
+"""Dwell rates (deg/s) of each mounting's run."""
+MTABLE_SCALE = [4e-3, -3e-3, 5e-3]
+"""Industrial-grade gyro scale factors of the mounted-table case (x, y, z; times the grade's factor)."""
+MTABLE_MIS = np.array([[0.0, 1.2e-3, -0.8e-3], [0.9e-3, 0.0, 1.1e-3], [-1.0e-3, 0.7e-3, 0.0]])
+"""Industrial-grade gyro misalignment (row senses column's rate) of the mounted-table case (times the grade's)."""
+SLOW_LEGS = [(kind, dur, val * SLOW_SPEED if kind == "speed" else val) for kind, dur, val in gen.STOP_AND_GO]
+"""--drive slow: the town drive's legs at SLOW_SPEED of their speeds (a slow vehicle: up to 9 m/s, mean 5.9 m/s,
+1.4 km in 240 s)."""
+TABLE_TYPED_S = 0.5
+"""The realistic rate table's segments are typed to this (s): t0, t1 from the controller's schedule or a coarse log
+rounded to it, so a stated dwell may begin up to half of it inside the ramp before it (or end inside the next)."""
 TABLE_DWELL_S = (4.0, 8.0)
 """A realistic rate table dwells at each rate for a time drawn from this range (s)."""
 TABLE_ACCEL_DPS2 = (20.0, 150.0)
@@ -96,6 +114,8 @@ CASES = {
     "quantization": ("tumble", "quantization", {"gyro_lsb": 1e-5, "accel_lsb": 5e-5}),
     "scale_factor_table": ("table", "scale_factor", {"gyro_z": 7e-4}),
     "misalignment_table": ("table", "axis_misalignment", {"xz": MIS_XZ}),  # sizes per grade: effect_params
+    "scale_factor_mtable": ("mtable", "scale_factor", {}),  # the unit in three mountings, MTABLE_*
+    "misalignment_mtable": ("mtable", "axis_misalignment", {}),
     "temperature_bias": ("static", "temperature_bias", {}),
     "gauss_markov_bias": ("static", "gauss_markov_bias", {"gyro": 3.7e-5, "accel": 1.9e-4, "tau": 10.0}),
     "bias_random_walk": ("static", "bias_random_walk", {"gyro": 6e-7, "accel": 3e-6}),
@@ -118,7 +138,8 @@ CASES = {
     "fx_bias_random_walk": ("fixture", "bias_random_walk", {"gyro": 3e-6, "accel": 1.5e-5}),
     "fx_earth_rotation_updown": ("updown_fixture", "earth_rotation", {}),
 }
-NULLS = {"null_drive": "drive", "null_table": "table", "null_single_naive": "static_rw", "null_tumble": "tumble",
+NULLS = {"null_drive": "drive", "null_table": "table", "null_mtable": "mtable", "null_single_naive": "static_rw",
+         "null_tumble": "tumble",
          "null_fixture": "fixture", "null_updown_fixture": "updown_fixture"}
 GRADES = {"navigation": 0.01, "tactical": 0.1, "industrial": 1.0, "consumer": 5.0}
 """Sensor grades of the fixture cases: noise (white, flicker, turn-on bias) and sensor-effect sizes are the
@@ -138,6 +159,9 @@ TRUE = {
     "quantization": {f"gyro_lsb_rad[{a}]": 1e-5 for a in "xyz"},
     "scale_factor_table": {"gyro[z]": 7e-4},
     "misalignment_table": {"gyro[xz]": MIS_XZ},
+    "scale_factor_mtable": {f"gyro[{a}]": v for a, v in zip("xyz", MTABLE_SCALE)},
+    "misalignment_mtable": {f"gyro[{'xyz'[i]}{'xyz'[j]}]": MTABLE_MIS[i, j] for i in range(3) for j in range(3)
+                            if i != j},
     "temperature_bias": {f"gyro_coeff_rad_per_s_per_degc[{a}]": v for a, v in zip("xyz", TEMP_COEF)},
     "gauss_markov_bias": {f"gyro_sigma_rad_per_s[{a}]": 3.7e-5 for a in "xyz"},
     "bias_random_walk": {f"gyro_rad_per_s_per_sqrt_s[{a}]": 6e-7 for a in "xyz"},
@@ -174,7 +198,7 @@ def effect_params(name: str, grade: str) -> dict:
 
 def true_values(name: str, grade: str) -> dict:
     """The true parameters the case's first finding's intervals should cover."""
-    if name in ("scale_factor_table", "misalignment_table"):
+    if name in ("scale_factor_table", "misalignment_table", "scale_factor_mtable", "misalignment_mtable"):
         return {k: v * GRADES[grade] for k, v in TRUE[name].items()}
     if CASES.get(name, ("",))[0] in ("fixture", "updown_fixture"):  # sensor effects scale with the grade's noise
         k = GRADES[grade] * (TEMP_REALISTIC if name == "fx_temperature_bias" else 1.0)
@@ -196,13 +220,48 @@ def dwell_table(real):
     return gen.DwellTable(rates, dwell, ramp, shapes, rest_s=20.0, mount_deg=mount)
 
 
+def mounted_table(real):
+    """The unit remounted by hand for each spin axis (MTABLE_MOUNTS), each mounting tilted by up to
+    MTABLE_TOLERANCE_DEG per body axis; each run dwells at MTABLE_RATES with its own ramps, 10-s rests."""
+    runs = []
+    for _ in MTABLE_MOUNTS:
+        dwell = real.uniform(*TABLE_DWELL_S, len(MTABLE_RATES))
+        steps = np.abs(np.diff(np.r_[0.0, MTABLE_RATES, 0.0]))
+        ramp = np.maximum(steps / real.uniform(*TABLE_ACCEL_DPS2, len(steps)), 0.3)
+        shapes = real.choice(["linear", "smooth", "quintic"], len(steps))
+        runs.append(gen.DwellTable(MTABLE_RATES, dwell, ramp, shapes, rest_s=10.0))
+    tilts = np.radians(real.uniform(-MTABLE_TOLERANCE_DEG, MTABLE_TOLERANCE_DEG, (len(MTABLE_MOUNTS), 3)))
+    return gen.MountedTable(runs, MTABLE_MOUNTS, tilts, move_s=5.0)
+
+
+def _mtable_holds(table) -> list:
+    """The mounted table as a user types it: per mounting its rests and dwells at the nominal mounting, spinning
+    about the body axis that is up, yaw the table's encoder angle at each start (0.1 deg); remounts and ramps
+    unstated."""
+    segs = []
+    for k, (run, (r, p)) in enumerate(zip(table.tables, table.mounts_deg)):
+        axis = gen.body_to_enu(np.radians(r), np.radians(p), 0.0)[2]
+        axis = [round(float(v), 9) + 0.0 for v in axis]
+        for seg in _table_holds(run):
+            t0 = float(table.starts[k]) + seg["t0"]
+            yaw = table.yaw0(k) + run.attitude(np.array([seg["t0"]]))[0][2][0]
+            segs.append({"t0": t0, "t1": float(table.starts[k]) + seg["t1"], "roll_deg": r, "pitch_deg": p,
+                         "yaw_deg": round(float((np.degrees(yaw) + 180.0) % 360.0 - 180.0), 1),
+                         "rate_dps": seg["rate_dps"], "axis_body": axis})
+    return segs
+
+
 def motion_of(kind: str):
     """(motion, IMU rate Hz, truth rate Hz or None for static segments)."""
     if kind == "tumble":
         return gen.Poses(TUMBLE_POSES, 30.0, 6.0), 50.0, 100.0
     if kind == "table":
         return gen.RateTable(TABLE_RATES, 30.0, 2.0), 50.0, 100.0
+    if kind == "mtable":
+        return None, 50.0, None
     if kind == "drive":
+        if DRIVE == "slow":
+            return gen.StopAndGo(240.0, legs=SLOW_LEGS), 50.0, 100.0
         return (gen.StopAndGo(240.0) if DRIVE == "town" else gen.FigureEight(1200.0)), 50.0, 100.0
     if kind == "updown":
         return None, 64.0, None
@@ -224,12 +283,15 @@ def generate(name: str, seed: int, folder: Path) -> dict:
         motion = gen.Poses(TUMBLE_POSES, real.uniform(*HOLDS_REALISTIC_S, len(TUMBLE_POSES)), motion.move_s)
     if real is not None and kind == "table":
         motion = dwell_table(real)
+    if kind == "mtable":
+        motion = mounted_table(real if real is not None else np.random.default_rng([seed, 24]))
     if kind == "updown":
         return _updown(site, rng, folder, effect, real)
     if kind in ("fixture", "updown_fixture"):
         return _fixture(site, rng, np.random.default_rng([seed, 25]), folder, kind, effect, par, seed)
     dt = 1.0 / rate
-    true_motion = _off_nominal(motion, real) if real is not None and kind != "drive" and kind != "table" else motion
+    off = real is not None and kind not in ("drive", "table", "mtable")
+    true_motion = _off_nominal(motion, real) if off else motion
     t, gyro, accel = site.true_imu(true_motion, rate)
     n = len(t)
     gyro_out, accel_out = gyro.copy(), accel.copy()
@@ -246,6 +308,10 @@ def generate(name: str, seed: int, folder: Path) -> dict:
         s = gen.interval_mean_sin(t, dt, par["f"], 0.7)
         gyro_out[:, 0] += par["gyro_x"] * s
         accel_out[:, 2] += par["accel_z"] * s
+    elif effect == "scale_factor" and kind == "mtable":
+        gyro_out += gyro * np.asarray(MTABLE_SCALE) * kg
+    elif effect == "axis_misalignment" and kind == "mtable":
+        gyro_out += gyro @ (MTABLE_MIS * kg).T
     elif effect == "scale_factor":
         gyro_out[:, 2] += par["gyro_z"] * gyro[:, 2]
     elif effect == "axis_misalignment":
@@ -281,7 +347,10 @@ def generate(name: str, seed: int, folder: Path) -> dict:
         cols["temp_c"] = temp
     paths = {"recording": gen.write_csv(folder / "imu.csv", cols)}
     scenario = {"rate_hz": rate}
-    if truth_rate is None:
+    if kind == "mtable":
+        scenario.update(latitude_deg=SITE[0], longitude_deg=SITE[1], height_m=SITE[2], gps=False,
+                        attitude_tolerance_deg=MTABLE_TOLERANCE_DEG, static_segments=_mtable_holds(motion))
+    elif truth_rate is None:
         scenario.update(latitude_deg=SITE[0], longitude_deg=SITE[1], height_m=SITE[2], gps=False,
                         static_segments=[{"t0": 0.0, "t1": float(motion.duration_s), "roll_deg": 0.0,
                                           "pitch_deg": 0.0, "yaw_deg": 0.0}])
@@ -318,8 +387,11 @@ def _table_holds(table) -> list:
         for k, r in enumerate(table.rates[1:])]
     segs = [{"t0": 0.0, "t1": float(table.rest_s), "roll_deg": 0.0, "pitch_deg": 0.0, "yaw_deg": 0.0,
              "rate_dps": 0.0}]
+    typed = TABLE_TYPED_S if REALISTIC else 0.0
     for t0, t1, r in spans:
         (_, _, yaw), _ = table.attitude(np.array([t0]))
+        if typed:
+            t0, t1 = typed * round(t0 / typed), typed * round(t1 / typed)
         segs.append({"t0": float(t0), "t1": float(t1), "roll_deg": 0.0, "pitch_deg": 0.0,
                      "yaw_deg": round(float((np.degrees(yaw[0]) + 180.0) % 360.0 - 180.0), 1),
                      "rate_dps": round(float(np.degrees(r)), 6)})
@@ -579,7 +651,7 @@ def main(argv=None) -> int:
     parser.add_argument("--out", default="/tmp/diag_independent")
     parser.add_argument("--resume", default=None, help="rows.json of an earlier run of the same code to reuse")
     parser.add_argument("--quick", action="store_true", help="1 seed of one effect and one null (a smoke run)")
-    parser.add_argument("--drive", choices=("figure8", "town"), default="figure8",
+    parser.add_argument("--drive", choices=("figure8", "town", "slow"), default="figure8",
                         help="drive of the GNSS, coriolis and null_drive cases (town: 240 s with stops, see DRIVE)")
     parser.add_argument("--realistic", action="store_true",
                         help="misstated noise, flicker bias instability, off-nominal fixtures, a 10-Hz drive truth with "

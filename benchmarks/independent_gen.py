@@ -236,6 +236,78 @@ class DwellTable(Motion):
         return (z + self.mount[0], z + self.mount[1], yaw), (z.copy(), z.copy(), rate)
 
 
+def euler_of(c):
+    """(roll, pitch, yaw) rad of one body-to-ENU matrix Rz(yaw) Ry(pitch) Rx(roll)."""
+    return (float(np.arctan2(c[2, 1], c[2, 2])), float(-np.arcsin(np.clip(c[2, 0], -1.0, 1.0))),
+            float(np.arctan2(c[1, 0], c[0, 0])))
+
+
+def small_rotation(d):
+    """Rotation matrix (3, 3) of the rotation vector d (rad), Rodrigues."""
+    d = np.asarray(d, float)
+    a = np.linalg.norm(d)
+    if a == 0.0:
+        return np.eye(3)
+    k = np.array([[0.0, -d[2], d[1]], [d[2], 0.0, -d[0]], [-d[1], d[0], 0.0]]) / a
+    return np.eye(3) + np.sin(a) * k + (1.0 - np.cos(a)) * k @ k
+
+
+class MountedTable(Motion):
+    """A level one-axis table turned with the unit in several mountings (each a :class:`DwellTable` run), the unit
+    remounted by hand in ``move_s`` between them. Mounting k is the nominal ``(roll, pitch)`` of
+    ``mounts_deg[k]`` (which body axis is up) times a small tilt ``tilts_rad[k]`` (rotation vector in body axes):
+    the body-to-ENU attitude is Rz(table angle) R_nominal R(tilt)."""
+
+    def __init__(self, tables, mounts_deg, tilts_rad, move_s: float = 5.0):
+        self.tables, self.move_s, self.tilts = list(tables), move_s, np.asarray(tilts_rad, float)
+        self.euler = []  # (roll, pitch, yaw offset) of R_nominal R(tilt) per mounting
+        for (r, p), d in zip(mounts_deg, tilts_rad):
+            nominal = body_to_enu(np.radians(r), np.radians(p), 0.0)
+            self.euler.append(euler_of(nominal @ small_rotation(d)))
+        self.starts = np.r_[0.0, np.cumsum([tb.duration_s + move_s for tb in self.tables[:-1]])]
+        self.mounts_deg = [tuple(m) for m in mounts_deg]
+        super().__init__(float(self.starts[-1] + self.tables[-1].duration_s))
+
+    def _piece(self, k, t):
+        """Angles and rates of mounting k's run at record times t (within it)."""
+        (_, _, yaw), (_, _, rate) = self.tables[k].attitude(t - self.starts[k])
+        r, p, y0 = self.euler[k]
+        z = np.zeros_like(t)
+        return (z + r, z + p, yaw + y0 + self.yaw0(k)), (z.copy(), z.copy(), rate)
+
+    def yaw0(self, k):
+        """The table angle (rad) at the start of mounting k: where the previous runs left it."""
+        return float(sum(self.tables[j].attitude(np.array([self.tables[j].duration_s]))[0][2][0] for j in range(k)))
+
+    def attitude(self, t):
+        """Each run's own attitude; across a remount the Euler angles blend smoothly (table at rest)."""
+        t = np.asarray(t, float)
+        ang, rate = [np.zeros_like(t) for _ in range(3)], [np.zeros_like(t) for _ in range(3)]
+        for k, t0 in enumerate(self.starts):
+            end = t0 + self.tables[k].duration_s
+            m = (t >= t0) & (t <= end) if k == 0 else (t > t0) & (t <= end)
+            if m.any():
+                a, w = self._piece(k, t[m])
+                for i in range(3):
+                    ang[i][m], rate[i][m] = a[i], w[i]
+            if k + 1 < len(self.starts):
+                mv = (t > end) & (t <= self.starts[k + 1])
+                if mv.any():
+                    a0 = np.array(self._piece(k, np.array([end]))[0])[:, 0]
+                    a1 = np.array(self._piece(k + 1, np.array([self.starts[k + 1]]))[0])[:, 0]
+                    a1[2] = a0[2] + (a1[2] - a0[2] + np.pi) % (2 * np.pi) - np.pi
+                    s, ds, _ = smoothstep((t[mv] - end) / self.move_s)
+                    for i in range(3):
+                        ang[i][mv] = a0[i] + s * (a1[i] - a0[i])
+                        rate[i][mv] = ds / self.move_s * (a1[i] - a0[i])
+        if t.size and t[-1] > self.starts[-1] + self.tables[-1].duration_s:
+            m = t > self.starts[-1] + self.tables[-1].duration_s
+            a, w = self._piece(len(self.tables) - 1, np.full(m.sum(), self.starts[-1] + self.tables[-1].duration_s))
+            for i in range(3):
+                ang[i][m], rate[i][m] = a[i], 0.0 * w[i]
+        return tuple(ang), tuple(rate)
+
+
 class FigureEight(Motion):
     """Level figure-eight (Lissajous 1:2), body x along the velocity: x = A sin(w t), y = B sin(2 w t)."""
 

@@ -92,6 +92,11 @@ class Candidate:
     """Standard error of ``constant_scale``."""
     refit: object = None
     """For a regression: a function of parameter names returning the candidate refitted without them (None else)."""
+    design: object = None
+    """For a regression: its :class:`~imu_sim.diagnose.regressors.Design` (physics of a refitted theta)."""
+    mounting_theta: object = None
+    """On a hand-mounted rate table: each mounting's fitted rotation (rad) from the joint fit, and the statistic alone."""
+    stat_alone: float | None = None
 
     @property
     def significant(self) -> bool:

@@ -132,6 +132,14 @@ def make_case(rec: ImuRecording, sc: Scenario, model: SensorModel, gnss=None, wh
         gyro_true[unstated], accel_true[unstated] = 0.0, 0.0
         notes.append(f"{int(unstated.sum())} samples between the rate table's stated dwells (its ramps, whose profile "
                      "the scenario does not give) carry no information: a reference error, not sensor physics")
+    from imu_sim.diagnose.dwell_edges import unsettled_edges
+    edges = unsettled_edges(sc, t_abs[:n], rec.gyro, unstated)
+    if edges is not None:
+        unstated = edges if unstated is None else unstated | edges
+        gyro_true[edges], accel_true[edges] = 0.0, 0.0
+        notes.append(f"{int(edges.sum())} samples at the edges of the rate table's stated segments, where the recorded "
+                     "rate about the spin axis has not settled at the segment's level (the table still ramping), "
+                     "carry no information either")
     resets = [] if masked is None else [int(i) + 1 for i in np.flatnonzero(masked[:-1] & ~masked[1:])]
     if resets:
         notes.append("a separate turn-on bias per joined file (a step on every channel at each join is a nuisance)")

@@ -116,6 +116,7 @@ def regression(ctx: Context, design, statistic: str = "GLS likelihood ratio", se
     def refit(names):
         return _without(ctx, cand, design, res.theta, [design.names.index(m) for m in names if m in design.names])
     cand.refit = refit if design.effect not in KINEMATIC else None
+    cand.design = design
     ci = res.interval()
     cand.params, cand.intervals = _names_values(design.names, res.theta, ci)
     cand.physics = design.to_physics(res.theta)

@@ -20,7 +20,7 @@ import numpy as np
 
 from nav_core.sensor_model import EFFECTS, SensorModel
 
-from imu_sim.diagnose import fixture, gnss_candidates, metrics, plausibility, reference, share
+from imu_sim.diagnose import fixture, gnss_candidates, metrics, mounting, plausibility, reference, share
 from imu_sim.diagnose.candidate import (ALPHA, EXPLAIN, GNSS_EFFECTS, Candidate, Context, add_effect, evidence,
                                         load_calibration, rounded)
 from imu_sim.diagnose.case import CHANNELS, Case, residual
@@ -80,6 +80,8 @@ def evaluate(case: Case, model: SensorModel, resid: np.ndarray, exclude=(), fact
         _rank_known_constant(cand)
     rank_low_frequency(ctx, out)
     fixture.rank_given_tilts(case, out, resid)  # the fixture's tilts are a nuisance of every ranking
+    for cand in out:  # a hand-mounted table: each mounting's rotation is a nuisance of every tilt-sensitive fit
+        mounting.mounting_fit(ctx, cand)
     return out
 
 

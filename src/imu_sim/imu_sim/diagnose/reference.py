@@ -317,8 +317,8 @@ def attitude_note(ctx, cand) -> str:
     it is): its likelihood ratio less that of one constant rotation of the truth's attitude (a rotation is an
     antisymmetric misalignment shared by the gyros and the accelerometers; a smoothed track's attitude is off by
     hundredths of a degree, its heading by a tenth, and the IMU's mounting in the vehicle is a rotation too)."""
-    if cand.effect == "axis_misalignment" and cand.significant and _table_record(ctx.case):
-        return mounting_note(ctx, cand)
+    if cand.effect == "axis_misalignment" and getattr(ctx.case.scenario, "source", None) == "static_segments":
+        return ""  # a rate table's mounting: mounting.mounting_fit, after the fixture's ranking
     if cand.effect != "axis_misalignment" or not cand.significant or not moving_file_truth(ctx.case):
         return slow_reference_note(ctx, cand)
     from imu_sim.diagnose.spectral import gls
@@ -330,49 +330,6 @@ def attitude_note(ctx, cand) -> str:
     return (f"not separable from the reference on this record: one constant rotation of the truth file's attitude "
             f"({d:.2g} deg at most) explains it, its likelihood ratio given that rotation {given:.4g} is below the "
             f"threshold {cand.threshold:.4g} (a truth's attitude error and the IMU's mounting are a rotation); not ranked")
-
-
-def _table_record(case) -> bool:
-    """Whether the record is a rate table typed as static segments (one at least spinning, ``rate_dps``)."""
-    return getattr(case.scenario, "source", None) == "static_segments" and any(
-        float(s.get("rate_dps", 0.0) or 0.0) != 0.0 for s in (case.scenario.spec or []))
-
-
-def mounting_note(ctx, cand) -> str:
-    """On a rate table, why an axis misalignment is not separable from the unit's mounting on the table ('' when it
-    is): one constant rotation common to both triads, within 1.5 ``attitude_tolerance_deg`` (as a fixture's tilt),
-    explains it - its likelihood ratio given that rotation is below the threshold. On a level one-axis table a gyro's
-    sensitivity to the table rate (x-z) is exactly a mounting tilt about y (the accelerometers see only the
-    constant g there, which the turn-on bias takes). Blind rate-table null (2cf2e33): a 0.5-deg mounting named
-    axis_misalignment first, 5-9 mrad in both triads."""
-    tol = np.radians(float(getattr(ctx.case.scenario, "attitude_tolerance_deg", 1.0)))
-    k = next(iter(cand.columns.values())).shape[1]
-    rot, wh = rotation_columns(ctx.case), ctx.wh
-    stated = ~ctx.case.unstated if getattr(ctx.case, "unstated", None) is not None else np.ones(ctx.case.n, bool)
-    a, b = np.zeros((k + 3, k + 3)), np.zeros(k + 3)
-    for ch in range(6):
-        xc = cand.columns[ch] if ch in cand.columns else np.zeros((ctx.case.n, k))
-        x = np.hstack([xc, rot[ch]])
-        # the turn-on bias is free: a column's mean over the stated samples is the fill's level, not a square wave
-        # (a mounting tilt's d x g on the accelerometers is constant there, the turn-on bias's own shape)
-        xf = wh.spectrum(np.where(stated[:, None], x - x[stated].mean(axis=0), 0.0))
-        a += wh.gram(ch, xf, xf)
-        b += wh.gram(ch, xf, ctx.resid_f[:, ch])
-    # the tolerance as a Gaussian prior on the mounting (sd = tolerance): a rotation about the table axis, which
-    # only the Earth rate's horizontal part shows, stays within it instead of fitting that part's noise
-    a[k:, k:] += np.eye(3) / max(tol, 1e-12) ** 2
-    given = _lr(a, b) - _lr(a[k:, k:], b[k:])
-    d = np.sqrt(np.diag(a[k:, k:]))
-    d[d == 0] = 1.0
-    theta = (np.linalg.pinv(a[k:, k:] / np.outer(d, d), rcond=1e-9, hermitian=True) @ (b[k:] / d)) / d
-    top = float(np.max(np.abs(theta)))
-    if given > cand.threshold or top > 1.5 * tol:
-        return ""
-    return (f"not separable from the reference on this record: one constant rotation of the unit's mounting on the "
-            f"table ({np.degrees(top):.2g} deg, within the scenario's attitude_tolerance_deg "
-            f"{np.degrees(tol):g}) explains it; its likelihood ratio given that rotation {given:.4g} is below the "
-            f"threshold {cand.threshold:.4g} (on a rate table a mounting tilt and an axis misalignment make the same "
-            f"residual); not ranked")
 
 
 def whitened(case, model, resid: np.ndarray, cols: dict):
