@@ -138,3 +138,63 @@ def test_moves_are_unstated_unless_the_scenario_says_the_simulator_made_them():
     assert unstated_moves(motorised, t, 0.05) is None
     with pytest.raises(ScenarioError, match="moves_known"):
         from_dict({**_scenario(spans), "moves_known": "yes"}, where="typo")
+
+
+def test_hold_wander_inflates_the_joint_fit_weights_and_white_noise_does_not():
+    """The joint fit with the tilts counts a hold's samples as independent only as far as the residual is white: a
+    slow wander within the holds (here a 5-s Gauss-Markov at twice the white level) shrinks the effective sample
+    size, which widens the effect's interval and lowers its statistic given the tilts."""
+    from imu_sim.diagnose.hold_noise import inflation
+    rng = np.random.default_rng(3)
+    n, dt = 6000, 0.05
+    hold = np.ones(n, bool)
+    hold[1000:1100] = hold[3000:3100] = False
+    white = rng.normal(size=(6, n))
+    assert np.all(inflation(white, hold, dt) < 1.25)
+    phi = np.exp(-dt / 5.0)
+    gm = np.zeros((6, n))
+    e = rng.normal(size=(6, n)) * 2.0 * np.sqrt(1 - phi**2)
+    for i in range(1, n):
+        gm[:, i] = phi * gm[:, i - 1] + e[:, i]
+    assert np.all(inflation(white + gm, hold, dt) > 5.0)
+
+
+def test_an_accelerometer_misalignment_on_a_fixture_of_free_holds_is_not_separable_from_their_tilts():
+    """Each hold's tilt makes the same two level accelerometer readings as a misalignment (the gyros see only the
+    Earth rate to tell them apart): with each hold's attitude free, a 25-mrad misalignment (past the 1-deg tolerance) is not separable."""
+    from imu_sim.diagnose.case import residual
+    spans = [(0.0, 9.0), (10.0, 23.5), (25.0, 36.2), (38.0, 50.0)]
+    truth = _scenario(spans)
+    for seg, tilt in zip(truth["static_segments"], [(0.4, -0.3, 0.2), (-0.5, 0.2, 0.6), (0.3, 0.5, -0.4),
+                                                   (-0.2, -0.6, 0.1)]):
+        seg.update(roll_deg=seg["roll_deg"] + tilt[0], pitch_deg=seg["pitch_deg"] + tilt[1],
+                   yaw_deg=seg["yaw_deg"] + tilt[2])
+    sensor = _model()
+    sensor.accel.misalignment = np.array([[0.0, 2.5e-2, -2e-2], [2e-2, 0.0, 2.5e-2], [-2.5e-2, 2e-2, 0.0]])
+    res = simulate(from_dict(truth, where="truth"), sensor, seed=5, with_bytes=False)
+    rec = ImuRecording(res.imu.t, res.imu.gyro, res.imu.accel, res.imu.temp_c, source="test")
+    case = make_case(rec, from_dict(_scenario(spans), where="stated"), _model())
+    resid = residual(case, case.model)
+    mis = next(c for c in engine.evaluate(case, case.model, resid, factors={}) if c.effect == "axis_misalignment")
+    assert mis.stat > mis.threshold  # alone it is plain to see
+    assert not mis.significant and "attitude is its own" in mis.reason, mis.reason
+
+
+def test_a_walk_too_small_for_the_holds_is_stated_as_not_detectable_with_the_size_that_would_show():
+    """Each hold's own offset is removed before the slow noise terms are tested, so only frequencies above one over
+    the longest hold carry a walk: the tested entry states the smallest walk these holds could show, larger for
+    shorter holds."""
+    from imu_sim.diagnose.noise_candidates import smallest_walk
+    case = _hand_turned_case()
+    walk = next(c for c in engine.evaluate(case, case.model, case_residual(case), factors={})
+                if c.effect == "bias_random_walk")
+    assert not walk.significant and "not detectable on this record below" in walk.reason, walk.reason
+    long_holds = smallest_walk(case, case.model, walk.threshold)
+    case.cache["holds"] = [(a, a + (b - a) // 4) for a, b in case.cache["holds"]]
+    short_holds = smallest_walk(case, case.model, walk.threshold)
+    assert short_holds[0] > 1.5 * long_holds[0] and short_holds[1] > 1.5 * long_holds[1]
+
+
+def case_residual(case):
+    from imu_sim.diagnose.case import residual
+    return residual(case, case.model)

@@ -16,6 +16,7 @@ from types import SimpleNamespace
 import numpy as np
 
 from imu_sim.diagnose import plausibility
+from imu_sim.diagnose.hold_noise import inflation
 
 NOT_SEPARABLE = "not separable from the reference on this record"
 TILT_EFFECTS = ("axis_misalignment", "scale_factor", "gyro_g_sensitivity", "gravity_model", "earth_rotation",
@@ -182,13 +183,17 @@ def _rss(x: np.ndarray, y: np.ndarray, prior: np.ndarray | None = None) -> tuple
 def _setup(case, cand_columns: dict, resid: np.ndarray):
     """Shared pieces of the joint fit: weights, design, stacked effect, residual, row weights (noise std per channel
     on the holds only), tilt prior; None when the record has no fixture holds or no tolerance."""
-    weights = _weights(case)
+    if "fixture_weights" not in case.cache:  # the same for every candidate and pass
+        case.cache["fixture_weights"] = _weights(case)
+    weights = case.cache["fixture_weights"]
     tol = np.radians(case.scenario.attitude_tolerance_deg)
     if weights is None or tol <= 0:
         return None
     n, m = case.n, weights.shape[2]
     k = next(iter(cand_columns.values())).shape[1]
-    tilt = _tilt_design(case, weights)
+    if "fixture_tilt_design" not in case.cache:
+        case.cache["fixture_tilt_design"] = _tilt_design(case, weights)
+    tilt = case.cache["fixture_tilt_design"]
     short = _shortening(case, weights, tol)
     if short is not None:
         tilt = np.hstack([tilt, short[0]])
@@ -201,21 +206,36 @@ def _setup(case, cand_columns: dict, resid: np.ndarray):
     hold = np.all(np.isin(weights[0], (0.0, 1.0)), axis=1)
     if getattr(case, "unstated", None) is not None:  # a hold's first sample may still hold the end of the move
         hold &= ~case.unstated
-    w = np.repeat(1.0 / np.maximum(sigma, 1e-300), n) * np.tile(hold, 6)
+    # a noise-level weight per channel would count every sample as independent: the residual's wander within a hold
+    # (flicker, a Gauss-Markov bias) makes a hold's offsets vary more than white noise, so each channel is weighted
+    # by its effective sample size too (a consumer fixture's warm-up and Gauss-Markov bias were taken by a
+    # misalignment of white-noise statistic far above threshold)
+    infl = inflation((raw - np.hstack([tilt, eff]) @ th).reshape(6, n), hold, case.dt)
+    w = np.repeat(1.0 / np.maximum(sigma * np.sqrt(infl), 1e-300), n) * np.tile(hold, 6)
     # the tolerance is a Gaussian prior (sd = tolerance) on each tilt: a rotation about the gravity axis, which the
     # specific force cannot see, stays within it instead of fitting the Earth rate's noise with tens of degrees
     prior = np.diag(np.r_[np.full(3 * m, 1.0 / tol), np.zeros(6), [] if short is None else short[1]])
     return weights, tol, tilt, eff, raw, w, prior, hold
 
 
-def _given(case, cand, resid: np.ndarray, cache: dict | None = None):
-    """(likelihood ratio on the holds given the biases alone, given the tilts too, largest |tilt| rad) or None when
-    the record has no fixture holds, or the candidate no evidence on them. ``cache`` keeps the tilt-only fit."""
-    setup = _setup(case, cand.columns, resid)
+FREE_TILT_SD_RAD = 10.0
+"""Prior sd of a tilt left free (:func:`_given` with ``free``): no bound at all within a first-order fit."""
+
+
+def _given(case, cand, resid: np.ndarray, cache: dict | None = None, columns: dict | None = None,
+           free: bool = False):
+    """(likelihood ratio on the holds given the biases alone, given the tilts too, largest |tilt| rad, the effect's
+    parameters and covariance in the joint fit) or None when the record has no fixture holds, or the candidate no
+    evidence on them. ``cache`` keeps the tilt-only fit; ``columns`` replace the candidate's (a warm-up's time
+    constant profiled); ``free`` leaves each hold's attitude free instead of within the tolerance."""
+    setup = _setup(case, columns or cand.columns, resid)
     if setup is None:
         return None
     weights, tol, tilt, eff, raw, w, prior, _ = setup
     m = weights.shape[2]
+    if free:
+        prior = prior.copy()
+        prior[:3 * m, :3 * m] = np.eye(3 * m) / FREE_TILT_SD_RAD
     bias = tilt[:, 3 * m:3 * m + 6] * w[:, None]
     y = raw * w
     lr_alone = _rss(bias, y)[0] - _rss(np.hstack([bias, eff * w[:, None]]), y)[0]
@@ -224,7 +244,7 @@ def _given(case, cand, resid: np.ndarray, cache: dict | None = None):
     if getattr(case.scenario, "source", None) != "static_segments" and lr_alone < cand.threshold:
         return MOVES_ONLY  # a truth file's effect seen only off its still holds: a rate table's spins or the moves
     cache = {} if cache is None else cache
-    key = (id(resid), w.tobytes().__hash__())
+    key = (id(resid), w.tobytes().__hash__(), free)
     if key not in cache:
         rss_tilt, th_tilt, _ = _fit_tilts(case, weights, tilt, raw, w, prior)
         cache[key] = (rss_tilt, float(np.max(np.abs(th_tilt[:3 * m]))))
@@ -299,10 +319,17 @@ def rank_given_tilts(case, cands: list, resid: np.ndarray) -> None:
             continue
         if got is None or got is MOVES_ONLY:
             continue
+        if cand.effect == "warmup_drift":
+            got = _warmup_given_tilts(case, cand, resid, cache) or got
         lr_alone, given, top, theta, cov = got
         if given < cand.threshold and top <= TILT_SLACK * tol:
             cand.identifiable, cand.reason = False, _note(case, cand, lr_alone, given, top)
             continue
+        if cand.effect == "axis_misalignment" and _free_attitude_holds(case):
+            free = _given(case, cand, resid, cache, free=True)
+            if free is not None and free is not MOVES_ONLY and free[1] < cand.threshold:
+                cand.identifiable, cand.reason = False, _free_note(case, cand, given, free[1])
+                continue
         if cand.constant_scale is not None:
             _constant_given_tilts(case, cand, given, theta, cov)
         elif _implausible_on_holds(case, cand, theta, cov) and not _reported_as_model_error(case, cand):
@@ -313,6 +340,74 @@ def rank_given_tilts(case, cands: list, resid: np.ndarray) -> None:
         else:
             own = given - cand.threshold
             cand.rank = own if cand.rank is None else min(cand.rank, own)
+            _from_joint_fit(case, cand, theta, cov)
+
+
+def _free_attitude_holds(case) -> bool:
+    """Whether the record is a fixture of still holds whose attitudes are each their own (static segments, none
+    spinning, the moves not stated): there a hold's two level accelerometer readings are what its tilt and an
+    accelerometer misalignment both make, one for one."""
+    if getattr(case.scenario, "source", None) != "static_segments" or getattr(case.scenario, "moves_known", False):
+        return False
+    return not any(float(seg.get("rate_dps", 0.0) or 0.0) != 0.0 for seg in case.scenario.spec)
+
+
+def _free_note(case, cand, given: float, free: float) -> str:
+    return (f"{NOT_SEPARABLE}: on a fixture of still holds each hold's attitude is its own, and a tilt of each hold "
+            "makes the same level accelerometer readings as an accelerometer misalignment (the gyros see only the "
+            f"Earth rate, 7.3e-5 rad/s, to tell them apart); with each hold's attitude free its likelihood ratio is "
+            f"{free:.3g} (within attitude_tolerance_deg {case.scenario.attitude_tolerance_deg:g} deg: {given:.3g}), "
+            f"below the threshold {cand.threshold:.3g}; not ranked")
+
+
+WARMUP_TAU_STEP = 2
+"""The joint fit profiles every second time constant of the GLS's grid (4 a decade): each is a fit of the tilts."""
+
+
+def _warmup_given_tilts(case, cand, resid: np.ndarray, cache: dict):
+    """The warm-up's time constant profiled in the joint fit with the tilts (the tilt-blind GLS put it at 20 s for a
+    true 60 s on a six-position test, whose holds each took part of the decay): the best time constant's
+    :func:`_given`, its columns, time constant and 95 % profile interval set on ``cand``; None if none fits."""
+    from imu_sim.diagnose.effect_tests import profile_interval
+    from imu_sim.diagnose.regressors import design_warmup, warmup_taus
+    taus = warmup_taus(case.t[-1] - case.t[0], case.dt)[::WARMUP_TAU_STEP]
+    fits = []
+    for tau in taus:
+        cols = design_warmup(case, case.model, tau).columns
+        got = _given(case, cand, resid, cache, columns=cols)
+        if got is not None and got is not MOVES_ONLY:
+            fits.append((got[1], tau, cols, got))
+    if not fits:
+        return None
+    i = int(np.argmax([f[0] for f in fits]))
+    best = fits[i]
+    cand.columns = best[2]
+    cand.params["time_constant_s"] = float(best[1])
+    cand.intervals["time_constant_s"] = profile_interval(np.log([f[1] for f in fits]), np.array([f[0] for f in fits]),
+                                                         i)
+    cand.physics = dict(cand.physics or {}, time_constant_s=float(best[1]))
+    return best[3]
+
+
+def _from_joint_fit(case, cand, theta: np.ndarray, cov: np.ndarray) -> None:
+    """A tilt-sensitive regression's parameters, intervals, physics entry and contribution from its joint fit with the
+    tilts on the holds (each channel weighted by its effective sample size), not the tilt-blind GLS: a temperature
+    coefficient that took a fixture tilt came out ten times its value there, and the intervals knew nothing of the
+    tilts' uncertainty (blind fixture coverage 46 %)."""
+    names = [m for m in cand.params if m != "time_constant_s"]
+    design = getattr(cand, "design", None)
+    if len(names) != len(theta) or cand.kind != "regression" or design is None:
+        return
+    half = 1.96 * np.sqrt(np.clip(np.diag(cov), 0.0, None))
+    cand.params.update({m: float(v) for m, v in zip(names, theta)})
+    cand.intervals.update({m: [float(v - h), float(v + h)] for m, v, h in zip(names, theta, half)})
+    tau = cand.params.get("time_constant_s")
+    cand.physics = design.to_physics(np.asarray(theta, float))
+    if tau is not None:
+        cand.physics["time_constant_s"] = float(tau)
+    cand.contrib = np.zeros((case.n, 6))
+    for ch, x in cand.columns.items():
+        cand.contrib[:, ch] = x @ theta
 
 
 IMPLAUSIBLE_RANK = -1.0

@@ -109,6 +109,47 @@ def _whittle_fits(model, resid, m, tb, effect, taus):
     return best
 
 
+def smallest_walk(case, model, thr: float) -> tuple | None:
+    """(gyro rad/s/sqrt(s), accel m/s^2/sqrt(s)): the bias random walk, on every axis of one triad, whose expected
+    Whittle likelihood ratio on this record's holds reaches ``thr`` (each hold's own offset removed, so only
+    frequencies above 1 / the longest hold count), or None on a record of fewer than two holds. Below it a walk is
+    not detectable here, whatever the method: 2 sum (r - ln(1 + r)) over the block-mean periodogram's bins, r the
+    walk's PSD over the model's noise (its flicker included)."""
+    spans = reference.holds(case)
+    if len(spans) < 2:
+        return None
+    m = noise_tests.block_interval(case.n)
+    tb = m * case.dt
+    freqs = np.fft.rfftfreq(case.n // m, tb)[1:]
+    freqs = freqs[freqs >= 1.0 / (max(b - a for a, b in spans) * case.dt)]
+    if len(freqs) == 0:
+        return None
+    s0 = noise_tests.noise_model_psd(model, freqs, tb)
+    extra = noise_tests.rw_extra(freqs)
+    out = []
+    for tri in range(2):
+        def expected(k):
+            r = k * k * extra[None, :] / s0[3 * tri:3 * tri + 3]
+            return 2.0 * float(np.sum(r - np.log1p(r)))
+        lo, hi = 1e-15, 1e2
+        for _ in range(80):  # bisection in log k
+            mid = np.sqrt(lo * hi)
+            lo, hi = (mid, hi) if expected(mid) < thr else (lo, mid)
+        out.append(float(hi))
+    return tuple(out)
+
+
+def _undetectable_note(ctx: Context, cand: Candidate) -> None:
+    """On a record of holds, say how large a walk would have to be to show (:func:`smallest_walk`)."""
+    walk = smallest_walk(ctx.case, ctx.model, cand.threshold) if hasattr(ctx.case, "scenario") else None
+    if walk is None or cand.significant:
+        return
+    cand.reason = " ".join(filter(None, [cand.reason, (
+        f"not detectable on this record below {walk[0]:.2g} rad/s/sqrt(s) on the gyros or {walk[1]:.2g} "
+        "m/s^2/sqrt(s) on the accelerometers (the walk whose expected likelihood ratio on these holds, each with "
+        "its own offset, reaches the threshold)")]))
+
+
 def noise(ctx: Context, effect: str) -> Candidate:
     """Gauss-Markov bias or bias random walk beyond the model's noise (exact block-mean likelihood, else Whittle),
     on the residual less each hold's own offset when the record has several holds (:func:`reference.hold_demeaned`:
@@ -119,6 +160,7 @@ def noise(ctx: Context, effect: str) -> Candidate:
     if effect == "bias_random_walk":
         cand = _random_walk(ctx)
         if cand is not None:
+            _undetectable_note(ctx, cand)
             return cand
     m = noise_tests.block_interval(case.n)
     tb = m * case.dt
@@ -165,4 +207,6 @@ def noise(ctx: Context, effect: str) -> Candidate:
             phys.setdefault(f"{tri}_{unit}", [0.0] * 3)[i] = sigma
             phys.setdefault(f"{tri}_correlation_time_s", [0.0] * 3)[i] = tcv
     cand.physics = phys
+    if effect == "bias_random_walk":
+        _undetectable_note(ctx, cand)
     return cand
