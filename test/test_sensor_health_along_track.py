@@ -62,3 +62,13 @@ def test_an_az_scale_change_on_a_level_drive_is_named_a_bias_shift_and_the_scale
     assert {(e.effect, tuple(e.channels)) for e in events} == {("bias_shift", ("az",))}
     assert abs(events[0].estimate - 0.0981) < 0.01 and abs(events[0].onset_s - 100.0) <= 2.0
     assert mon.observability()["scale_factor_change az"].startswith("not observable on this record")
+
+
+def test_the_gz_track_glr_is_standardised_on_the_model_noise_and_gated_above_a_single_test():
+    from scipy import stats
+
+    from sensor_health.cross_track import glr_gate, simulated_drifts, straight_glr_z
+    z = straight_glr_z(simulated_drifts(4000, 0.45, 0.06, np.random.default_rng(5)), 0.45, 0.06)
+    assert np.all(np.abs(z.std(axis=0) - 1.0) < 0.12)  # every onset's z is N(0, 1) on the noise the model states
+    single = stats.norm.isf(0.1 / 36000.0 / 2)
+    assert single < glr_gate(0.1, 0.45, 0.06) < single + 1.5  # the max over the span's onsets costs a little

@@ -6,13 +6,19 @@ lengths and the gyro's heading. A gz bias turns that heading by the bias times t
 the distance times the time, while the fixes' noise does not add up (successive chords share their ends).
 
 Over a window of ``WINDOW_EPOCHS`` fixes the drift is fitted by generalised least squares on: a constant, the
-heading offset at the window's start (times the distance), the bias change (times the distance-weighted time) and
-a scale error of the gyro (times the distance-weighted turn of the GNSS course, so a turn does not pass for a
-bias). The
+heading offset at the window's start (times the distance), the bias change (times the distance-weighted time) and,
+where the window turns, a scale error of the gyro (times the distance-weighted turn of its heading, so a turn does
+not pass for a bias; on a straight that column is noise, and the GNSS course's turn there is the drift itself): this
+learns the drive's bias (its slow average) and the fixes' noise. The
 covariance carries the gyro's own angle random walk (the heading error it integrates is a random walk: the test
 cannot beat it, a gz bias is seen no faster than the gyro's white noise allows) and the fixes' white noise (the
-robust sd of the recent windows' residuals). The bias change against the bias learned over the drive, in sd, is
-gated at the normal quantile of the package's budget per test, one test per fix.
+robust sd of the recent windows' residuals).
+
+The test is sequential: at each fix, a generalised likelihood ratio over the last ``SPAN_EPOCHS`` chords for a step
+of the bias (against the learned one) at each chord (a window-limited GLR: a step is tested on all the fixes since
+it, not diluted in a fixed window), the learned bias' lag a random effect in the covariance. Its gate on the largest
+|z| comes from Monte Carlo on the model's noise through the same span (the heading's random walk, the fixes' white
+noise, the learned bias' error), for the test's share of the budget, one test per fix.
 
 The sign of gz against the course (z up or down) is learned from the first turns. Assumes the course is the
 heading (no sideslip, a mount without a yaw that changes) and x forward. No ROS, no simulator. Times s, angles rad,
@@ -20,14 +26,18 @@ distances m.
 """
 from __future__ import annotations
 
+import functools
+
 import numpy as np
-from scipy import stats
 
 from sensor_health import thresholds as thr
 from sensor_health.along_track import chord_en, robust_sd
 from sensor_health.events import Event, bias_shift_event
 
 WINDOW_EPOCHS = 25
+SPAN_EPOCHS = 60
+"""Chords a step is looked for in (the GLR's span): a step this old has been named or is not one."""
+MIN_AFTER_EPOCHS = 2
 WARMUP_EPOCHS = 40
 REFERENCE_EPOCHS = 120.0
 V_MIN_M_S = 3.0
@@ -37,6 +47,13 @@ SIGN_TURN_RAD = 0.5
 SCALE_PREFERENCE = 10.0
 """A scale step must fit the window better than a bias step by this much (GLS chi-square) to silence the event:
 with a turn in the window either can mimic the other a little."""
+UNDECIDED_TURN_RAD = 0.5
+"""A step whose bias and scale fits are within SCALE_PREFERENCE of each other, with the GNSS course turning this much
+after it, waits for more fixes (a scale step seen a few fixes into a turn fits a bias step as well)."""
+SCALE_COLUMN_TURN_RAD = 0.1
+"""The span's course must turn this much for the GLR to fit a scale error too (on a straight it is noise)."""
+REFERENCE_LAG_EPOCHS = 120.0
+"""Correlation time (fixes) of the learned bias' error in the gate's Monte Carlo."""
 NOISE_WINDOWS = 60
 SIGMA_FLOOR_M = 0.005
 NOT_OBSERVABLE = "not observable on this record"
@@ -50,7 +67,10 @@ class CrossTrackMonitor:
         learned bias lags behind, added to the bias change's variance)."""
         self.arw = float(arw_rad_sqrt_s)
         self.bias_sd = float(bias_sd_rad_s)
-        self.gate = float(stats.norm.isf(budget_per_test_10h / thr.SECONDS_PER_10H / 2))
+        self.budget = float(budget_per_test_10h)
+        self.gate = None
+        """The GLR's gate on max |z|, from Monte Carlo when the test first runs (it needs the drive's speed and the
+        fixes' noise)."""
         self.imu_t, self.imu_psi = np.zeros(0), np.zeros(0)
         self._last = None
         self.fix, self.queue = None, []
@@ -59,6 +79,9 @@ class CrossTrackMonitor:
         self.sign_votes = 0.0
         self.sign = 0.0
         self.ref, self.n_ref = None, 0
+        self.refs = []
+        """(learned bias rad/s, its sd) after each of the last SPAN_EPOCHS - WINDOW_EPOCHS windows: the GLR takes the
+        oldest, learned before the span's last chords (a step is not learned into the bias it is tested against)."""
         self.mad = []
         self.fixes = self.windows = 0
         self.trace_t, self.trace_z = [], []
@@ -116,16 +139,17 @@ class CrossTrackMonitor:
                 self.sign_votes += d_course * np.sign(d_psi)
                 if abs(self.sign_votes) > SIGN_TURN_RAD:
                     self.sign = float(np.sign(self.sign_votes))
-        self.chords = (self.chords + [(0.5 * (tk + last[0]), length, course, psi_mid)])[-WINDOW_EPOCHS:]
+        self.chords = (self.chords + [(0.5 * (tk + last[0]), length, course, psi_mid)])[-SPAN_EPOCHS:]
         if len(self.chords) < WINDOW_EPOCHS or self.sign == 0.0:
             return []
         return self._window(tk)
 
     def _window(self, tk) -> list:
-        """GLS of the summed lateral drift on [1, distance, distance-weighted time, distance-weighted turn]."""
-        _, tau, length, course, y = self._drift(0.0 if self.ref is None else self.ref)
-        x = np.column_stack([np.ones(len(y)), np.cumsum(length), np.cumsum(length * tau),
-                             np.cumsum(length * self._course_turn(course))])
+        """GLS of the summed lateral drift on [1, distance, distance-weighted time, distance-weighted turn (in a
+        turn)]."""
+        _, tau, length, _, y, turn = self._drift(0.0 if self.ref is None else self.ref, WINDOW_EPOCHS)
+        x = self._base(length, turn)
+        x = np.column_stack([x[:, :2], np.cumsum(length * tau), x[:, 2:]])
         self.windows += 1
         ci = self._inverse_covariance(length, tau)
         info = np.linalg.inv(x.T @ ci @ x)
@@ -137,31 +161,66 @@ class CrossTrackMonitor:
         if self.ref is None:
             self.ref = db
             return []
-        z = db / sd  # ``heading`` already has the learned bias taken out: db is the change
         self.n_ref += 1
-        self.trace_t.append(tk)
-        self.trace_z.append(z)
-        if self.n_ref > WARMUP_EPOCHS - WINDOW_EPOCHS and abs(z) > self.gate:
-            event = self._event(tk, z)
-            return [event] if event is not None else []
-        self.ref += db / min(self.n_ref, REFERENCE_EPOCHS)
+        if self.n_ref > WARMUP_EPOCHS - WINDOW_EPOCHS:
+            z = self._glr()
+            self.trace_t.append(tk)
+            self.trace_z.append(z)
+            if abs(z) > self._gate():
+                event = self._event(tk, z)
+                if event != "undecided":
+                    return [event] if event is not None else []
+                return []
+        self.ref += db / min(self.n_ref, REFERENCE_EPOCHS)  # ``heading`` has the learned bias out: db is the change
+        # overlapping windows: n of them average ~n + WINDOW_EPOCHS fixes' worth
+        learned_sd = float(np.sqrt(info[2, 2] * WINDOW_EPOCHS / (min(self.n_ref, REFERENCE_EPOCHS) + WINDOW_EPOCHS)))
+        self.refs = (self.refs + [(self.ref, learned_sd)])[-(SPAN_EPOCHS - WINDOW_EPOCHS):]
         return []
 
-    def _drift(self, ref):
-        """The window's chord times (s) and times from its start (s), lengths (m), courses (rad) and summed lateral
-        drift (m) against the gyro's heading less the learned bias' drift ``ref`` (rad/s: y's slope)."""
-        tm, length, course, psi = np.array(self.chords).T
-        tau = tm - tm[0]
-        heading = course[0] + self.sign * (psi - psi[0]) + ref * tau
-        y = np.cumsum(length * np.sin(np.angle(np.exp(1j * (course - heading)))))
-        return tm, tau, length, course, y
+    def _glr(self) -> float:
+        """The span's largest |z| (signed) of a bias step at one of its chords against the learned bias."""
+        ref, learned_sd = self.refs[0]
+        _, tau, length, _, y, turn = self._drift(ref)
+        step, sd = glr(self._inverse_covariance(length, tau, np.hypot(self.bias_sd, learned_sd)),
+                       self._base(length, turn), step_columns(tau, length), y)
+        z = step / sd
+        return float(z[np.argmax(np.abs(z))])
 
-    def _inverse_covariance(self, length, tau):
+    @staticmethod
+    def _base(length, turn):
+        """The free columns (n, 2 or 3): a constant, the heading offset (the distance) and, where the span turns by
+        SCALE_COLUMN_TURN_RAD, a scale error (the distance-weighted turn of the gyro, the learned bias out: the
+        GNSS course's turn carries the chords' noise, which on a straight is the drift itself)."""
+        cols = [np.ones(len(length)), np.cumsum(length)]
+        if np.ptp(turn) > SCALE_COLUMN_TURN_RAD:
+            cols.append(np.cumsum(length * turn))
+        return np.column_stack(cols)
+
+    def _gate(self) -> float:
+        """The GLR's gate for this drive's chord length and fixes' noise (Monte Carlo, cached)."""
+        if self.gate is None:
+            length = float(np.median(np.array(self.chords)[:, 1]))
+            sig = max(robust_sd(self.mad, 1.0), SIGMA_FLOOR_M)
+            self.gate = glr_gate(self.budget, float(f"{self.arw * length / sig:.2g}"),
+                                 float(f"{self.bias_sd * length / sig:.2g}"))
+        return self.gate
+
+    def _drift(self, ref, n=None):
+        """The last ``n`` (None: all) chords' times (s) and times from the first (s), lengths (m), courses (rad) and
+        summed lateral drift (m) against the gyro's heading less the learned bias' drift ``ref`` (rad/s: y's
+        slope), and that heading's turn from the first chord (rad)."""
+        tm, length, course, psi = np.array(self.chords[-n:] if n else self.chords).T
+        tau = tm - tm[0]
+        turn = self.sign * (psi - psi[0]) + ref * tau
+        y = np.cumsum(length * np.sin(np.angle(np.exp(1j * (course - course[0] - turn)))))
+        return tm, tau, length, course, y, turn
+
+    def _inverse_covariance(self, length, tau, ref_sd=0.0):
         """Inverse covariance (1/m^2) of the summed drift: the gyro's white noise makes its heading error a random
-        walk W, and the drift sums length_j W(tau_j); plus the fixes' noise from the recent residuals."""
-        lw = np.tril(np.ones((len(tau), len(tau)))) * length
+        walk W, and the drift sums length_j W(tau_j); plus the fixes' noise from the recent residuals; plus, with
+        ``ref_sd`` (rad/s), the learned bias' error (a constant drift rate across the span)."""
         sig = max(robust_sd(self.mad, 1.0) if self.mad else SIGMA_FLOOR_M, SIGMA_FLOOR_M)
-        return np.linalg.inv(self.arw**2 * lw @ np.minimum.outer(tau, tau) @ lw.T + sig**2 * np.eye(len(tau)))
+        return drift_inverse_covariance(length, tau, self.arw, sig, ref_sd)
 
     @staticmethod
     def _course_turn(course):
@@ -169,12 +228,13 @@ class CrossTrackMonitor:
         own turn would carry the bias' drift too)."""
         return np.unwrap(course) - course[0]
 
-    def _event(self, tk, z) -> Event | None:
+    def _event(self, tk, z) -> Event | str | None:
         """Change point: the step of the heading drift's slope (GLS over the window, each chord as the start). None
         when a step of the gyro's scale (the heading error growing with the course's turn from some chord on) fits
         the window better: a scale change in a turn looks like a bias step to the test, and is the scale-factor
-        test's to name (the test restarts either way)."""
-        tm, tau, length, course, y = self._drift(self.ref)
+        test's to name (the test restarts either way). "undecided" (no restart) when neither fits better and the
+        course turned after the step."""
+        tm, tau, length, course, y, _ = self._drift(self.refs[0][0])
         ci = self._inverse_covariance(length, tau)
         turned = self._course_turn(course)
         best, best_scale = None, np.inf
@@ -193,14 +253,16 @@ class CrossTrackMonitor:
                     best_scale = min(best_scale, score)
                 elif best is None or score < best[0]:
                     best = (score, j, float(coef[2]), float(np.sqrt(info[2, 2])))
-        self.ref, self.n_ref, self.chords = None, 0, []
+        if abs(best_scale - best[0]) < SCALE_PREFERENCE and np.ptp(turned[best[1]:]) > UNDECIDED_TURN_RAD:
+            return "undecided"
+        self.ref, self.n_ref, self.chords, self.refs = None, 0, [], []
         if best_scale < best[0] - SCALE_PREFERENCE:
             return None
         _, j, step, sd = best
         step *= -self.sign  # the heading drift's slope is minus the bias (in gz's sign)
         return bias_shift_event(tk, float(tm[j]), "gz", step, sd,
                                 f"gz mean stepped by {step:.3g} rad/s (against the GNSS track, {abs(z):.1f} sd)",
-                                {"z": float(z), "gate": self.gate})
+                                {"z": float(z), "gate": self._gate()})
 
     def observability(self) -> str:
         """Whether this record made a gz bias step observable against the GNSS track, in words."""
@@ -211,3 +273,67 @@ class CrossTrackMonitor:
         if self.windows == 0:
             return f"{NOT_OBSERVABLE}: no {WINDOW_EPOCHS} successive fixes at {V_MIN_M_S:g} m/s or more"
         return f"observable: {self.windows} windows of {WINDOW_EPOCHS} fixes at speed"
+
+
+def drift_inverse_covariance(length, tau, arw, sig, ref_sd=0.0) -> np.ndarray:
+    """Inverse covariance (1/m^2) of the summed lateral drift over chords of ``length`` (m) at ``tau`` (s): the
+    heading's random walk (``arw`` rad/sqrt(s)) summed along the chords, the fixes' white noise ``sig`` (m) and a
+    constant drift rate of sd ``ref_sd`` (rad/s: the learned bias' error)."""
+    lw = np.tril(np.ones((len(tau), len(tau)))) * length
+    u = np.cumsum(length * tau)
+    cov = arw**2 * lw @ np.minimum.outer(tau, tau) @ lw.T + sig**2 * np.eye(len(tau)) + ref_sd**2 * np.outer(u, u)
+    return np.linalg.inv(cov)
+
+
+def step_columns(tau, length) -> np.ndarray:
+    """The summed drift (m per rad/s) of a bias step at each chord from the 3rd to the MIN_AFTER_EPOCHS-th last."""
+    js = np.arange(2, len(tau) - MIN_AFTER_EPOCHS)
+    return np.cumsum(length * np.maximum(tau[None, :] - tau[js, None], 0.0), axis=1)
+
+
+def glr(ci, base, steps, y) -> tuple[np.ndarray, np.ndarray]:
+    """GLS coefficient (..., m) and its sd (m,) of each step column (rows of ``steps`` (m, n)) of y (..., n) with the
+    ``base`` (n, p) columns free (inverse covariance ``ci`` (n, n))."""
+    cb = ci @ base
+    rs = steps @ (ci - cb @ np.linalg.pinv(base.T @ cb) @ cb.T)
+    info = np.maximum(np.einsum("jn,jn->j", rs, steps), 1e-300)
+    return (y @ rs.T) / info, 1.0 / np.sqrt(info)
+
+
+def simulated_drifts(epochs: int, arw_rel: float, ref_sd_rel: float, rng) -> np.ndarray:
+    """Summed lateral drifts (epochs, SPAN_EPOCHS) of the spans ending at successive fixes on a straight at constant
+    speed, on the model's noise alone (1-s chords; units of the chord length and the fixes' noise sd: the heading's
+    random walk ``arw_rel`` = arw length / sig per sqrt(s), the learned bias' error ``ref_sd_rel`` = its sd length /
+    sig per s, slow: AR(1) over REFERENCE_LAG_EPOCHS)."""
+    n = SPAN_EPOCHS
+    total = epochs + n
+    fix = rng.normal(size=total + 1)
+    course_err = np.diff(fix)  # a chord's sideways error: its end fixes' difference over its length (1)
+    heading_err = np.cumsum(arw_rel * rng.normal(size=total))
+    a = np.exp(-1.0 / REFERENCE_LAG_EPOCHS)
+    ref_err = np.zeros(epochs)
+    e = rng.normal(size=epochs) * ref_sd_rel * np.sqrt(1 - a * a)
+    ref_err[0] = ref_sd_rel * rng.normal()
+    for k in range(1, epochs):
+        ref_err[k] = a * ref_err[k - 1] + e[k]
+    d = np.lib.stride_tricks.sliding_window_view(course_err - heading_err, n)[:epochs]
+    return np.cumsum(d - d[:, :1] - ref_err[:, None] * np.arange(n), axis=1)
+
+
+def straight_glr_z(y, arw_rel: float, ref_sd_rel: float) -> np.ndarray:
+    """The GLR's z (epochs, m) of each step on simulated drifts ``y`` (epochs, SPAN_EPOCHS) (straight, 1-s chords)."""
+    n = y.shape[-1]
+    tau, length = np.arange(n, dtype=float), np.ones(n)
+    step, sd = glr(drift_inverse_covariance(length, tau, arw_rel, 1.0, ref_sd_rel),
+                   np.column_stack([np.ones(n), np.cumsum(length)]), step_columns(tau, length), y)
+    return step / sd
+
+
+@functools.lru_cache(maxsize=32)
+def glr_gate(budget_per_test_10h: float, arw_rel: float, ref_sd_rel: float, epochs: int = 20000,
+             seed: int = 0) -> float:
+    """Gate on the GLR's max |z| for ``budget_per_test_10h`` false events per 10 h at one test per 1-s fix: Monte
+    Carlo through the same span on :func:`simulated_drifts` (exponential tail)."""
+    z = straight_glr_z(simulated_drifts(epochs, arw_rel, ref_sd_rel, np.random.default_rng(seed)), arw_rel,
+                       ref_sd_rel)
+    return thr.exp_tail_threshold(np.abs(z).max(axis=1), budget_per_test_10h / thr.SECONDS_PER_10H)
