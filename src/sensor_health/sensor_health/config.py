@@ -24,8 +24,8 @@ class HealthConfig:
     track_bias_per_10h: float = 0.1
     """False events per 10 h allowed to each of the bias tests against the GNSS track (gz, ax), on top of
     ``false_alarms_per_10h`` (0: an equal share of it): a 10x bias-sd gz step shows against the track no faster than
-    the gyro's white noise allows (the gx/gy floor), and a 25-fix window holding all of it reaches 5.4 sd, just over
-    the 5.1 an equal share gates at."""
+    the gyro's white noise allows (the gx/gy floor), and the gz test's GLR gates its max |z| over the span's onsets
+    (5.2-5.5 sd at 0.1); the ax test's 25-fix window holding all of a step reaches ~6 sd, gated at 5.5."""
     clip_per_10h: float = 0.03
     """False events per 10 h allowed to each channel's flat-top clip count, on top of ``false_alarms_per_10h`` (0: an
     equal share of it): a clip that a peak only touches shows a handful of samples at one value, and on a gyro's

@@ -83,6 +83,8 @@ class CrossTrackMonitor:
         """(learned bias rad/s, its sd) after each of the last SPAN_EPOCHS - WINDOW_EPOCHS windows: the GLR takes the
         oldest, learned before the span's last chords (a step is not learned into the bias it is tested against)."""
         self.mad = []
+        self.sig = SIGMA_FLOOR_M
+        """The fixes' noise sd (m): the robust sd of the recent windows' residuals, floored."""
         self.fixes = self.windows = 0
         self.trace_t, self.trace_z = [], []
 
@@ -157,6 +159,7 @@ class CrossTrackMonitor:
         resid = y - x @ coef
         # the fixes' noise from the residual's first differences (the random walk's share there is small)
         self.mad = (self.mad + [float(np.median(np.abs(np.diff(resid)))) / np.sqrt(2)])[-NOISE_WINDOWS:]
+        self.sig = max(robust_sd(self.mad, 1.0), SIGMA_FLOOR_M)
         db, sd = float(coef[2]), float(np.sqrt(info[2, 2] + self.bias_sd**2))
         if self.ref is None:
             self.ref = db
@@ -200,9 +203,8 @@ class CrossTrackMonitor:
         """The GLR's gate for this drive's chord length and fixes' noise (Monte Carlo, cached)."""
         if self.gate is None:
             length = float(np.median(np.array(self.chords)[:, 1]))
-            sig = max(robust_sd(self.mad, 1.0), SIGMA_FLOOR_M)
-            self.gate = glr_gate(self.budget, float(f"{self.arw * length / sig:.2g}"),
-                                 float(f"{self.bias_sd * length / sig:.2g}"))
+            self.gate = glr_gate(self.budget, float(f"{self.arw * length / self.sig:.2g}"),
+                                 float(f"{self.bias_sd * length / self.sig:.2g}"))
         return self.gate
 
     def _drift(self, ref, n=None):
@@ -219,8 +221,7 @@ class CrossTrackMonitor:
         """Inverse covariance (1/m^2) of the summed drift: the gyro's white noise makes its heading error a random
         walk W, and the drift sums length_j W(tau_j); plus the fixes' noise from the recent residuals; plus, with
         ``ref_sd`` (rad/s), the learned bias' error (a constant drift rate across the span)."""
-        sig = max(robust_sd(self.mad, 1.0) if self.mad else SIGMA_FLOOR_M, SIGMA_FLOOR_M)
-        return drift_inverse_covariance(length, tau, self.arw, sig, ref_sd)
+        return drift_inverse_covariance(length, tau, self.arw, self.sig, ref_sd)
 
     @staticmethod
     def _course_turn(course):
@@ -279,9 +280,10 @@ def drift_inverse_covariance(length, tau, arw, sig, ref_sd=0.0) -> np.ndarray:
     """Inverse covariance (1/m^2) of the summed lateral drift over chords of ``length`` (m) at ``tau`` (s): the
     heading's random walk (``arw`` rad/sqrt(s)) summed along the chords, the fixes' white noise ``sig`` (m) and a
     constant drift rate of sd ``ref_sd`` (rad/s: the learned bias' error)."""
-    lw = np.tril(np.ones((len(tau), len(tau)))) * length
+    # L M L^T with L the length-weighted lower-triangular sum, as two cumulative sums (O(n^2))
+    walk = np.cumsum(np.cumsum(length[:, None] * np.minimum.outer(tau, tau), axis=0) * length, axis=1)
     u = np.cumsum(length * tau)
-    cov = arw**2 * lw @ np.minimum.outer(tau, tau) @ lw.T + sig**2 * np.eye(len(tau)) + ref_sd**2 * np.outer(u, u)
+    cov = arw**2 * walk + sig**2 * np.eye(len(tau)) + ref_sd**2 * np.outer(u, u)
     return np.linalg.inv(cov)
 
 
