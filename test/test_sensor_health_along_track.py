@@ -72,3 +72,25 @@ def test_the_gz_track_glr_is_standardised_on_the_model_noise_and_gated_above_a_s
     assert np.all(np.abs(z.std(axis=0) - 1.0) < 0.12)  # every onset's z is N(0, 1) on the noise the model states
     single = stats.norm.isf(0.1 / 36000.0 / 2)
     assert single < glr_gate(0.1, 0.45, 0.06) < single + 1.5  # the max over the span's onsets costs a little
+
+
+def test_a_steady_circle_through_the_gz_track_window_is_not_a_crash_and_not_an_event():
+    """A turn at one rate through a whole window makes the scale column the drift's own time column: the window
+    drops it (a scale error there is a bias) instead of inverting a singular matrix."""
+    from nav_core.earth import radii
+    from sensor_health import noise_sim
+    from sensor_health.cross_track import CrossTrackMonitor
+    from test_sensor_health_scale import LAT0, LON0, RATE, _model
+    rng = np.random.default_rng(21)
+    t = np.arange(int(150.0 * RATE)) / RATE
+    course = 0.05 * t  # clockwise from north, rad: one rate all the way
+    x = noise_sim.model_noise(_model(), len(t), 1 / RATE, rng)
+    x[:, 2] -= 0.05
+    north, east = np.cumsum(10.0 * np.cos(course)) / RATE, np.cumsum(10.0 * np.sin(course)) / RATE
+    k = np.arange(0, len(t), int(RATE))
+    rn, re = radii(LAT0)
+    gnss = (t[k], LAT0 + (north[k] + rng.normal(0, 0.05, len(k))) / rn,
+            LON0 + (east[k] + rng.normal(0, 0.05, len(k))) / (re * np.cos(LAT0)))
+    mon = CrossTrackMonitor(1.5e-3, BUDGET, 2e-4)
+    assert mon.push_gnss(*gnss) + mon.push_imu(t, x[:, 2]) == []
+    assert mon.windows > 0

@@ -154,7 +154,10 @@ class CrossTrackMonitor:
         x = np.column_stack([x[:, :2], np.cumsum(length * tau), x[:, 2:]])
         self.windows += 1
         ci = self._inverse_covariance(length, tau)
-        info = np.linalg.inv(x.T @ ci @ x)
+        x = separable_columns(x, ci)
+        info = np.linalg.pinv(x.T @ ci @ x)
+        if not info[2, 2] > 0.0:
+            return []
         coef = info @ (x.T @ ci @ y)
         resid = y - x @ coef
         # the fixes' noise from the residual's first differences (the random walk's share there is small)
@@ -291,6 +294,18 @@ def step_columns(tau, length) -> np.ndarray:
     """The summed drift (m per rad/s) of a bias step at each chord from the 3rd to the MIN_AFTER_EPOCHS-th last."""
     js = np.arange(2, len(tau) - MIN_AFTER_EPOCHS)
     return np.cumsum(length * np.maximum(tau[None, :] - tau[js, None], 0.0), axis=1)
+
+
+def separable_columns(x, ci, max_condition: float = 1e10):
+    """The design ``x`` (n, 3 or 4) without its scale column (the 4th) where that column and the drift's
+    time column cannot be told apart (a turn at one rate through the whole window: a scale error there is a bias)."""
+    if x.shape[1] < 4:
+        return x
+    normal = x.T @ ci @ x
+    d = np.sqrt(np.maximum(np.diag(normal), 1e-300))
+    if np.linalg.cond(normal / np.outer(d, d)) > max_condition:
+        return x[:, :3]
+    return x
 
 
 def glr(ci, base, steps, y) -> tuple[np.ndarray, np.ndarray]:
