@@ -136,7 +136,7 @@ def test_node_names_faults_like_the_core_with_their_cleared_ok_event_on_a_transi
                 assert (st.effect, st.onset_s, st.t_s) == (e.effect, e.onset_s, e.t_s), (ch, st)
                 assert (json.loads(st.estimate), json.loads(st.interval_95)) == (d["estimate"], d["interval_95"])
         assert statuses["gz"].level == "ERROR" and statuses["gx"].effect == "" and statuses["gx"].level == "OK"
-        assert statuses["ax"].cleared_s == note["t_s"]  # gone (its level holds WARN for clear_s after the event)
+        assert statuses["ax"].cleared_s == note["t_s"] and statuses["ax"].level == "OK"  # gone, OK at once
         assert statuses["summary"].events == 2 and statuses["summary"].level == "ERROR"
         values = {st.name.split(": ")[-1]: {kv.key: kv.value for kv in st.values} for st in arr.status}
         assert values["summary"]["filter_bias_epochs"] == "20"  # the last 10 s of 0.5-s epochs

@@ -364,8 +364,11 @@ class HealthMonitor(VibrationCheck):
             evs = [e for (eff, ch), e in self.active.items() if ch == c]
             latest = max(evs, key=lambda e: e.t_s) if evs else None
             tracked = latest is not None and latest.effect == "vibration"  # held while the line lasts
+            # a fault whose cleared note came after it (its OK event is out) is history at once, not after clear_s
+            gone = latest is not None and any(n["effect"] == latest.effect and c in n["channels"]
+                                              and n["t_s"] >= latest.t_s for n in self.cleared)
             live = latest is not None and (self._still_active(latest, c, now_s)
-                                           or (not tracked and now_s - latest.t_s <= self.config.clear_s))
+                                           or (not tracked and not gone and now_s - latest.t_s <= self.config.clear_s))
             out[c] = (latest.level if live else "OK", latest)
         return out
 
