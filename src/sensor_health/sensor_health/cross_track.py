@@ -249,7 +249,7 @@ class CrossTrackMonitor:
             for kind, extra in (("bias", [np.cumsum(length * (tau - tau[j]) * after), constant_scale]),
                                 ("scale", [constant_scale, np.cumsum(length * (turned - turned[j]) * after)])):
                 x = np.column_stack(base + extra)
-                info = np.linalg.inv(x.T @ ci @ x)
+                info = np.linalg.pinv(x.T @ ci @ x)  # as the window's: a degenerate design must not crash the node
                 coef = info @ (x.T @ ci @ y)
                 r = y - x @ coef
                 score = float(r @ ci @ r)
