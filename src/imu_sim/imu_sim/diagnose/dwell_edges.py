@@ -9,6 +9,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from imu_sim.diagnose.unstated import diff_noise_sd, is_rate_table, unreferenced_segments
+
 SMOOTH_SAMPLES = 5
 """Running mean (samples) of the spin-axis rate's deviation from its dwell's level before it is compared."""
 EDGE_SIGMAS = 4.0
@@ -24,10 +26,8 @@ def unsettled_edges(scenario, t_abs: np.ndarray, gyro: np.ndarray, unstated: np.
     segment's median (the sd from the segment's first differences). None when the record is not such a table or
     no edge is cut. ``gyro`` is the recording (rad/s); the level is the record's own, so a scale factor, a bias or a
     misalignment of the sensor does not move the cut."""
-    if getattr(scenario, "source", None) != "static_segments" or getattr(scenario, "moves_known", False):
-        return None
-    segs = list(scenario.spec or [])
-    if not any(float(s.get("rate_dps", 0.0) or 0.0) != 0.0 for s in segs):
+    segs = unreferenced_segments(scenario)
+    if segs is None or not is_rate_table(segs):
         return None
     stated = np.ones(len(t_abs), bool) if unstated is None else ~unstated
     out = np.zeros(len(t_abs), bool)
@@ -37,10 +37,9 @@ def unsettled_edges(scenario, t_abs: np.ndarray, gyro: np.ndarray, unstated: np.
             continue
         axis = np.asarray(seg.get("axis_body", [0.0, 0.0, 1.0]), float)
         rate = gyro[idx] @ (axis / np.linalg.norm(axis))
-        diffs = np.diff(rate)
         level = np.median(rate)
         # a floor for a noise-free record (a simulator's own output): its rounding, not its noise
-        sd = max(1.4826 * np.median(np.abs(diffs - np.median(diffs))) / np.sqrt(2.0), 1e-9 * (abs(level) + 1e-6))
+        sd = max(float(diff_noise_sd(rate)), 1e-9 * (abs(level) + 1e-6))
         dev = np.convolve(rate - level, np.ones(SMOOTH_SAMPLES) / SMOOTH_SAMPLES, mode="same")
         ok = np.abs(dev) <= EDGE_SIGMAS * sd / np.sqrt(SMOOTH_SAMPLES)
         if not ok.any():

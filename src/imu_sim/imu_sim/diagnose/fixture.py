@@ -17,6 +17,7 @@ import numpy as np
 
 from imu_sim.diagnose import plausibility
 from imu_sim.diagnose.hold_noise import inflation
+from imu_sim.diagnose.unstated import is_rate_table, unreferenced_segments
 
 NOT_SEPARABLE = "not separable from the reference on this record"
 TILT_EFFECTS = ("axis_misalignment", "scale_factor", "gyro_g_sensitivity", "gravity_model", "earth_rotation",
@@ -347,9 +348,8 @@ def _free_attitude_holds(case) -> bool:
     """Whether the record is a fixture of still holds whose attitudes are each their own (static segments, none
     spinning, the moves not stated): there a hold's two level accelerometer readings are what its tilt and an
     accelerometer misalignment both make, one for one."""
-    if getattr(case.scenario, "source", None) != "static_segments" or getattr(case.scenario, "moves_known", False):
-        return False
-    return not any(float(seg.get("rate_dps", 0.0) or 0.0) != 0.0 for seg in case.scenario.spec)
+    segs = unreferenced_segments(case.scenario)
+    return segs is not None and not is_rate_table(segs)
 
 
 def _free_note(case, cand, given: float, free: float) -> str:

@@ -4,6 +4,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from imu_sim.diagnose.unstated import mask_spans
+
 INFLATION_BLOCKS_S = (2.0, 5.0, 10.0)
 """Block lengths (s) at which the residual's wander within each hold is measured (:func:`inflation`)."""
 
@@ -13,8 +15,7 @@ def inflation(resid: np.ndarray, hold: np.ndarray, dt: float) -> np.ndarray:
     of the block means about their hold's mean over the per-sample variance (its lower 2-sigma bound), the largest
     over INFLATION_BLOCKS_S, at least 1 (white noise: 1; the residual's autocorrelation shrinks the effective sample size by this factor).
     ``resid`` is (6, n), ``hold`` the (n,) mask of hold samples."""
-    edges = np.flatnonzero(np.diff(np.r_[0, hold.astype(int), 0]))
-    spans = list(zip(edges[::2], edges[1::2]))
+    spans = mask_spans(hold)
     var = np.array([np.var(resid[c, hold]) for c in range(6)])
     out = np.ones(6)
     for block_s in INFLATION_BLOCKS_S:

@@ -14,12 +14,12 @@ from scipy.spatial.transform import Rotation
 from nav_core import noise_stats
 
 from imu_sim.diagnose.reference import _lr, rotation_columns
+from imu_sim.diagnose.unstated import is_rate_table
 
 
 def _table_record(case) -> bool:
     """Whether the record is a rate table typed as static segments (one at least spinning, ``rate_dps``)."""
-    return getattr(case.scenario, "source", None) == "static_segments" and any(
-        float(s.get("rate_dps", 0.0) or 0.0) != 0.0 for s in (case.scenario.spec or []))
+    return getattr(case.scenario, "source", None) == "static_segments" and is_rate_table(case.scenario.spec or [])
 
 
 def mounting_groups(case) -> list:

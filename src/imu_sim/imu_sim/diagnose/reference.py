@@ -18,6 +18,7 @@ import numpy as np
 from scipy.ndimage import median_filter
 
 from imu_sim.diagnose.case import trajectory
+from imu_sim.diagnose.unstated import mask_spans
 
 F_MECH_HZ = 1.0
 """Lowest frequency (Hz) searched for a vibration line: below it no mechanical source of a sensor mount."""
@@ -179,9 +180,8 @@ def holds(case) -> list:
         step = np.r_[np.inf, np.max(np.abs(np.diff(case.gyro_true, axis=0)), axis=1)]
         step_f = np.r_[np.inf, np.max(np.abs(np.diff(case.accel_true, axis=0)), axis=1)] / 9.8
         still = (step < HOLD_RATE_STEP * 10) & (step_f < HOLD_RATE_STEP * 10)
-        edges = np.flatnonzero(np.diff(np.r_[0, still.astype(int), 0]))
         min_n = int(HOLD_MIN_S / case.dt)
-        out = [(int(a), int(b)) for a, b in zip(edges[::2], edges[1::2]) if b - a >= min_n]
+        out = [(int(a), int(b)) for a, b in mask_spans(still) if b - a >= min_n]
     case.cache["holds"] = out
     return out
 

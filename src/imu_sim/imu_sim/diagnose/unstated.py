@@ -14,6 +14,31 @@ FILL_SEED = 24
 residual gets the same fill, so fits and drop-one energies compare like with like)."""
 
 
+def unreferenced_segments(scenario) -> list | None:
+    """The stated segments of a static-segment scenario whose moves between them are unknown (None: not such a
+    scenario, or one stating ``moves_known: true``)."""
+    if getattr(scenario, "source", None) != "static_segments" or getattr(scenario, "moves_known", False):
+        return None
+    return list(scenario.spec or [])
+
+
+def is_rate_table(segs) -> bool:
+    """Whether any stated segment turns (``rate_dps`` not 0): a rate table, not a fixture."""
+    return any(float(s.get("rate_dps", 0.0) or 0.0) != 0.0 for s in segs)
+
+
+def diff_noise_sd(x: np.ndarray) -> np.ndarray:
+    """Robust white-noise sd along axis 0 (same units as ``x``): the MAD of first differences over sqrt 2."""
+    diffs = np.diff(x, axis=0)
+    return 1.4826 * np.median(np.abs(diffs - np.median(diffs, axis=0)), axis=0) / np.sqrt(2.0)
+
+
+def mask_spans(mask: np.ndarray) -> list[tuple[int, int]]:
+    """The runs of True in ``mask`` (n,) as (start, stop) index pairs."""
+    edges = np.flatnonzero(np.diff(np.r_[0, mask.astype(int), 0]))
+    return list(zip(edges[::2], edges[1::2]))
+
+
 def unstated_moves(scenario, t_abs: np.ndarray, dt: float) -> np.ndarray | None:
     """Mask (n,) of the samples a static-segment scenario does not state: outside its holds (a fixture's moves between
     poses) or its dwells (a rate table's ramps, less :data:`TABLE_EDGE_S` at each edge of a dwell); None when there
@@ -23,12 +48,12 @@ def unstated_moves(scenario, t_abs: np.ndarray, dt: float) -> np.ndarray | None:
     deg/s for a second) would be fitted as a scale factor, misalignment or warm-up. Such samples are a reference
     error: they carry no information. A scenario stating ``moves_known: true`` (a motorised fixture or table
     driven by it, as the simulator moves) has none."""
-    if getattr(scenario, "source", None) != "static_segments" or getattr(scenario, "moves_known", False):
+    segs = unreferenced_segments(scenario)
+    if segs is None:
         return None
-    segs = list(scenario.spec or [])
     # a fixture's moves (a six-position or up/down test turned by hand) are as unknown as a table's ramps: their
     # profile, duration and wobble are the operator's; at the holds' edges the hand's move starts from rest
-    table = any(float(s.get("rate_dps", 0.0) or 0.0) != 0.0 for s in segs)
+    table = is_rate_table(segs)
     edge = TABLE_EDGE_S if table else 0.0
     stated = np.zeros(len(t_abs), bool)
     for seg in segs:
@@ -48,15 +73,13 @@ def fill_unstated(resid: np.ndarray, unstated: np.ndarray) -> np.ndarray:
     out = resid.copy()
     kept = resid[~unstated]
     level = np.median(kept, axis=0)
-    diffs = np.diff(kept, axis=0)
-    sd = 1.4826 * np.median(np.abs(diffs - np.median(diffs, axis=0)), axis=0) / np.sqrt(2.0)
+    sd = diff_noise_sd(kept)
     noise = np.random.default_rng(FILL_SEED).standard_normal((int(unstated.sum()), resid.shape[1]))
     out[unstated] = level + noise * sd
     # a fixture's holds differ by their tilts (0.17 m/s^2 at 1 deg): a fill at one level made a step at every edge of
     # a move, whose broadband power was a 'vibration' on every hand-turned null and hid a real line; the fill passes
     # from the hold before to the hold after instead (their medians over EDGE_SAMPLES), so no step reaches any test
-    edges = np.flatnonzero(np.diff(np.r_[0, unstated.astype(int), 0]))
-    for a, b in zip(edges[::2], edges[1::2]):
+    for a, b in mask_spans(unstated):
         left = resid[max(0, a - EDGE_SAMPLES):a]
         right = resid[b:b + EDGE_SAMPLES]
         lo = np.median(left, axis=0) if len(left) else (np.median(right, axis=0) if len(right) else level)
