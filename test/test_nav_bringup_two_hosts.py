@@ -62,9 +62,9 @@ def test_sensor_data_crossing_the_link_is_reliable_and_kept_for_a_cut():
     assert hosts.discovery_env({"FASTRTPS_DEFAULT_PROFILES_FILE": "own.xml"})["FASTRTPS_DEFAULT_PROFILES_FILE"] == "own.xml"
 
 
-def test_a_stale_input_is_said_within_a_tick_then_once_a_second_and_after_it_the_filter_waits_for_the_fixes():
+def test_a_stale_input_is_said_within_a_tick_then_once_a_second():
     # one test: importing the node (numba kernels) is most of its time
-    from ins_gps_kf.ins_gps_kf_node import INPUT_STALE_S, RESUME_WAIT_S, STALE_TICK_S, InsGpsKfNode
+    from ins_gps_kf.ins_gps_kf_node import INPUT_STALE_S, STALE_TICK_S, InsGpsKfNode
 
     said = []
     now = time.monotonic()
@@ -81,19 +81,7 @@ def test_a_stale_input_is_said_within_a_tick_then_once_a_second_and_after_it_the
     node._stale_said_wall = node._last_input_wall - 0.01  # the last spell said just before it
     InsGpsKfNode._diagnostics_if_stale(node)
     assert said == [1, 1, 1]
-
-    released = []
-    node = SimpleNamespace(_resume_until=time.monotonic() + RESUME_WAIT_S, _newest_imu_t=190.0, _newest_fix_t=179.0,
-                           params={"gps_rate_hz": 1.0}, intake=SimpleNamespace(release=lambda: released.append(1)),
-                           _guarded=lambda fn: fn())
-    InsGpsKfNode._release(node)  # the IMU backlog came, the fixes' not yet: a fix run past would be dropped late
-    assert not released and node._resume_until
-    node._newest_fix_t = 189.0  # the fixes caught up
-    InsGpsKfNode._release(node)
-    assert released == [1] and node._resume_until == 0.0
-    node.__dict__.update(_resume_until=time.monotonic() - 0.01, _newest_fix_t=-math.inf)  # no fix at all: the wait ends
-    InsGpsKfNode._release(node)
-    assert released == [1, 1]
+    # after it the IMU waits for the fixes' backlog: test_ins_gps_kf_intake's link-cut tests, on the node's loop
 
 
 def test_stale_input_turns_the_status_to_a_warning_saying_for_how_long():
@@ -153,7 +141,10 @@ def check_two_hosts_run(stdout: str, out, at_s: float, for_s: float) -> None:
     assert summary["imu_samples_missing"] == 0 and summary["odometry_stamp_max_gap_s"] < 1.0
     assert summary["horizontal_rms_m"] <= 1.1 * summary["horizontal_rms_outside_cuts_m"]
     assert 0.0 < summary["gnss_resumed_after_s"] <= 3.0
-    assert summary["live_vs_offline_max_m"] == 0.0
+    dropped = summary["stream"]["messages the filter dropped"]
+    assert summary["live_vs_offline_max_m"] == 0.0 and dropped == 0, (
+        f"live - offline {summary['live_vs_offline_max_m']:.3g} m, the filter dropped {dropped} messages as late: "
+        "fixes of the cut that came RESUME_WAIT_S after the input did (docs/two_hosts.md), or a new ordering fault")
     assert summary["horizontal_rms_m"] < 1.0
     assert summary["offline"]["live stamps going back"] == 0
     assert all(code == 0 for code in summary["exit_codes"].values()), summary["exit_codes"]

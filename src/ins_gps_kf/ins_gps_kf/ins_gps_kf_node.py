@@ -13,7 +13,8 @@ than the filter).
 Ordering, late drops and time-jump resets are :class:`ins_gps_kf.intake.StampOrderIntake`'s
 (messages wait ``reorder_window_s`` past the newest IMU stamp, so a node that falls behind
 catches up in the same order; a fix stamped back goes where it arrived, so the filter's GNSS
-clock check sees the step as in the replay); this module is wiring. The subscriptions queue
+clock check sees the step as in the replay; after a stale spell the IMU waits for the fixes'
+backlog, :meth:`ins_gps_kf.intake.StampOrderIntake.hold_for_fixes`); this module is wiring. The subscriptions queue
 ``input_queue_depth`` messages, so a node held up for seconds loses nothing, and every
 numba kernel is compiled before the node says ready (a first-epoch compile once held a
 fresh install's node up for 30 s on a busy machine while DDS dropped its input).
@@ -56,7 +57,7 @@ from nav_core.units import DEG  # noqa: E402
 from ins_gps_kf import config as kfconfig  # noqa: E402
 from ins_gps_kf import strapdown  # noqa: E402
 from ins_gps_kf.filter import Estimate, InsGpsFilter  # noqa: E402
-from ins_gps_kf.intake import StampOrderIntake, warm_up  # noqa: E402
+from ins_gps_kf.intake import RESUME_WAIT_S, StampOrderIntake, warm_up  # noqa: E402
 from ins_gps_kf.offline import load_model  # noqa: E402
 from ins_gps_kf.status import INPUT_STALE_S, filter_status, mark_stale  # noqa: E402
 
@@ -81,10 +82,6 @@ WHEEL_TYPE = Param("odometer_msg_type", "auto", "message type on odometer_topic:
                    choices=("auto", *WHEEL_TYPES))
 NODE_PARAMS = (INTAKE, QUEUE, WHEEL_TYPE, *TF_PARAMS)
 ERROR_LOG_PERIOD_S = 10.0  # a repeating processing error is logged at most this often
-RESUME_WAIT_S = 1.0
-"""s of the steady clock the intake may hold its release when input comes back after a stale spell (a link down)
-while the fixes lag the IMU by over 1.5 GNSS periods: the two backlogs come from two writers repaired apart, and a
-fix arriving after the IMU samples past its stamp were run would be dropped as late (docs/two_hosts.md)."""
 STALE_TICK_S = 0.2
 """s of the steady clock between staleness checks: a stale spell is said within this of passing INPUT_STALE_S, then
 once a second (ticks of a second said a link cut of 1.7 s of wall time, 10 s at 6x, only if one fell in the last
@@ -112,7 +109,7 @@ class InsGpsKfNode(Node):
             raise ConfigError(str(err)) from err
         self.filter = InsGpsFilter(cfg, model)
         self.intake = StampOrderIntake(self.filter, self.params["reorder_window_s"], self.params["time_jump_s"],
-                                       cfg.imu_rate_hz, on_run=self._on_run)
+                                       cfg.imu_rate_hz, on_run=self._on_run, gps_rate_hz=cfg.gps_rate_hz)
         self.last_estimate: Estimate | None = None
         self.nonfinite_estimates = 0  # estimates not published because not finite (the filter was reset)
         self.processing_errors = 0
@@ -149,8 +146,6 @@ class InsGpsKfNode(Node):
         # the node's own steady clock
         self._last_input_wall: float | None = None
         self._stale_said_wall = -math.inf  # steady s of the last status said because the input was stale
-        self._resume_until = 0.0  # steady s: the release may wait for the fixes' backlog until then
-        self._newest_imu_t = self._newest_fix_t = -math.inf
         self.create_timer(STALE_TICK_S, self._locked(self._diagnostics_if_stale),
                           clock=Clock(clock_type=ClockType.STEADY_TIME))
         start = time.monotonic()
@@ -207,12 +202,12 @@ class InsGpsKfNode(Node):
         imu, fixes = self.imu_intake.take_all(), self.gps_intake.take_all()
         wheel = self.wheel_intake.take_all() if self.wheel_intake is not None else []
         if not imu and not fixes and not wheel:
-            if self._resume_until:
-                self._release()
+            if self.intake.hold_until is not None:
+                self._release()  # the hold may have ended
             return
         now = time.monotonic()
         if self._last_input_wall is not None and now - self._last_input_wall > INPUT_STALE_S:
-            self._resume_until = now + RESUME_WAIT_S
+            self.intake.hold_for_fixes(now + RESUME_WAIT_S)
         self._last_input_wall = now
         batch = self.imu_intake.decode([blob for blob, _ in imu])
         if len(batch) != len(imu):  # a bad message was skipped: arrival order is lost for this batch only
@@ -225,7 +220,6 @@ class InsGpsKfNode(Node):
         t_s = batch.t_s.tolist()
         if self.first_imu_t is None and t_s:
             self.first_imu_t = t_s[0]
-        self._newest_imu_t = max([self._newest_imu_t, *t_s[-1:]])
         restarts, steps = self.intake.counters.restarts, self.filter.input.gnss_clock_steps
         for _, kind, i in arrivals:
             if kind == IMU:
@@ -243,14 +237,8 @@ class InsGpsKfNode(Node):
         self._publish_imu_out()
 
     def _release(self):
-        """Run what is due, unless input came back after a stale spell under :data:`RESUME_WAIT_S` ago and the
-        fixes still lag the IMU by over 1.5 GNSS periods (their backlog is on its way; no fix at all: the wait ends)."""
-        if self._resume_until:
-            lag_s = self._newest_imu_t - self._newest_fix_t
-            if time.monotonic() < self._resume_until and lag_s > 1.5 / self.params["gps_rate_hz"]:
-                return
-            self._resume_until = 0.0
-        self._guarded(self.intake.release)
+        """Run what is due (after a stale spell, for :data:`RESUME_WAIT_S`, no further than the fixes allow)."""
+        self._guarded(lambda: self.intake.release(time.monotonic()))
 
     def on_gps(self, msg: NavSatFix):
         """Queue one fix (the filter judges NaN, NO_FIX and implausible fixes)."""
@@ -258,7 +246,6 @@ class InsGpsKfNode(Node):
         std = np.sqrt(np.clip(np.diag(cov), 0.0, None)) if msg.position_covariance_type > 0 else np.zeros(3)
         if self.first_fix_t is None:
             self.first_fix_t = stamp_to_s(msg.header.stamp)
-        self._newest_fix_t = max(self._newest_fix_t, stamp_to_s(msg.header.stamp))
         self.intake.add_fix(stamp_to_s(msg.header.stamp), msg.latitude * DEG, msg.longitude * DEG, msg.altitude,
                             std, msg.status.status)
 

@@ -31,7 +31,15 @@ what is too late, what is a restart, and what is counted. The rules (the offline
   ``odometer_nonfinite``, and whenever it comes: a stamp not after the latest wheel stamp processed); at one
   stamp the fixes come first, then the wheel speeds, then the IMU sample; one with a newer stamp whose place was
   already processed is dropped as ``late_odometer``;
-* consecutive IMU samples go to the filter as one chunk (the same numbers as one by one).
+* consecutive IMU samples go to the filter as one chunk (the same numbers as one by one);
+* after the input went stale (a link down: the node says when, :meth:`StampOrderIntake.hold_for_fixes`), if the
+  fixes were keeping up with the IMU when it stopped, no IMU sample is released more than half a GNSS period past
+  the fix stream's place until a deadline of the caller's steady clock: the IMU and fix backlogs of a cut come from
+  two writers, repaired apart and in pieces, and a fix of the cut arriving after the IMU past it ran would be
+  dropped as late. The hold moves with the fixes (no other wait), so the filter's numbers are the replay's whatever
+  the order and the pieces the two backlogs come in, as long as the fixes' backlog comes before the deadline; a
+  fix coming after it is dropped and counted (``late_fixes``: then, and only then, live differs from the replay).
+  Only this deadline is wall time: a GNSS outage and a fix backlog still on its way look the same in stamps.
 """
 from __future__ import annotations
 
@@ -46,6 +54,14 @@ import numpy as np
 from ins_gps_kf.input_checks import FixArrivals, ImuClock, InputCounters
 
 GPS, ODOMETER, IMU = 0, 1, 2  # at one stamp: fixes, then wheel speeds, then the IMU sample (as in the replay)
+RESUME_WAIT_S = 5.0
+"""s of the steady clock after input comes back from a stale spell (a link down) during which no IMU sample is run
+more than half a GNSS period past the fixes (:meth:`StampOrderIntake.hold_for_fixes`): the two
+backlogs come from two writers repaired apart and in pieces, and a fix arriving after the IMU samples past its stamp
+ran would be dropped as late (docs/two_hosts.md). Was a 1-s wait that ended as soon as one piece of the IMU backlog
+left the fixes under 1.5 periods behind: on a busy CPU the README's two-host drive dropped 6 fixes of its cut that
+came 0.2 s after the IMU's first piece (live - offline 5.6 m; 1.95 m once in three CI runs). Costs latency only when
+the GNSS stopped during the cut (the IMU then waits this long for fixes that do not come)."""
 
 
 @dataclass
@@ -79,8 +95,11 @@ class StampOrderIntake:
     through the filter, with the epoch estimates it produced and the chunk's newest sample.
     """
 
-    def __init__(self, filt, window_s: float, time_jump_s: float, imu_rate_hz: float, on_run=None):
+    def __init__(self, filt, window_s: float, time_jump_s: float, imu_rate_hz: float, on_run=None,
+                 gps_rate_hz: float = 1.0):
         self.filter = filt
+        self.gnss_period_s = 1.0 / float(gps_rate_hz)
+        self.hold_until: float | None = None  # caller's steady s: the IMU waits for the fixes until then (a cut)
         self.window_s = float(window_s)
         self.time_jump_s = float(time_jump_s)
         self.imu_period_s = 1.0 / float(imu_rate_hz)
@@ -132,9 +151,29 @@ class StampOrderIntake:
             self.wheel_place = max(self.wheel_place, t_s)
         heapq.heappush(self._heap, (self.wheel_place, ODOMETER, next(self._seq), (t_s, speed_mps)))
 
-    def release(self) -> None:
-        """Run everything ``window_s`` older than the newest IMU stamp through the filter, in stamp order."""
-        self._drain(self.newest_t - self.window_s)
+    @property
+    def fixes_current(self) -> bool:
+        """Whether the fix stream keeps up with the IMU handed in (its place within 1.5 GNSS periods of the newest
+        IMU stamp, or ahead); False before any fix."""
+        return self.fix_places.place >= self.newest_t - 1.5 * self.gnss_period_s
+
+    def hold_for_fixes(self, until_s: float) -> bool:
+        """The input came back after a stale spell: if the fixes were keeping up when it stopped, release no IMU
+        sample more than half a GNSS period past the fix stream's place until ``until_s`` (the caller's steady
+        clock, s; see the module doc). Call before handing in what came back; returns whether it holds."""
+        self.hold_until = until_s if self.fixes_current else None
+        return self.hold_until is not None
+
+    def release(self, now_s: float = -math.inf) -> None:
+        """Run everything ``window_s`` older than the newest IMU stamp through the filter, in stamp order; while a
+        hold is on (before its deadline, ``now_s`` on the caller's steady clock), nothing more than half a GNSS
+        period past the fix stream's place."""
+        until = self.newest_t - self.window_s
+        if self.hold_until is not None and now_s >= self.hold_until:
+            self.hold_until = None
+        if self.hold_until is not None:
+            until = min(until, self.fix_places.place + 0.5 * self.gnss_period_s)
+        self._drain(until)
 
     def flush(self) -> None:
         """Run everything still queued (shutdown)."""
@@ -147,6 +186,7 @@ class StampOrderIntake:
         heapq.heapify(self._heap)
         self.flush()
         self.filter.reset(reason)
+        self.hold_until = None  # the old run's fixes are not coming
         self._heap = [item for item in new_run if item[1] == IMU]
         self.newest_t = max((item[0] for item in self._heap), default=-math.inf)
         self.last_t, self._done = None, (-math.inf, GPS)
