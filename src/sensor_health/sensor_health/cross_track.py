@@ -29,6 +29,7 @@ from __future__ import annotations
 import functools
 
 import numpy as np
+from scipy.signal import lfilter
 
 from sensor_health import thresholds as thr
 from sensor_health.along_track import chord_en, robust_sd
@@ -328,11 +329,9 @@ def simulated_drifts(epochs: int, arw_rel: float, ref_sd_rel: float, rng) -> np.
     course_err = np.diff(fix)  # a chord's sideways error: its end fixes' difference over its length (1)
     heading_err = np.cumsum(arw_rel * rng.normal(size=total))
     a = np.exp(-1.0 / REFERENCE_LAG_EPOCHS)
-    ref_err = np.zeros(epochs)
     e = rng.normal(size=epochs) * ref_sd_rel * np.sqrt(1 - a * a)
-    ref_err[0] = ref_sd_rel * rng.normal()
-    for k in range(1, epochs):
-        ref_err[k] = a * ref_err[k - 1] + e[k]
+    e[0] = ref_sd_rel * rng.normal()  # the stationary start
+    ref_err = lfilter([1.0], [1.0, -a], e)
     d = np.lib.stride_tricks.sliding_window_view(course_err - heading_err, n)[:epochs]
     return np.cumsum(d - d[:, :1] - ref_err[:, None] * np.arange(n), axis=1)
 
