@@ -22,7 +22,7 @@ class HealthConfig:
     floor, where a larger share shortens the delay (bench_sensor_health --floor); but the bias filter's motion
     misfit on real driving eats it: at 0.1 the benchmark's healthy drives gave 3 false gx events in 4 h."""
     track_bias_per_10h: float = 0.1
-    """False events per 10 h allowed to each of the bias tests against the GNSS track (gz, ax), on top of
+    """False events per 10 h allowed to each of the bias tests against the GNSS track (gz, ax, ay), on top of
     ``false_alarms_per_10h`` (0: an equal share of it): a 10x bias-sd gz step shows against the track no faster than
     the gyro's white noise allows (the gx/gy floor), and the gz test's GLR gates its max |z| over the span's onsets
     (5.2-5.5 sd at 0.1); the ax test's 25-fix window holding all of a step reaches ~6 sd, gated at 5.5."""
@@ -63,7 +63,5 @@ UNMONITORED = {
                               "(a 1 % change of 1 m/s^2 is 0.01 m/s^2); the along-track test carries the bias only",
     "scale_factor_change ay": "not monitored: the lateral acceleration against speed x GNSS course rate, in turns",
     "scale_factor_change gx gy": "not observable: a land vehicle's roll and pitch rates have no reference",
-    "bias_shift ay": "not monitored: the IMU sees only ay - v gz (a step of either moves it alike, and gz's own "
-                     "noise times v is 0.02 m/s^2 in a 1-s mean); gz is tested against the GNSS track, ay is not",
 }
 """Effects and channels this package does not test, and why (health.json ``observability``)."""

@@ -14,6 +14,9 @@ Sample-level checks (:mod:`sensor_health.sample_checks`) run on every sample. Wi
 * a count of samples at the extreme of the last 10 windows, every 8 samples (``saturation`` below the configured
   range; :mod:`sensor_health.clip_check`).
 
+With GNSS fixes, the yaw scale factor, gz's and ax's bias against the track and ay's on the straights at speed
+(:mod:`sensor_health.yaw_scale`, ``cross_track``, ``along_track``, ``lateral_track``).
+
 Thresholds come from :func:`sensor_health.thresholds.monte_carlo`. A channel touched by a deterministic fault
 in a window is left out of the statistics of that window (its CUSUMs restart).
 """
@@ -29,6 +32,7 @@ from sensor_health.along_track import AlongTrackMonitor
 from sensor_health.bias_filter import BiasFilter, motion_regressors
 from sensor_health.clip_check import ClipCheck
 from sensor_health.cross_track import CrossTrackMonitor
+from sensor_health.lateral_track import LateralTrackMonitor
 from sensor_health.config import UNMONITORED, HealthConfig, Trace
 from sensor_health.events import CHANNELS, Z95, Event, bias_shift_event
 from sensor_health.line_track import LineTrack
@@ -97,6 +101,8 @@ class HealthMonitor(VibrationCheck):
         self.along_track = AlongTrackMonitor(track, float(model.accel.bias_instability[0]))
         self.cross_track = CrossTrackMonitor(float(model.gyro.white_noise[2]), track,
                                              float(model.gyro.bias_instability[2]))
+        self.lateral_track = LateralTrackMonitor(float(model.accel.white_noise[1]), float(model.gyro.white_noise[2]),
+                                                 float(model.accel.bias_instability[1]), track)
         self.startup = StartupCheck(self, startup_thresholds(model, self.grid, self.thr.noise_mu, self.thr.noise_sd,
                                                              self.thr.bias_sd, self.thr.window_s, seed=cfg.seed))
         self.checked_s = [None, None]
@@ -118,6 +124,7 @@ class HealthMonitor(VibrationCheck):
         events, flags = self.samples.push(t, x)
         events += self.yaw_scale.push_imu(t, x[:, 2])
         events += self.along_track.push_imu(t, x[:, 3], x[:, 2], x[:, 4]) + self.cross_track.push_imu(t, x[:, 2])
+        events += self.lateral_track.push_imu(t, x[:, 2], x[:, 4])
         self._remember(t, x)
         events += self.clip.push(t, x, flags)
         self._pending_t = np.concatenate([self._pending_t, t])
@@ -137,12 +144,14 @@ class HealthMonitor(VibrationCheck):
         factor in turns, a gz bias against the track, an ax bias against the track where the fixes carry a height)."""
         return self._report(self.yaw_scale.push_gnss(t, lat_rad, lon_rad)
                             + self.cross_track.push_gnss(t, lat_rad, lon_rad)
-                            + self.along_track.push_gnss(t, lat_rad, lon_rad, h_m))
+                            + self.along_track.push_gnss(t, lat_rad, lon_rad, h_m)
+                            + self.lateral_track.push_gnss(t, lat_rad, lon_rad))
 
     def observability(self) -> dict:
         """Effect and channel -> whether this record's motion made it observable (scale factor so far)."""
         return {"scale_factor_change gz": self.yaw_scale.observability(), "turn_on_bias": self.startup.bias_note,
                 "bias_shift ax": self.along_track.observability(), "bias_shift gz": self.cross_track.observability(),
+                "bias_shift ay": self.lateral_track.observability(),
                 **UNMONITORED}
 
     def _report(self, events) -> list:
