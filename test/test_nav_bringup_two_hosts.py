@@ -45,7 +45,7 @@ def test_a_cut_not_over_before_the_drive_ends_is_refused_and_a_missed_cut_says_s
 
 def test_sensor_data_crossing_the_link_is_reliable_and_kept_for_a_cut():
     specs = [NodeSpec("bp3010_driver", {"port": "/tmp/x"}), NodeSpec("wmra_node"), NodeSpec("ins_gps_kf_node"),
-             NodeSpec("allan_node", {"out_dir": "a"}), NodeSpec("scenario_player")]
+             NodeSpec("allan_node", {"out_dir": "a"}), NodeSpec("scenario_player"), NodeSpec("sensor_health_node")]
     by_name = {s.executable: s.overrides for s in hosts.link_qos(specs, store_s=30.0)}
     imu = "qos_overrides./imu/data_raw.publisher"
     assert by_name["bp3010_driver"] == {"port": "/tmp/x", f"{imu}.reliability": "reliable",
@@ -54,6 +54,9 @@ def test_sensor_data_crossing_the_link_is_reliable_and_kept_for_a_cut():
     assert by_name["wmra_node"] == {"qos_overrides./imu/data_raw.subscription.reliability": "reliable"}
     assert by_name["ins_gps_kf_node"] == {"qos_overrides./gps/fix.subscription.reliability": "reliable"}
     assert by_name["allan_node"] == {"out_dir": "a"}  # best effort: it may lose a cut's samples
+    # the health node sees every sample the sensor sent: a sample the link lost is no sensor dropout
+    assert by_name["sensor_health_node"] == {"qos_overrides./imu/data_raw.subscription.reliability": "reliable",
+                                             "qos_overrides./gps/fix.subscription.reliability": "reliable"}
     assert not any(k.startswith("qos_overrides") for k in demo.filter_params(PARAMS_FILE, hosts.link_qos(specs)))
     env = hosts.discovery_env({"ROS_LOCALHOST_ONLY": "1", "ROS_AUTOMATIC_DISCOVERY_RANGE": "LOCALHOST"})
     assert env["ROS_AUTOMATIC_DISCOVERY_RANGE"] == "SUBNET" and "ROS_LOCALHOST_ONLY" not in env
@@ -147,6 +150,9 @@ def check_two_hosts_run(stdout: str, out, at_s: float, for_s: float) -> None:
         "fixes of the cut that came RESUME_WAIT_S after the input did (docs/two_hosts.md), or a new ordering fault")
     assert summary["horizontal_rms_m"] < 1.0
     assert summary["offline"]["live stamps going back"] == 0
+    # the health node reads the link reliably too: neither the cut nor a datagram lost at start-up is a sensor dropout
+    dropouts = [e for e in summary["sensor_health_events"] if e["effect"] in ("dropout", "sample_rate_change")]
+    assert not dropouts, dropouts
     assert all(code == 0 for code in summary["exit_codes"].values()), summary["exit_codes"]
     assert_stale_during_the_cut(link_report.filter_statuses(run_dir / "bag"), cuts)
     assert (run_dir / "link.png").stat().st_size > 1000 and "Two hosts" in (run_dir / "report.html").read_text()

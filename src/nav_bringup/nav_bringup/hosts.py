@@ -45,9 +45,12 @@ CLONE_NEWNET = 0x40000000
 
 STORE_S = 60.0
 """s of sensor data the sensor host keeps for a compute host it cannot reach (the link's longest bridged cut)."""
-LINK_TOPICS = {  # node -> (topic, its side, messages per second): the sensor data crossing the link
-    "bp3010_driver": ("/imu/data_raw", "publisher", 64.0), "wmra_node": ("/imu/data_raw", "subscription", 64.0),
-    "scenario_player": ("/gps/fix", "publisher", 1.0), "ins_gps_kf_node": ("/gps/fix", "subscription", 1.0)}
+LINK_TOPICS = {  # node -> its endpoints of the sensor data crossing the link: (topic, side, messages per second)
+    "bp3010_driver": [("/imu/data_raw", "publisher", 64.0)], "wmra_node": [("/imu/data_raw", "subscription", 64.0)],
+    "scenario_player": [("/gps/fix", "publisher", 1.0)], "ins_gps_kf_node": [("/gps/fix", "subscription", 1.0)],
+    # best effort across the link, the health node would name each sample the link lost (a cut, a datagram at
+    # start-up) a sensor dropout; reliable, it sees what the sensor sent, as the bag does
+    "sensor_health_node": [("/imu/data_raw", "subscription", 64.0), ("/gps/fix", "subscription", 1.0)]}
 
 
 def link_qos(specs: list, store_s: float = STORE_S, imu_rate_hz: float = 64.0) -> list:
@@ -58,16 +61,14 @@ def link_qos(specs: list, store_s: float = STORE_S, imu_rate_hz: float = 64.0) -
 
     out = []
     for spec in specs:
-        topic, side, rate_hz = LINK_TOPICS.get(spec.executable, (None, None, 0.0))
-        if topic is None:
-            out.append(spec)
-            continue
-        rate_hz = imu_rate_hz if "imu" in topic else rate_hz
-        key = f"qos_overrides.{topic}.{side}"
-        extra = {f"{key}.reliability": "reliable"}
-        if side == "publisher":
-            extra.update({f"{key}.history": "keep_last", f"{key}.depth": int(math.ceil(store_s * rate_hz)) + 10})
-        out.append(dataclasses.replace(spec, overrides={**spec.overrides, **extra}))
+        extra = {}
+        for topic, side, rate_hz in LINK_TOPICS.get(spec.executable, []):
+            rate_hz = imu_rate_hz if "imu" in topic else rate_hz
+            key = f"qos_overrides.{topic}.{side}"
+            extra[f"{key}.reliability"] = "reliable"
+            if side == "publisher":
+                extra.update({f"{key}.history": "keep_last", f"{key}.depth": int(math.ceil(store_s * rate_hz)) + 10})
+        out.append(dataclasses.replace(spec, overrides={**spec.overrides, **extra}) if extra else spec)
     return out
 
 

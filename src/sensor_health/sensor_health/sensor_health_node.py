@@ -16,6 +16,7 @@ This module is wiring.
 """
 from __future__ import annotations
 
+import copy
 import json
 import threading
 import time
@@ -29,8 +30,8 @@ from std_msgs.msg import String
 
 from nav_core import sensor_model
 from nav_core.params import ConfigError, Param
-from nav_core.ros_node import (DIAG_LEVELS, SENSOR_QOS_IN, ImuBatchSubscription, IntakeLoop, declare_parameters,
-                               run_node)
+from nav_core.ros_node import (DIAG_LEVELS, LINK_QOS, SENSOR_QOS_IN, ImuBatchSubscription, IntakeLoop,
+                               declare_parameters, run_node)
 from nav_core.units import deg2rad, g2mps2
 from sensor_health import status
 from sensor_health.events import CHANNELS, cleared_event
@@ -83,12 +84,14 @@ class SensorHealthNode(Node):
         self.counts, self.stats = {}, {"received": 0, "busy_s": 0.0, "gps_fix": 0, "odometry": 0, "cleared": 0}
         self.events_pub = self.create_publisher(String, values["events_topic"], EVENTS_QOS)
         self.diag_pub = self.create_publisher(DiagnosticArray, "/diagnostics", 10)
-        self.create_subscription(NavSatFix, "gps/fix", self.on_fix, SENSOR_QOS_IN)
+        self.create_subscription(NavSatFix, "gps/fix", self.on_fix, copy.copy(SENSOR_QOS_IN),
+                                 qos_overriding_options=LINK_QOS)  # copied: rclpy writes overrides into it
         self.filter_bias = OdometryBias(values["filter_bias_average_s"], values["filter_epoch_max_s"])
         self.correct_gyro = sensor_model.corrector(model.gyro)  # the filter's input is calibrated (wmra_node)
         self.create_subscription(Odometry, "odometry/filtered", self.on_odometry, 100)
         qos = QoSProfile(depth=values["input_queue_depth"], reliability=ReliabilityPolicy.BEST_EFFORT)
-        self.intake = ImuBatchSubscription(self, "imu/data_raw", self.on_batch, None, qos=qos)
+        self.intake = ImuBatchSubscription(self, "imu/data_raw", self.on_batch, None, qos=qos,
+                                           qos_overriding_options=LINK_QOS)
         self.lock = threading.Lock()
         self.create_timer(values["diagnostics_period_s"], self._publish_diagnostics_locked)
         self.intake_loop = IntakeLoop(self, values["intake_period_s"], self.intake.drain, self.lock)
