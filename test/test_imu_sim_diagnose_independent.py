@@ -12,6 +12,7 @@ from imu_sim.diagnose.case import DiagnosisInputError, deterministic, load_case,
 from imu_sim.diagnose.effect_tests import regression
 from imu_sim.diagnose.candidate import Context
 from imu_sim.diagnose.engine import _rank_by_share, diagnose, evaluate
+from imu_sim.diagnose.ranking import heldout_fraction
 from imu_sim.diagnose.regressors import Design
 from imu_sim.diagnose.spectral import Whitener
 from nav_core.earth import RATE as EARTH_RATE, normal_gravity
@@ -104,6 +105,22 @@ def test_findings_are_ordered_by_their_share_of_the_mismatch():
     assert details == ["e", "v", "q"]
     assert [f["share_of_mismatch"] for f in findings] == [0.97, 0.03, 0.0]
     assert share.shares([0.0, 0.0]) == [0.0, 0.0]
+
+
+def test_findings_are_ranked_by_the_held_out_fraction_they_explain_not_by_their_energy():
+    # the blind rate table: a warm-up of 0.1 m/s^2 on an accelerometer carried the energy (held-out gain 0.465 %),
+    # the concealed gyro scale factor the evidence (held-out gain 92.4 %)
+    warm = {"effect": "warmup_drift", "drop_one_energy": 900.0, "mismatch_energy": 0.0, "free_parameters": 7,
+            "held_out_evidence": heldout_fraction(1.0, 1.0 - 0.00465, "RMS of held-out block means")}
+    scale = {"effect": "scale_factor", "drop_one_energy": 100.0, "mismatch_energy": 0.0, "free_parameters": 3,
+             "held_out_evidence": heldout_fraction(1.0, 1.0 - 0.924, "RMS of held-out block means")}
+    walk = {"effect": "bias_random_walk", "drop_one_energy": 5e4, "mismatch_energy": 0.0, "free_parameters": 6,
+            "held_out_evidence": heldout_fraction(2.0, 1.2, "Whittle deviance per bin")}
+    findings, details = [warm, walk, scale], ["w", "r", "s"]
+    _rank_by_share(findings, details)
+    assert details == ["s", "r", "w"]
+    assert [f["share_of_mismatch"] for f in findings] == [0.002, 0.9804, 0.0176]  # the share is still the energy
+    assert heldout_fraction(1.0, 1.1, "RMS") == 0.0 and heldout_fraction(2.0, 1.0, "a deviance") == 0.5
 
 
 def test_lines_of_the_trajectory_itself_are_flagged_as_harmonics(tmp_path):

@@ -26,7 +26,7 @@ from imu_sim.diagnose.candidate import (ALPHA, EXPLAIN, GNSS_EFFECTS, Candidate,
 from imu_sim.diagnose.case import CHANNELS, Case, residual
 from imu_sim.diagnose.effect_tests import TESTS
 from imu_sim.diagnose.heldout import fit_metric
-from imu_sim.diagnose.ranking import rank_low_frequency
+from imu_sim.diagnose.ranking import heldout_fraction, order_by_heldout_evidence, rank_low_frequency
 from imu_sim.diagnose.spectral import Whitener, noise_psd
 
 __all__ = ["Candidate", "Diagnosis", "diagnose", "evaluate"]
@@ -35,7 +35,9 @@ MIN_GAIN = 2e-4
 to 0.96579 (1e-5) is not a finding; the independent suite's concealed temperature coefficient gains 0.083 %."""
 MIN_DEVIANCE_GAIN = 1e-3
 """Smallest held-out gain of a deviance metric, per held-out block (absolute)."""
-SHARE_SCALE = ("findings ordered by share_of_mismatch: each finding's drop-one contribution in the joint fit "
+SHARE_SCALE = ("findings ordered by evidence (a known constant matching its value first, then held_out_evidence: the "
+               "fraction of the held-out mismatch the finding explains, from fit_before and fit_after); "
+               "share_of_mismatch is each finding's drop-one contribution in the joint fit "
                "(drop_one_energy: how much the final model's residual energy, over the per-sample noise variance, "
                "grows when that finding alone is removed and the others keep their fitted values; for noise terms "
                "their variance times the samples), over the sum for all findings; mismatch_energy is the finding's "
@@ -250,6 +252,7 @@ def diagnose(case: Case, max_effects: int = 4, seed: int = 0, progress=None, fac
             "time_span_s": span,
             "band": band, "parameters": best.params, "intervals": best.intervals,
             "metric": _metric_text(name, before, after), "fit_before": before, "fit_after": after,
+            "held_out_evidence": round(heldout_fraction(before, after, name), 6),
             "free_parameters": 0 if best.rank is not None and best.constant_scale is not None else len(best.params),
             "evidence": rounded(evidence(best)),
             "statistic": {"name": best.statistic, "value": rounded(best.stat), "threshold": rounded(best.threshold)},
@@ -289,13 +292,13 @@ def diagnose(case: Case, max_effects: int = 4, seed: int = 0, progress=None, fac
 
 
 def _rank_by_share(findings: list, details: list) -> None:
-    """Order findings (and their details) by their share of the mismatch, largest first, except that a known
-    constant matching its value (zero free parameters, the strongest evidence) comes first; write the share."""
+    """Write each finding's share of the mismatch (its drop-one contribution) and order findings (and their details)
+    by evidence: a known constant matching its value first, then by the fraction of the held-out mismatch each
+    explains (:func:`ranking.order_by_heldout_evidence`), the share breaking ties."""
     for f, sh in zip(findings, share.shares([f.get("drop_one_energy", f["mismatch_energy"]) or 0.0
                                              for f in findings])):
         f["share_of_mismatch"] = round(sh, 4)
-    order = sorted(range(len(findings)), key=lambda i: (findings[i].get("free_parameters") != 0,
-                                                         -findings[i]["share_of_mismatch"]))
+    order = order_by_heldout_evidence(findings)
     findings[:] = [findings[i] for i in order]
     details[:] = [details[i] for i in order]
 
