@@ -95,6 +95,47 @@ def test_an_axis_the_motion_hardly_excites_is_not_called_implausible_by_an_inter
     assert plausibility.violations(table, "industrial") == []
     table.intervals["gyro[y]"] = [-0.65, -0.61]  # the same value pinned down by the motion: implausible
     assert [b["parameter"] for b in plausibility.violations(table, "industrial")] == ["gyro[y]"]
+    assert plausibility.unidentified(table, "industrial") == []  # reported once, as a model error
+
+
+def test_a_value_no_sensor_of_the_grade_has_with_an_interval_wider_than_the_bound_is_not_identifiable():
+    """Blind seeds 1 and 2: on still fixture holds a consumer gyro's bias wander (10-50 deg/h) exceeds the Earth rate,
+    and a gyro scale factor of -0.96 or a misalignment of 1.4 rad fitted there (intervals wider than the bound) were
+    findings, since violations() calls a parameter implausible only when determined to the bound."""
+    sf = _cand("scale_factor", {"gyro[z]": -0.963, "gyro[x]": 0.02, "accel[x]": 1e-3})
+    sf.intervals = {"gyro[z]": [-2.5, 0.6], "gyro[x]": [-0.5, 0.54], "accel[x]": [5e-4, 1.5e-3]}
+    assert plausibility.violations(sf, "consumer") == []
+    vague = plausibility.unidentified(sf, "consumer")
+    assert [v["parameter"] for v in vague] == ["gyro[z]"] and vague[0]["interval"] == [-2.5, 0.6]
+    mis = _cand("axis_misalignment", {"gyro[xy]": 1.4, "accel[xy]": 1e-3})
+    mis.intervals = {"gyro[xy]": [-0.4, 3.2], "accel[xy]": [0.0, 2e-3]}
+    assert [v["parameter"] for v in plausibility.unidentified(mis, "tactical")] == ["gyro[xy]"]
+    assert plausibility.unidentified(_cand("warmup_drift", {"accel_amplitude_mps2[x]": 0.1}), "navigation") == []
+
+
+def test_a_fit_not_identifiable_on_the_record_is_never_a_finding_and_tested_says_why(monkeypatch):
+    from types import SimpleNamespace
+
+    from imu_sim.diagnose import engine
+    sc = from_dict(suite_scenario(), where="test")
+    case = SimpleNamespace(model=_model(3e-4, 1.5e-4, grade="consumer"), n=10, dt=0.1, t=np.arange(10) * 0.1,
+                           scenario=sc, cache={}, notes=[])
+    monkeypatch.setattr(engine, "residual", lambda case, model: np.zeros((case.n, 6)))
+    monkeypatch.setattr(engine.reference, "clean", lambda case, resid: resid)
+    monkeypatch.setattr(engine.share, "drop_one", lambda case, model, base, findings, cands: [0.0] * len(findings))
+
+    def fake_evaluate(case, model, resid, exclude=(), factors=None):
+        sf = Candidate("scale_factor", 900.0, 20.0, "GLS likelihood ratio on the holds",
+                       params={"gyro[z]": -0.963, "gyro[y]": 0.3})
+        sf.intervals = {"gyro[z]": [-2.5, 0.6], "gyro[y]": [-1.0, 1.6]}
+        return [c for c in (sf,) if c.effect not in exclude]
+
+    monkeypatch.setattr(engine, "evaluate", fake_evaluate)
+    monkeypatch.setattr(engine.fixture, "check", lambda *a: None)
+    out = engine.diagnose(case, max_effects=2, factors={}).result
+    assert out["findings"] == [] and out["reference_or_model_error"] == []
+    note = out["tested"][0]["note"]
+    assert "not identifiable on this record" in note and "gyro[z] = -0.963" in note and "consumer" in note
 
 
 def test_negligible_held_out_gain_is_not_a_finding_and_the_gain_is_stated():

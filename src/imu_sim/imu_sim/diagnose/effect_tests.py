@@ -151,6 +151,7 @@ def _without(ctx: Context, cand: Candidate, design, theta: np.ndarray, drop: lis
     for ch, x in design.columns.items():
         out.contrib[:, ch] = x @ theta
     out.channels = [c for c in cand.channels]
+    out.design = design.without(drop)  # a fixture's joint fit with the tilts refits the kept ones from it
     return out
 
 

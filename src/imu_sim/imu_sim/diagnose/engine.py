@@ -168,19 +168,35 @@ def _model_error(cand: Candidate, broken: list, grade: str, how: str) -> dict:
                             "reference (fixture attitude, trajectory, site) or the model is wrong, not the sensor.")}
 
 
-def _refit_without(cand: Candidate, broken: list, grade: str) -> Candidate | None:
-    """The regression refitted without its out-of-bound parameters (each reported as reference_or_model_error),
-    when the rest is still significant and plausible; None otherwise."""
+def _refit_without(cand: Candidate, broken: list, grade: str, case=None, resid=None) -> Candidate | None:
+    """The regression refitted without its out-of-bound or unidentified parameters (the former reported as
+    reference_or_model_error), when the rest is still significant and plausible - on a fixture, given the holds'
+    tilts again (:func:`fixture.rank_given_tilts`) - ; None otherwise."""
     names = [b["parameter"] for b in broken]
     if cand.refit is None or len(names) >= len(cand.params):
         return None
     again = cand.refit(names)
-    if not again.significant or plausibility.violations(again, grade, again.constant_scale):
+    if case is not None and again.significant:
+        fixture.rank_given_tilts(case, [again], resid)
+        if again.rank == fixture.IMPLAUSIBLE_RANK:
+            return None
+    if (not again.significant or plausibility.violations(again, grade, again.constant_scale)
+            or plausibility.unidentified(again, grade)):
         return None
     again.caveat = " ".join(filter(None, [again.caveat, (
-        f"Refitted without {', '.join(names)}: outside the {grade}-grade bounds, reported under "
-        "reference_or_model_error, not as sensor physics.")]))
+        f"Refitted without {', '.join(names)}: outside the {grade}-grade bounds (reported under "
+        "reference_or_model_error, or not identifiable on this record), not sensor physics.")]))
     return again
+
+
+def _unidentified_note(vague: list) -> str:
+    """The ``tested`` note of parameters fitted outside the grade's bounds with intervals wider than the bound."""
+    worst = max(vague, key=lambda v: abs(v["value"]) / v["bound"])
+    return (f"not identifiable on this record: {', '.join(v['parameter'] for v in vague)} fitted outside the "
+            f"{worst['grade']}-grade bound ({worst['parameter']} = {worst['value']:.4g}, 95 % interval "
+            f"[{worst['interval'][0]:.3g}, {worst['interval'][1]:.3g}], bound {worst['bound']:g}) without being "
+            "determined to it: the fit takes what the record cannot tell from it (on still holds, each hold's "
+            "gyro bias change against the Earth rate), not sensor physics")
 
 
 @dataclass
@@ -203,7 +219,7 @@ def diagnose(case: Case, max_effects: int = 4, seed: int = 0, progress=None, fac
     resid = resid0
     findings, details, tested, accepted = [], [], None, set()
     grade, grade_how = plausibility.grade_of(case.model)
-    model_errors, rounds, not_separable = [], 0, {}
+    model_errors, rounds, not_separable, unidentified = [], 0, {}, {}
     while rounds < max_effects + 2:
         if len(findings) >= max_effects:
             break
@@ -224,9 +240,13 @@ def diagnose(case: Case, max_effects: int = 4, seed: int = 0, progress=None, fac
             not_separable[best.effect] = tilt_note
             continue
         broken = plausibility.violations(best, grade, best.constant_scale)
-        if broken:  # not sensor physics: kept out of the model, and it does not use up a round
-            model_errors.append(_model_error(best, broken, grade, grade_how))
-            best = _refit_without(best, broken, grade)
+        vague = plausibility.unidentified(best, grade)
+        if broken or vague:  # not sensor physics: kept out of the model, and it does not use up a round
+            if broken:
+                model_errors.append(_model_error(best, broken, grade, grade_how))
+            if vague:
+                unidentified[best.effect] = _unidentified_note(vague)
+            best = _refit_without(best, broken + vague, grade, case, reference.clean(case, resid))
             if best is None:
                 continue
         rounds += 1
@@ -270,6 +290,10 @@ def diagnose(case: Case, max_effects: int = 4, seed: int = 0, progress=None, fac
             if not_separable[entry["effect"]]:
                 entry["note"] = (entry["note"] + "; " if entry["note"] else "") + not_separable[entry["effect"]]
             continue
+        if entry["effect"] in unidentified:
+            entry["note"] = (entry["note"] + "; " if entry["note"] else "") + unidentified[entry["effect"]] + (
+                "; the effect's other parameters refitted without them and kept"
+                if entry["effect"] in [f["effect"] for f in findings] else "")
         flagged = [e for e in model_errors if e["effect_tested"] == entry["effect"]]
         if flagged:
             entry["note"] = (entry["note"] + "; " if entry["note"] else "") + (
@@ -277,7 +301,8 @@ def diagnose(case: Case, max_effects: int = 4, seed: int = 0, progress=None, fac
                 f"bound {flagged[0]['bound']}): reported as reference_or_model_error, not as sensor physics" + (
                     "; the effect's other parameters refitted without it and kept"
                     if entry["effect"] in [f["effect"] for f in findings] else ""))
-        if entry["effect"] in accepted and entry["effect"] not in [f["effect"] for f in findings] and not flagged:
+        if (entry["effect"] in accepted and entry["effect"] not in [f["effect"] for f in findings] and not flagged
+                and entry["effect"] not in unidentified):
             entry["note"] = (entry["note"] + "; " if entry["note"] else "") + (
                 "not kept (no practically meaningful held-out improvement)")
     result = {"mismatch": bool(findings), "findings": findings, "tested": tested_out,

@@ -16,7 +16,7 @@ from types import SimpleNamespace
 import numpy as np
 
 from imu_sim.diagnose import plausibility
-from imu_sim.diagnose.hold_noise import inflation
+from imu_sim.diagnose.hold_noise import gyro_bias_wander, inflation
 from imu_sim.diagnose.unstated import is_rate_table, unreferenced_segments
 
 NOT_SEPARABLE = "not separable from the reference on this record"
@@ -198,6 +198,11 @@ def _setup(case, cand_columns: dict, resid: np.ndarray):
     short = _shortening(case, weights, tol)
     if short is not None:
         tilt = np.hstack([tilt, short[0]])
+    if "fixture_hold_gyro_bias" not in case.cache:
+        case.cache["fixture_hold_gyro_bias"] = gyro_bias_wander(case, weights[0])
+    wander = case.cache["fixture_hold_gyro_bias"]
+    if wander is not None:
+        tilt = np.hstack([tilt, wander[0]])
     eff = _stack(cand_columns, n, k)
     raw = resid.T.ravel()
     _, th = _rss(np.hstack([tilt, eff]), raw)
@@ -215,7 +220,8 @@ def _setup(case, cand_columns: dict, resid: np.ndarray):
     w = np.repeat(1.0 / np.maximum(sigma * np.sqrt(infl), 1e-300), n) * np.tile(hold, 6)
     # the tolerance is a Gaussian prior (sd = tolerance) on each tilt: a rotation about the gravity axis, which the
     # specific force cannot see, stays within it instead of fitting the Earth rate's noise with tens of degrees
-    prior = np.diag(np.r_[np.full(3 * m, 1.0 / tol), np.zeros(6), [] if short is None else short[1]])
+    prior = np.diag(np.r_[np.full(3 * m, 1.0 / tol), np.zeros(6), [] if short is None else short[1],
+                          [] if wander is None else wander[1]])
     return weights, tol, tilt, eff, raw, w, prior, hold
 
 
