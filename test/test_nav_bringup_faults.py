@@ -3,8 +3,8 @@
 On 300 s of the paper drive at 8x: a garbage burst on the serial line every 20 s, the port
 unplugged for 5 s at 120 s (driving), a 60 s GPS outage from 150 s, a fix 500 m off at 230 s
 and a NaN fix at 240 s (simulated seconds: the player's faults follow its /clock, so the rate only
-shortens the wall time; test_nav_bringup_graph runs the same nodes at 8x). (A time jump in a replayed
-bag: test_nav_bringup_bag_time_jump.py.)
+shortens the wall time; the README's two-host drive runs the same nodes at 6x, test_nav_bringup_busy_cpu
+at 3x). (A time jump in a replayed bag: test_nav_bringup_bag_time_jump.py.)
 """
 import numpy as np
 import pytest

@@ -131,8 +131,8 @@ def _run_tool(command: str, ws: Path, env: dict) -> None:
     assert done.returncode == 0, f"{command}\nexit {done.returncode}\n{done.stdout[-2000:]}\n{done.stderr[-3000:]}"
     cut = two_hosts_cut(command)
     if cut:
-        at_s, for_s, out = cut
-        check_two_hosts_run(done.stdout, ws / out, at_s, for_s)
+        at_s, for_s, out, duration_s = cut
+        check_two_hosts_run(done.stdout, ws / out, at_s, for_s, duration_s)
 
 
 def _run_node(command: str, ws: Path, env: dict) -> None:
