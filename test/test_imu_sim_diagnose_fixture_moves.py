@@ -250,3 +250,22 @@ def test_a_vibration_line_is_held_out_at_its_frequency_where_block_means_cannot_
             assert before > 50 and after < 2 and _gain_ok(before, after)
         else:
             assert before < 5 and not _gain_ok(before, after)
+
+
+def test_a_warm_up_and_a_temperature_rising_with_it_are_said_to_be_collinear_in_tested():
+    """Blind seed 2: a warm-up (time constant 193 s) on a unit whose temperature rose with it was named
+    temperature_bias; the two regressors are nearly one curve there, and tested says so for both."""
+    from types import SimpleNamespace
+
+    from imu_sim.diagnose import collinear
+    t = np.arange(0.0, 600.0, 0.5)
+    case = SimpleNamespace(t=t, temp_c=24.0 + 8.0 * (1.0 - np.exp(-t / 200.0)), unstated=None)
+    warm = Candidate("warmup_drift", 900.0, 26.8, "LR", params={"time_constant_s": 193.0})
+    temp = Candidate("temperature_bias", 800.0, 19.7, "LR")
+    collinear.note_collinear(case, [warm, temp])
+    assert "collinear with temperature_bias" in warm.reason and "collinear with warmup_drift" in temp.reason
+    assert warm.significant and temp.significant  # said, not hidden
+    fast = Candidate("warmup_drift", 900.0, 26.8, "LR", params={"time_constant_s": 20.0})
+    temp.reason = ""
+    collinear.note_collinear(case, [fast, Candidate("temperature_bias", 800.0, 19.7, "LR")])
+    assert fast.reason == ""  # a 20-s warm-up is not the 200-s temperature rise

@@ -20,7 +20,7 @@ import numpy as np
 
 from nav_core.sensor_model import EFFECTS, SensorModel
 
-from imu_sim.diagnose import fixture, gnss_candidates, metrics, mounting, plausibility, reference, share
+from imu_sim.diagnose import collinear, fixture, gnss_candidates, metrics, mounting, plausibility, reference, share
 from imu_sim.diagnose.candidate import (ALPHA, EXPLAIN, GNSS_EFFECTS, Candidate, Context, add_effect, evidence,
                                         load_calibration, rounded)
 from imu_sim.diagnose.case import CHANNELS, Case, residual
@@ -84,6 +84,7 @@ def evaluate(case: Case, model: SensorModel, resid: np.ndarray, exclude=(), fact
     fixture.rank_given_tilts(case, out, resid)  # the fixture's tilts are a nuisance of every ranking
     for cand in out:  # a hand-mounted table: each mounting's rotation is a nuisance of every tilt-sensitive fit
         mounting.mounting_fit(ctx, cand)
+    collinear.note_collinear(case, out)  # a warm-up and a temperature this record cannot tell apart: said in tested
     return out
 
 
