@@ -142,6 +142,10 @@ NULLS = {"null_drive": "drive", "null_table": "table", "null_mtable": "mtable", 
          "null_tumble": "tumble",
          "null_fixture": "fixture", "null_updown_fixture": "updown_fixture"}
 GRADES = {"navigation": 0.01, "tactical": 0.1, "industrial": 1.0, "consumer": 5.0}
+FIXTURE_NOISE = {"consumer": (1.5, 7.5)}
+"""(white, flicker) factors of a fixture case's noise where they differ from GRADES': a consumer MEMS gyro's angle
+random walk is ~1 deg/sqrt(h) (3e-4 rad/sqrt(s)) but its bias instability 10-50 deg/h (1.5e-4 rad/s here, twice
+the Earth rate), so on still holds its bias wander, not the white noise, hides the Earth rate."""
 """Sensor grades of the fixture cases: noise (white, flicker, turn-on bias) and sensor-effect sizes are the
 industrial ones times this; the model states the grade (provenance.grade)."""
 FIXTURE_POSES = [(0, 0, 0), (180, 0, 0), (0, -90, 0), (0, 90, 0), (90, 0, 0), (-90, 0, 0)]
@@ -445,8 +449,9 @@ def fixture_grade(kind: str, effect, seed: int) -> str:
 
 def _hand_turns(real, poses_deg, holds):
     """A fixture held at ``poses_deg`` off by up to ATTITUDE_TOL_DEG per angle, turned by hand between holds."""
-    poses = np.radians(np.asarray(poses_deg, float) + real.uniform(-ATTITUDE_TOL_DEG, ATTITUDE_TOL_DEG,
-                                                                    (len(poses_deg), 3)))
+    shape = np.shape(poses_deg)  # each angle off by 70-100 % of the tolerance, either way: a real fixture's worst
+    off = real.choice([-1.0, 1.0], shape) * real.uniform(0.7, 1.0, shape) * ATTITUDE_TOL_DEG
+    poses = np.radians(np.asarray(poses_deg, float) + off)
     m = len(poses) - 1
     return gen.HandTurns(poses, holds, real.uniform(*FIXTURE_MOVE_S, m),
                          [(real.uniform(1.0, 2.5), bool(real.integers(2))) for _ in range(m)],
@@ -490,9 +495,11 @@ def _fixture(site, rng, real, folder, kind, effect, par, seed):
     elif effect == "bias_random_walk":
         gyro_out += np.cumsum(rng.normal(0, k * par["gyro"] * np.sqrt(dt), (n, 3)), axis=0)
         accel_out += np.cumsum(rng.normal(0, k * par["accel"] * np.sqrt(dt), (n, 3)), axis=0)
-    gyro_out += rng.normal(0, k * GYRO_WHITE / np.sqrt(dt), (n, 3)) + gen.flicker(real, n, dt, [k * GYRO_FLICKER] * 3)
-    accel_out += rng.normal(0, k * ACCEL_WHITE / np.sqrt(dt), (n, 3)) + gen.flicker(real, n, dt,
-                                                                                      [k * ACCEL_FLICKER] * 3)
+    kw, kf = FIXTURE_NOISE.get(grade, (k, k))
+    gyro_out += rng.normal(0, kw * GYRO_WHITE / np.sqrt(dt), (n, 3)) + gen.flicker(real, n, dt,
+                                                                                     [kf * GYRO_FLICKER] * 3)
+    accel_out += rng.normal(0, kw * ACCEL_WHITE / np.sqrt(dt), (n, 3)) + gen.flicker(real, n, dt,
+                                                                                       [kf * ACCEL_FLICKER] * 3)
     gyro_out += rng.normal(0, k * 1e-3, 3)
     accel_out += rng.normal(0, max(k, 0.05) * 2e-2, 3)
     if effect == "quantization":
@@ -510,8 +517,8 @@ def _fixture(site, rng, real, folder, kind, effect, par, seed):
     from nav_core.sensor_model import SensorModel, save
     physics = {"earth_rotation": {}, "gravity_model": {}, "coriolis": {}}
     physics.pop(effect, None)
-    model = SensorModel(gyro=_triad(k * GYRO_WHITE, k * GYRO_FLICKER, real),
-                        accel=_triad(k * ACCEL_WHITE, k * ACCEL_FLICKER, real), sample_rate_hz=rate,
+    model = SensorModel(gyro=_triad(kw * GYRO_WHITE, kf * GYRO_FLICKER, real),
+                        accel=_triad(kw * ACCEL_WHITE, kf * ACCEL_FLICKER, real), sample_rate_hz=rate,
                         physics=physics, provenance={"grade": grade})
     paths["model"] = save(model, folder / "model.yaml")
     paths["grade"] = grade
