@@ -242,22 +242,18 @@ class CrossTrackMonitor:
         tm, tau, length, course, y, _ = self._drift(self.refs[0][0])
         ci = self._inverse_covariance(length, tau)
         turned = self._course_turn(course)
-        best, best_scale = None, np.inf
-        for j in range(2, len(y) - 2):
-            base = [np.ones(len(y)), np.cumsum(length)]
-            after = tau >= tau[j]
-            constant_scale = np.cumsum(length * turned)
-            for kind, extra in (("bias", [np.cumsum(length * (tau - tau[j]) * after), constant_scale]),
-                                ("scale", [constant_scale, np.cumsum(length * (turned - turned[j]) * after)])):
-                x = np.column_stack(base + extra)
-                info = np.linalg.pinv(x.T @ ci @ x)  # as the window's: a degenerate design must not crash the node
-                coef = info @ (x.T @ ci @ y)
-                r = y - x @ coef
-                score = float(r @ ci @ r)
-                if kind == "scale":
-                    best_scale = min(best_scale, score)
-                elif best is None or score < best[0]:
-                    best = (score, j, float(coef[2]), float(np.sqrt(info[2, 2])))
+        js = np.arange(2, len(y) - 2)
+        after = tau[None, :] >= tau[js, None]
+        bias_steps = np.cumsum(length * (tau[None, :] - tau[js, None]) * after, axis=1)
+        scale_steps = np.cumsum(length * (turned[None, :] - turned[js, None]) * after, axis=1)
+        common = np.broadcast_to(np.column_stack([np.ones(len(y)), np.cumsum(length), np.cumsum(length * turned)]),
+                                 (len(js), len(y), 3))
+        bias_score, step, info = self._gls_scores(np.concatenate([common[..., :2], bias_steps[..., None],
+                                                                  common[..., 2:]], axis=2), ci, y)
+        scale_score, _, _ = self._gls_scores(np.concatenate([common, scale_steps[..., None]], axis=2), ci, y)
+        k = int(np.argmin(bias_score))
+        best = (float(bias_score[k]), int(js[k]), float(step[k]), float(np.sqrt(info[k])))
+        best_scale = float(np.min(scale_score))
         if abs(best_scale - best[0]) < SCALE_PREFERENCE and np.ptp(turned[best[1]:]) > UNDECIDED_TURN_RAD:
             return "undecided"
         self.ref, self.n_ref, self.chords, self.refs = None, 0, [], []
@@ -268,6 +264,17 @@ class CrossTrackMonitor:
         return bias_shift_event(tk, float(tm[j]), "gz", step, sd,
                                 f"gz mean stepped by {step:.3g} rad/s (against the GNSS track, {abs(z):.1f} sd)",
                                 {"z": float(z), "gate": self._gate()})
+
+    @staticmethod
+    def _gls_scores(x, ci, y):
+        """GLS of y (n,) on each design x (J, n, p) (inverse covariance ci): the chi-square of the residual (J,), the
+        3rd coefficient (J,) and its variance (J,). pinv as the window's: a degenerate design must not crash the
+        node."""
+        xtc = np.swapaxes(x, 1, 2) @ ci
+        info = np.linalg.pinv(xtc @ x)
+        coef = info @ (xtc @ y)[..., None]
+        r = y - (x @ coef)[..., 0]
+        return np.einsum("jn,nm,jm->j", r, ci, r), coef[:, 2, 0], info[:, 2, 2]
 
     def observability(self) -> str:
         """Whether this record made a gz bias step observable against the GNSS track, in words."""
