@@ -6,22 +6,21 @@ subscribed before the player started (wmra_node, ins_gps_kf_node) counted the pl
 ~2 s later and lost what was played before, while the recorder (subscribing once it sees the player) had
 it all: the live odometry then differed from the offline replay of the run's own bag by up to 20.6 m.
 Counting subscribers per topic then kept sensor_health_node out of this path (a third reader of imu/data_raw
-met the count early); bag_play now waits for each reader by name, and the monitor runs here too.
+met the count early); bag_play now waits for each reader by name, and the monitor runs there too. The live run
+is the README's recipe (nav-demo --recording out/katwijk), checked by check_recording_run from test_readme_recipes.
 """
 import json
+import os
+import shlex
 
 import numpy as np
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from nav_bringup import demo
-from nav_bringup.graph import Graph
 from nav_bringup.offline_runs import BAG_LATE_FIXES, BAG_LATE_IMU, MISSED_FIXES, MISSED_IMU, _from_filter_start
-from nav_bringup.report import last_diagnostics, write_report
+from nav_bringup.report import last_diagnostics
 from nav_core import recording
-
-SIM_S, RATE = 8.0, 2.0
 
 
 def _recordings(t0=1.7e9, seconds=10):
@@ -72,26 +71,28 @@ def test_input_the_filter_had_before_the_bags_start_is_measured_in_seconds():
     assert missed == {MISSED_IMU: 0, MISSED_FIXES: 0, BAG_LATE_IMU: 0.5, BAG_LATE_FIXES: 2.0}
 
 
-@pytest.mark.ros
-@pytest.mark.slow
-def test_every_reader_gets_the_replayed_bag_from_its_first_message_and_live_equals_offline(tmp_path, ros_env):
-    demo.simulate_scenario(demo.DEFAULT_SCENARIO, demo.DEFAULT_MODEL, 5, tmp_path / "sim", duration_s=SIM_S,
-                           fmt="bag")
-    run_dir = tmp_path / "run"
-    # a 3-s alignment instead of 45 s: the filter publishes odometry within the short drive (live = offline)
-    params = tmp_path / "navigation.yaml"
-    params.write_text(demo.PARAMS_FILE.read_text().replace("alignment_time_s: 45.0", "alignment_time_s: 3.0")
-                      .replace("min_alignment_time_s: 5.0", "min_alignment_time_s: 2.0"))
-    args = demo.parse_args(["--recording", str(tmp_path / "sim" / "bag"), "--rate", str(RATE),
-                            "--out", str(tmp_path), "--params", str(params)])
-    graph = Graph(demo.graph_specs(args, run_dir, None), ros_env, args.params, log_dir=run_dir / "logs")
-    try:
-        graph.start(timeout_s=60)
-        code = graph.wait_for_exit("bag_play", SIM_S / RATE + demo.PLAYER_SETTLE_S + 30)
-        player_log = graph.procs["bag_play"].output
-        assert code == 0, player_log[-2000:]
-    finally:
-        codes = graph.stop()
+def recording_run(command: str):
+    """``(recording, out)`` of a ``nav-demo --recording REC --out OUT`` command line; None for any other."""
+    words = shlex.split(command)
+    words = words[1:] if words[:1] == ["sudo"] else words
+    if not words or os.path.basename(words[0]) != "nav-demo":
+        return None
+    flags = {word: words[i + 1] for i, word in enumerate(words[:-1]) if word.startswith("--")}
+    return (flags["--recording"], flags["--out"]) if "--recording" in flags and "--out" in flags else None
+
+
+def check_recording_run(stdout: str, played, out) -> None:
+    """What a ``nav-demo --recording PLAYED --out OUT`` run must show: bag_play counted every reader by name before
+    playing, the recorder, wmra_node and the filter each got the played bag from its first message, the health
+    monitor got the sensors and the filter's odometry (its gyro bias beside its channels), and the live odometry
+    equals the offline replay of the run's own bag. The README's recipe (the Katwijk rover bag) is that run:
+    test_readme_recipes calls this on it (was this module's own 8-s drive at 2x)."""
+    from pathlib import Path
+
+    run_dir = next(Path(out).glob("run_*"))
+    played = Path(played)
+    player_log = (run_dir / "logs" / "bag_play.log").read_text()
+    codes = json.loads((run_dir / "summary.json").read_text())["exit_codes"]
     assert all(c == 0 for c in codes.values()), codes
     assert "sensor_health_node" in codes and "playing without" not in player_log, player_log[-2000:]
     # the player counted each reader by name before playing (a count of 2 or 3 was met by the wrong ones)
@@ -99,24 +100,32 @@ def test_every_reader_gets_the_replayed_bag_from_its_first_message_and_live_equa
     for reader in ("wmra_node", "allan_node", "sensor_health_node", "bag_record", "ins_gps_kf_node"):
         assert f"'{reader}'" in playing, playing
     bag = run_dir / "bag"
-    played = recording.read_imu(tmp_path / "sim" / "bag", topic="imu/data_raw")
+    played_imu = recording.read_imu(played / "bag" if (played / "bag").is_dir() else played, topic="imu/data_raw")
     raw, den = recording.read_imu(bag, topic="imu/data_raw"), recording.read_imu(bag, topic="imu/data_corrected")
     fixes = recording.read_gnss(bag)
-    kf = next(v for n, (_, _, v) in last_diagnostics(bag).items() if n.startswith("ins_gps_kf"))
-    assert raw.t[0] == played.t[0], "the recorder missed the start of imu/data_raw"
+    diags = last_diagnostics(bag)
+    kf = next(v for n, (_, _, v) in diags.items() if n.startswith("ins_gps_kf"))
+    assert raw.t[0] == played_imu.t[0], "the recorder missed the start of imu/data_raw"
     assert den.t[0] == raw.t[0], f"wmra_node missed {den.t[0] - raw.t[0]:.3f} s of imu/data_raw"
     assert float(kf["first_fix_stamp_s"]) == pytest.approx(fixes.t[0], abs=1e-6), (kf, fixes.t[:3])
     assert float(kf["first_imu_stamp_s"]) == pytest.approx(den.t[0], abs=1e-6), (kf, den.t[:3])
-    health = last_diagnostics(bag)["sensor_health_node: summary"][2]
+    health = diags["sensor_health_node: summary"][2]
     assert int(health["received"]) > 0 and int(health["gps_fix"]) > 0, health
     # the filter's odometry reached the monitor: its gyro bias beside the monitor's channels (sensor_health_node)
-    gz = last_diagnostics(bag)["sensor_health_node: gz"][2]
+    gz = diags["sensor_health_node: gz"][2]
     assert int(health["odometry"]) > 0 and int(health["filter_bias_epochs"]) >= 2, health
     assert abs(float(gz["filter_bias_rad_s"])) < 0.01, gz  # finite, and of a gyro bias's size (0.6 deg/s)
     # the monitor on the same input does not change the filter: live = offline on the run's own bag
-    summary = write_report(run_dir, exit_codes=codes, filter_params=demo.filter_params(args.params, graph.specs))
-    assert (run_dir / "summary.json").is_file(), summary
     off = json.loads((run_dir / "summary.json").read_text())["offline"]
     assert off[MISSED_IMU] == 0 and off[MISSED_FIXES] == 0 and off["common epochs"] >= 5, off
     assert off["largest difference (m)"] < 1e-6 and off["largest twist.linear difference (m/s)"] < 1e-6, off
-    assert "sensor health: " in summary and "sensor_health_node" in summary, summary
+    assert "sensor health: " in stdout and "sensor_health_node" in stdout, stdout[-3000:]
+
+
+def test_the_readme_plays_a_recording_through_nav_demo_which_the_recipe_test_checks():
+    from test_readme_recipes import RECIPES
+
+    runs = [recording_run(c) for r in RECIPES for c in r.commands if recording_run(c)]
+    assert runs, "no README recipe runs nav-demo --recording: check_recording_run would check nothing"
+    assert recording_run(".venv/bin/nav-demo --recording out/k --rate 8 --out out/k_live") == ("out/k", "out/k_live")
+    assert recording_run(".venv/bin/nav-demo --rate 8 --out o") is None

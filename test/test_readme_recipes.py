@@ -124,7 +124,9 @@ def workspace(tmp_path):
 
 
 def _run_tool(command: str, ws: Path, env: dict) -> None:
-    """Runs a tool to exit 0; a two-host drive with a link cut is also checked as test_nav_bringup_two_hosts does."""
+    """Runs a tool to exit 0; a two-host drive with a link cut is also checked as test_nav_bringup_two_hosts does,
+    a recording played through nav-demo as test_nav_bringup_recording_start does."""
+    from test_nav_bringup_recording_start import check_recording_run, recording_run
     from test_nav_bringup_two_hosts import check_two_hosts_run, two_hosts_cut
 
     done = subprocess.run(["bash", "-c", command], cwd=ws, env=env, capture_output=True, text=True, timeout=900)
@@ -133,6 +135,9 @@ def _run_tool(command: str, ws: Path, env: dict) -> None:
     if cut:
         at_s, for_s, out, duration_s = cut
         check_two_hosts_run(done.stdout, ws / out, at_s, for_s, duration_s)
+    played = recording_run(command)
+    if played:
+        check_recording_run(done.stdout, ws / played[0], ws / played[1])
 
 
 def _run_node(command: str, ws: Path, env: dict) -> None:
