@@ -10,8 +10,6 @@ met the count early); bag_play now waits for each reader by name, and the monito
 is the README's recipe (nav-demo --recording out/katwijk), checked by check_recording_run from test_readme_recipes.
 """
 import json
-import os
-import shlex
 
 import numpy as np
 import pytest
@@ -73,11 +71,9 @@ def test_input_the_filter_had_before_the_bags_start_is_measured_in_seconds():
 
 def recording_run(command: str):
     """``(recording, out)`` of a ``nav-demo --recording REC --out OUT`` command line; None for any other."""
-    words = shlex.split(command)
-    words = words[1:] if words[:1] == ["sudo"] else words
-    if not words or os.path.basename(words[0]) != "nav-demo":
-        return None
-    flags = {word: words[i + 1] for i, word in enumerate(words[:-1]) if word.startswith("--")}
+    from test_nav_bringup_two_hosts import nav_demo_flags
+
+    flags = nav_demo_flags(command) or {}
     return (flags["--recording"], flags["--out"]) if "--recording" in flags and "--out" in flags else None
 
 

@@ -219,15 +219,20 @@ def check_graph_answer(run_dir, sim_dir, duration_s: float) -> dict:
     return figures
 
 
+def nav_demo_flags(command: str) -> dict | None:
+    """The ``--flag value`` pairs of a ``[sudo] nav-demo ...`` command line; None for any other command."""
+    words = shlex.split(command)
+    words = words[1:] if words[:1] == ["sudo"] else words
+    if not words or os.path.basename(words[0]) != "nav-demo":
+        return None
+    return {word: words[i + 1] for i, word in enumerate(words[:-1]) if word.startswith("--")}
+
+
 def two_hosts_cut(command: str):
     """``(at_s, for_s, out, duration_s)`` of a ``nav-demo --hosts 2 --cut-link AT_S:FOR_S --out OUT`` command line
     (``--duration``, 0 when not given: the whole drive); None for any other command."""
-    words = shlex.split(command)
-    words = words[1:] if words[:1] == ["sudo"] else words
-    if not words or os.path.basename(words[0]) != "nav-demo" or "--cut-link" not in words:
-        return None
-    flags = {word: words[i + 1] for i, word in enumerate(words[:-1]) if word.startswith("--")}
-    if flags.get("--hosts") != "2" or "--out" not in flags:
+    flags = nav_demo_flags(command) or {}
+    if flags.get("--hosts") != "2" or "--out" not in flags or "--cut-link" not in flags:
         return None
     return (*hosts.parse_cut(flags["--cut-link"]), flags["--out"], float(flags.get("--duration", 0.0)))
 
