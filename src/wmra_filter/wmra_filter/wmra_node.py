@@ -22,7 +22,7 @@ from sensor_msgs.msg import Imu
 from nav_core import sensor_model
 from nav_core.params import ConfigError, Param
 from nav_core.ros_node import (LINK_QOS, SENSOR_QOS, Diagnostics, ImuBatchSubscription, IntakeLoop,
-                               declare_parameters, publish_imu_batch, run_node)
+                               declare_parameters, link_publisher, publish_imu_batch, run_node)
 from rclpy.node import Node
 from wmra_filter import levels, thresholds as thr
 from wmra_filter.stream_policy import StreamPolicy
@@ -102,7 +102,8 @@ class WmraNode(Node):
                                    values["fill_gap_samples"])
         self.calibrate = Calibrator(self.model)
         self.stats = {"published": 0, "busy_s": 0.0, "busy_max_s": 0.0}
-        self.pub = self.create_publisher(Imu, "imu/data_corrected", SENSOR_QOS)
+        # overridable: on two hosts nav-demo makes it reliable, so the recorder keeps the cut's backlog burst
+        self.pub = link_publisher(self, Imu, "imu/data_corrected", SENSOR_QOS)
         qos = QoSProfile(depth=values["input_queue_depth"], reliability=ReliabilityPolicy.BEST_EFFORT)
         self.intake = ImuBatchSubscription(self, "imu/data_raw", self.on_batch, None, qos=qos,
                                            qos_overriding_options=LINK_QOS)
