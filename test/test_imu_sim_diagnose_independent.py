@@ -199,3 +199,27 @@ def test_chained_naive_model_from_imu_calib_allan_gives_no_finding_on_a_walk_it_
     p = bench.generate("null_single_naive", 8001, tmp_path)
     res = diagnose(load_case(p["recording"], p["scenario"], p["model"]), max_effects=2, seed=8001).result
     assert res["findings"] == []
+
+
+def test_a_slow_curve_on_a_rate_table_is_scored_on_the_half_it_was_not_fitted_on():
+    from types import SimpleNamespace
+    from imu_sim.diagnose import metrics
+    from imu_sim.diagnose.ranking import slow_curve_on_table
+    table = SimpleNamespace(scenario=SimpleNamespace(source="static_segments", spec=[{"rate_dps": 0.0},
+                                                                                     {"rate_dps": 30.0}]))
+    fixture = SimpleNamespace(scenario=SimpleNamespace(source="static_segments", spec=[{"rate_dps": 0.0}]))
+    warm = SimpleNamespace(effect="warmup_drift", kind="regression", columns={0: np.ones((10, 1))})
+    scale = SimpleNamespace(effect="scale_factor", kind="regression", columns={0: np.ones((10, 1))})
+    assert slow_curve_on_table(table, warm) and not slow_curve_on_table(table, scale)
+    assert not slow_curve_on_table(fixture, warm)
+    # wander in the last quarter of the run: tenths interleaved with the fit's own learn its shape, a curve fitted on
+    # the first half cannot (it has to predict what it has not seen)
+    n = 4000
+    shape = np.where(np.arange(n) > 3 * n // 4, 1.0, 0.0)
+    resid = np.random.default_rng(3).normal(0, 1.0, (n, 6))
+    resid[:, 0] += 0.5 * shape
+    cols = {0: shape[:, None]}
+    b, a = metrics.heldout_rms(resid, cols, 1.0, 10.0)
+    assert a < 0.9 * b
+    b, a = metrics.heldout_rms(resid, cols, 1.0, 10.0, contiguous=True)
+    assert a == pytest.approx(b, rel=1e-9)

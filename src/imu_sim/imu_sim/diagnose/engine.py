@@ -26,7 +26,8 @@ from imu_sim.diagnose.candidate import (ALPHA, EXPLAIN, GNSS_EFFECTS, Candidate,
 from imu_sim.diagnose.case import CHANNELS, Case, residual
 from imu_sim.diagnose.effect_tests import TESTS
 from imu_sim.diagnose.heldout import fit_metric
-from imu_sim.diagnose.ranking import heldout_fraction, order_by_heldout_evidence, rank_low_frequency
+from imu_sim.diagnose.ranking import (heldout_fraction, order_by_heldout_evidence, rank_low_frequency,
+                                      slow_curve_metric, slow_curve_on_table)
 from imu_sim.diagnose.spectral import Whitener, noise_psd
 
 __all__ = ["Candidate", "Diagnosis", "diagnose", "evaluate"]
@@ -253,7 +254,8 @@ def diagnose(case: Case, max_effects: int = 4, seed: int = 0, progress=None, fac
         rounds += 1
         new_model = add_effect(model, best)
         held = mounting.without_mountings(case, best, reference.clean(case, resid))  # a table's mountings: nuisance
-        name, before, after = fit_metric(case, best, model, new_model, held, seed)
+        name, before, after = (slow_curve_metric(case, best, model, held) if slow_curve_on_table(case, best)
+                               else fit_metric(case, best, model, new_model, held, seed))
         new_resid = residual(case, new_model)
         # a held-out gain below MIN_GAIN (or one at the metric's rounding: 0 -> 0) is not a finding
         if not _gain_ok(before, after, name):

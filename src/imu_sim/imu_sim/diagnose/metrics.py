@@ -19,19 +19,21 @@ def robust_var(x: np.ndarray) -> float:
 
 
 def heldout_rms(resid: np.ndarray, columns: dict, dt: float, block_s: float, keep: np.ndarray | None = None,
-                *, fixed=None):
+                *, fixed=None, contiguous: bool = False):
     """Normalised RMS of held-out block means before (bias only) and after (bias + effect), trained on even chunks.
 
     Block means of ``block_s`` s; each channel normalised by its block-to-block scatter, so 1 means
     nothing systematic is left at that averaging time. ``keep`` (n,) bool: only blocks wholly inside it are used.
     ``fixed`` (k,): the effect's coefficients are known (a physical constant at its value), not trained.
+    ``contiguous``: trained on the first half of the chunks, scored on the second (a slow curve must extrapolate).
     """
     m = max(1, int(round(block_s / dt)))
     yb = block_means(resid, m)
     nb = len(yb)
     chunk = np.minimum((np.arange(nb) * N_CHUNKS) // max(nb, 1), N_CHUNKS - 1)
     inside = np.ones(nb, bool) if keep is None else block_means(keep[:, None].astype(float), m)[:nb, 0] > 1 - 1e-9
-    train, test = (chunk % 2 == 0) & inside, (chunk % 2 == 1) & inside
+    first = chunk < N_CHUNKS // 2 if contiguous else chunk % 2 == 0
+    train, test = first & inside, ~first & inside
     chans = sorted(columns)
     k = next(iter(columns.values())).shape[1]
     xb = {c: block_means(columns[c], m) for c in chans}

@@ -17,7 +17,7 @@ from imu_sim.diagnose.reference import _lr, rotation_columns
 from imu_sim.diagnose.unstated import is_rate_table
 
 
-def _table_record(case) -> bool:
+def table_record(case) -> bool:
     """Whether the record is a rate table typed as static segments (one at least spinning, ``rate_dps``)."""
     return getattr(case.scenario, "source", None) == "static_segments" and is_rate_table(case.scenario.spec or [])
 
@@ -147,7 +147,7 @@ mountings, which a warm-up or a temperature ramp follows): ranked by their stati
 
 def hand_mounted_table(case) -> bool:
     """A rate table typed as static segments whose remounts the scenario does not state (``moves_known`` false)."""
-    return _table_record(case) and not getattr(case.scenario, "moves_known", False)
+    return table_record(case) and not getattr(case.scenario, "moves_known", False)
 
 
 def mounting_fit(ctx, cand) -> None:
@@ -163,7 +163,7 @@ def mounting_fit(ctx, cand) -> None:
     misalignments off by 0.3-5 mrad with +-0.2-mrad intervals, fitted without the mountings; own three-mounting table
     at 1 deg: the null named axis_misalignment, 1 of 6 intervals covering.)"""
     effects = MOUNTED_EFFECTS + MOUNTING_RANKED
-    if cand.effect not in effects or not cand.identifiable or not cand.columns or not _table_record(ctx.case):
+    if cand.effect not in effects or not cand.identifiable or not cand.columns or not table_record(ctx.case):
         return
     if not hand_mounted_table(ctx.case):  # a motorised sequence (moves_known): one mounting, a check only
         if cand.effect == "axis_misalignment" and cand.significant and (note := mounting_note(ctx, cand)):

@@ -6,7 +6,7 @@ from dataclasses import replace
 
 import numpy as np
 
-from imu_sim.diagnose import regressors
+from imu_sim.diagnose import metrics, mounting, reference, regressors
 from imu_sim.diagnose.candidate import Context, add_effect
 from imu_sim.diagnose.noise_candidates import noise
 from imu_sim.diagnose.spectral import Whitener, gls
@@ -103,3 +103,34 @@ def order_by_heldout_evidence(findings: list) -> list:
                                                        -findings[i].get("held_out_evidence", 0.0),
                                                        -findings[i].get("share_of_mismatch", 0.0)))
 
+
+SLOW_CURVES = ("temperature_bias", "warmup_drift")
+"""Deterministic slow curves: on a rate table they must predict the unit's wander, not interpolate it."""
+
+
+def slow_curve_on_table(case, cand) -> bool:
+    """Whether ``cand`` is a slow curve fitted on a rate table (static segments that spin, or a truth file's
+    spinning holds), whose held-out fit is :func:`slow_curve_metric`'s."""
+    if cand.effect not in SLOW_CURVES or cand.kind != "regression" or not cand.columns:
+        return False
+    if mounting.table_record(case):
+        return True
+    return reference.moving_file_truth(case) and any(
+        np.max(np.abs(case.gyro_true[a:b])) > 0.01 for a, b in reference.holds(case))
+
+
+def slow_curve_metric(case, cand, model_before, resid: np.ndarray):
+    """(name, before, after) of a slow curve on a rate table: block means of the residual whitened by the model's
+    noise (the unit's own stochastic model, as the test weighted it), the curve and each channel's bias fitted on
+    the first half of the run and scored on the second. A table run of tens of minutes wanders with the unit's bias
+    instability and walk; on tenths interleaved with the fit's own a warm-up or temperature curve follows that
+    wander (blind tables: nulls and a scale-factor case with warm-up, temperature findings at held-out gains of
+    5-90 %), on a contiguous half it must extrapolate it, which a curve that is the sensor's does and a wander's
+    does not."""
+    from imu_sim.diagnose.case import CHANNELS
+    cols = {c: x for c, x in cand.columns.items() if CHANNELS[c] in cand.channels} or cand.columns
+    resid, cols = reference.whitened(case, model_before, resid, cols)
+    keep = None if getattr(case, "unstated", None) is None else ~case.unstated
+    b, a = metrics.heldout_rms(resid, cols, case.dt, cand.block_s, keep, contiguous=True)
+    return (f"RMS of held-out {cand.block_s:.3g}-s block means of the residual whitened by the model's noise over "
+            "their scatter (a slow curve on a rate table: fit on the first half of the run, scored on the second)"), b, a
