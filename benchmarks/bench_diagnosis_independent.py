@@ -68,7 +68,7 @@ TABLE_RATES = [10, -10, 20, -20, 30, -30, 40, -40, 60, -60]
 MIS_XZ = 7e-4
 """Gyro x senses this fraction (rad) of the z rate (the rate-table misalignment case)."""
 TEMP_COEF = np.array([1.0e-6, -0.8e-6, 1.2e-6])
-GRADE_KINDS = ("table", "drive", "mtable")
+GRADE_KINDS = ("table", "drive", "mtable", "ltable")
 """The realistic table and drive cases cycle over GRADES by seed (noise, turn-on biases and the table's scale factor
 and misalignment are the industrial ones times the grade's factor); their model states the noise to +-10 % and no
 grade, so the diagnosis infers it (navigation: ARW 0.007 deg/sqrt(h), flicker B 0.04 deg/h)."""
@@ -101,6 +101,16 @@ rounded to it, so a stated dwell may begin up to half of it inside the ramp befo
 TABLE_DWELL_S = (4.0, 8.0)
 """A realistic rate table dwells at each rate for a time drawn from this range (s)."""
 TABLE_ACCEL_DPS2 = (20.0, 150.0)
+LTABLE_DWELL_S, LTABLE_TOLERANCE_DEG = (20.0, 40.0), 0.5
+"""The long rate table (``*_ltable``, the blind's table records of tens of minutes): TABLE_RATES twice, each dwell
+drawn from this range (s; about 11 min in all), the unit on the table within this of level (deg, stated)."""
+LTABLE_WALK = (1e-6, 1e-5)
+"""Industrial-grade bias random walk of the long table's unit (gyro rad/s/sqrt(s), accel m/s^2/sqrt(s); times the
+grade's factor), stated in the user's model to +-NOISE_MISSTATED: over 11 min it wanders as far as the flicker
+bias instability, which a warm-up or temperature curve can follow."""
+LTABLE_TEMP = (25.0, 8.0, 900.0)
+"""The long table's logged temperature: start degC, rise degC, time constant s (the unit and the room warming up;
+the sensor has no temperature coefficient: the record's temperature is collinear with its slow bias wander)."""
 """Each realistic ramp between two rates has its own angular acceleration (deg/s^2, drawn from this range) and its
 own shape (linear, cubic or quintic); the scenario states only the dwells."""
 CASES = {
@@ -114,6 +124,7 @@ CASES = {
     "quantization": ("tumble", "quantization", {"gyro_lsb": 1e-5, "accel_lsb": 5e-5}),
     "scale_factor_table": ("table", "scale_factor", {"gyro_z": 7e-4}),
     "misalignment_table": ("table", "axis_misalignment", {"xz": MIS_XZ}),  # sizes per grade: effect_params
+    "scale_factor_ltable": ("ltable", "scale_factor", {"gyro_z": 7e-4}),  # 11 min, bias walk, temperature logged
     "scale_factor_mtable": ("mtable", "scale_factor", {}),  # the unit in three mountings, MTABLE_*
     "misalignment_mtable": ("mtable", "axis_misalignment", {}),
     "temperature_bias": ("static", "temperature_bias", {}),
@@ -138,7 +149,7 @@ CASES = {
     "fx_bias_random_walk": ("fixture", "bias_random_walk", {"gyro": 3e-6, "accel": 1.5e-5}),
     "fx_earth_rotation_updown": ("updown_fixture", "earth_rotation", {}),
 }
-NULLS = {"null_drive": "drive", "null_table": "table", "null_mtable": "mtable", "null_single_naive": "static_rw",
+NULLS = {"null_drive": "drive", "null_table": "table", "null_mtable": "mtable", "null_ltable": "ltable", "null_single_naive": "static_rw",
          "null_tumble": "tumble",
          "null_fixture": "fixture", "null_updown_fixture": "updown_fixture"}
 GRADES = {"navigation": 0.01, "tactical": 0.1, "industrial": 1.0, "consumer": 5.0}
@@ -162,6 +173,7 @@ TRUE = {
     "gravity_model": {"gravity_mps2": float(gen.normal_gravity(np.radians(SITE[0]), SITE[2]))},
     "quantization": {f"gyro_lsb_rad[{a}]": 1e-5 for a in "xyz"},
     "scale_factor_table": {"gyro[z]": 7e-4},
+    "scale_factor_ltable": {"gyro[z]": 7e-4},
     "misalignment_table": {"gyro[xz]": MIS_XZ},
     "scale_factor_mtable": {f"gyro[{a}]": v for a, v in zip("xyz", MTABLE_SCALE)},
     "misalignment_mtable": {f"gyro[{'xyz'[i]}{'xyz'[j]}]": MTABLE_MIS[i, j] for i in range(3) for j in range(3)
@@ -195,14 +207,15 @@ def effect_params(name: str, grade: str) -> dict:
     if name == "colored_gps_noise" and REALISTIC:
         par["sigma"] = COLORED_SIGMA_REALISTIC
     for key in ("gyro_z", "xz"):
-        if key in par and CASES[name][0] == "table":
+        if key in par and CASES[name][0] in ("table", "ltable"):
             par[key] *= GRADES[grade]
     return par
 
 
 def true_values(name: str, grade: str) -> dict:
     """The true parameters the case's first finding's intervals should cover."""
-    if name in ("scale_factor_table", "misalignment_table", "scale_factor_mtable", "misalignment_mtable"):
+    if name in ("scale_factor_table", "misalignment_table", "scale_factor_mtable", "misalignment_mtable",
+                "scale_factor_ltable"):
         return {k: v * GRADES[grade] for k, v in TRUE[name].items()}
     if CASES.get(name, ("",))[0] in ("fixture", "updown_fixture"):  # sensor effects scale with the grade's noise
         k = GRADES[grade] * (TEMP_REALISTIC if name == "fx_temperature_bias" else 1.0)
@@ -222,6 +235,18 @@ def dwell_table(real):
     shapes = real.choice(["linear", "smooth", "quintic"], len(steps))
     mount = real.uniform(-TABLE_TOLERANCE_DEG, TABLE_TOLERANCE_DEG, 2)
     return gen.DwellTable(rates, dwell, ramp, shapes, rest_s=20.0, mount_deg=mount)
+
+
+def long_table(real):
+    """The long rate table: TABLE_RATES twice, dwells of LTABLE_DWELL_S, the unit tilted within
+    LTABLE_TOLERANCE_DEG."""
+    rates = TABLE_RATES + TABLE_RATES[::-1]
+    dwell = real.uniform(*LTABLE_DWELL_S, len(rates))
+    steps = np.abs(np.diff(np.r_[0.0, rates, 0.0]))
+    ramp = np.maximum(steps / real.uniform(*TABLE_ACCEL_DPS2, len(steps)), 0.3)
+    shapes = real.choice(["linear", "smooth", "quintic"], len(steps))
+    mount = real.uniform(-LTABLE_TOLERANCE_DEG, LTABLE_TOLERANCE_DEG, 2)
+    return gen.DwellTable(rates, dwell, ramp, shapes, rest_s=60.0, mount_deg=mount)
 
 
 def mounted_table(real):
@@ -261,6 +286,8 @@ def motion_of(kind: str):
         return gen.Poses(TUMBLE_POSES, 30.0, 6.0), 50.0, 100.0
     if kind == "table":
         return gen.RateTable(TABLE_RATES, 30.0, 2.0), 50.0, 100.0
+    if kind == "ltable":
+        return None, 50.0, 100.0
     if kind == "mtable":
         return None, 50.0, None
     if kind == "drive":
@@ -289,12 +316,14 @@ def generate(name: str, seed: int, folder: Path) -> dict:
         motion = dwell_table(real)
     if kind == "mtable":
         motion = mounted_table(real if real is not None else np.random.default_rng([seed, 24]))
+    if kind == "ltable":
+        motion = long_table(real if real is not None else np.random.default_rng([seed, 24]))
     if kind == "updown":
         return _updown(site, rng, folder, effect, real)
     if kind in ("fixture", "updown_fixture"):
         return _fixture(site, rng, np.random.default_rng([seed, 25]), folder, kind, effect, par, seed)
     dt = 1.0 / rate
-    off = real is not None and kind not in ("drive", "table", "mtable")
+    off = real is not None and kind not in ("drive", "table", "mtable", "ltable")
     true_motion = _off_nominal(motion, real) if off else motion
     t, gyro, accel = site.true_imu(true_motion, rate)
     n = len(t)
@@ -302,6 +331,10 @@ def generate(name: str, seed: int, folder: Path) -> dict:
     temp = None
     if kind in ("static", "static_rw"):
         temp = 25.0 - 10.0 * np.cos(2 * np.pi * t / 1800.0)
+    if kind == "ltable":  # a unit warming with the room, with no temperature coefficient; and its bias walk
+        temp = LTABLE_TEMP[0] + LTABLE_TEMP[1] * (1.0 - np.exp(-t / LTABLE_TEMP[2])) + rng.normal(0, 0.01, n)
+        gyro_out += np.cumsum(rng.normal(0, kg * LTABLE_WALK[0] * np.sqrt(dt), (n, 3)), axis=0)
+        accel_out += np.cumsum(rng.normal(0, kg * LTABLE_WALK[1] * np.sqrt(dt), (n, 3)), axis=0)
     if effect == "gyro_g_sensitivity":
         gyro_out += np.asarray(par["g"]) * accel
     elif effect == "warmup_drift":
@@ -358,9 +391,10 @@ def generate(name: str, seed: int, folder: Path) -> dict:
         scenario.update(latitude_deg=SITE[0], longitude_deg=SITE[1], height_m=SITE[2], gps=False,
                         static_segments=[{"t0": 0.0, "t1": float(motion.duration_s), "roll_deg": 0.0,
                                           "pitch_deg": 0.0, "yaw_deg": 0.0}])
-    elif real is not None and kind == "table":
+    elif kind == "ltable" or (real is not None and kind == "table"):
         scenario.update(latitude_deg=SITE[0], longitude_deg=SITE[1], height_m=SITE[2], gps=False,
-                        attitude_tolerance_deg=TABLE_TOLERANCE_DEG, static_segments=_table_holds(motion))
+                        attitude_tolerance_deg=LTABLE_TOLERANCE_DEG if kind == "ltable" else TABLE_TOLERANCE_DEG,
+                        static_segments=_table_holds(motion))
     elif real is not None and kind == "drive":
         gen.write_csv(folder / "truth.csv", _smoothed_gnss_truth(site, motion, real))
         scenario.update(trajectory="truth.csv", gps=False)
@@ -574,6 +608,10 @@ def _model(folder, rate, effect, kind, real=None, grade="industrial"):
     model = SensorModel(gyro=_triad(kg * GYRO_WHITE, kg * GYRO_FLICKER, real),
                         accel=_triad(kg * ACCEL_WHITE, kg * ACCEL_FLICKER, real),
                         sample_rate_hz=rate, physics=physics)
+    if kind == "ltable":  # the unit's bias walk, stated to +-NOISE_MISSTATED
+        rw = real.uniform(1 - NOISE_MISSTATED, 1 + NOISE_MISSTATED, 2) if real is not None else np.ones(2)
+        model.gyro.rate_random_walk[:] = kg * LTABLE_WALK[0] * rw[0]
+        model.accel.rate_random_walk[:] = kg * LTABLE_WALK[1] * rw[1]
     return save(model, folder / "model.yaml")
 
 
