@@ -77,12 +77,18 @@ class RoadDrive(gen.Motion):
     def _yaw(self, t):
         """Heading (rad), its rate and its second derivative (piecewise smoothstep turns)."""
         yaw, rate, acc = np.zeros_like(t), np.zeros_like(t), np.zeros_like(t)
+        ordered = t.ndim == 1 and np.all(np.diff(t) >= 0)
         for t0, ang in zip(self.starts, self.angles):
-            u = np.clip((t - t0) / self.TURN_S, 0.0, 1.0)
+            # on sorted times only the turn's own span is computed (before it u = 0 adds nothing, after it u = 1
+            # adds the whole angle): the same sums, term by term, without a pass over the drive per turn
+            a, b = (np.searchsorted(t, t0, "left"), np.searchsorted(t, t0 + self.TURN_S, "right")) if ordered \
+                else (0, len(t))
+            u = np.clip((t[a:b] - t0) / self.TURN_S, 0.0, 1.0)
             inside = (u > 0) & (u < 1)
-            yaw += ang * (3 * u**2 - 2 * u**3)
-            rate += np.where(inside, ang * (6 * u - 6 * u**2) / self.TURN_S, 0.0)
-            acc += np.where(inside, ang * (6 - 12 * u) / self.TURN_S**2, 0.0)
+            yaw[a:b] += ang * (3 * u**2 - 2 * u**3)
+            yaw[b:] += ang
+            rate[a:b] += np.where(inside, ang * (6 * u - 6 * u**2) / self.TURN_S, 0.0)
+            acc[a:b] += np.where(inside, ang * (6 - 12 * u) / self.TURN_S**2, 0.0)
         return yaw, rate, acc
 
     def position(self, t):
