@@ -225,28 +225,21 @@ def true_values(name: str, grade: str) -> dict:
     return TRUE.get(name, {})
 
 
-def dwell_table(real):
-    """A realistic rate table: TABLE_RATES twice, each dwell TABLE_DWELL_S long, each ramp its own acceleration
-    and shape."""
+def dwell_table(real, dwell_s=TABLE_DWELL_S, tolerance_deg=TABLE_TOLERANCE_DEG, rest_s=20.0):
+    """A realistic rate table: TABLE_RATES twice, each dwell drawn from ``dwell_s`` (s), each ramp its own
+    acceleration and shape, the unit tilted within ``tolerance_deg`` in roll and pitch, rests of ``rest_s``."""
     rates = TABLE_RATES + TABLE_RATES[::-1]
-    dwell = real.uniform(*TABLE_DWELL_S, len(rates))
+    dwell = real.uniform(*dwell_s, len(rates))
     steps = np.abs(np.diff(np.r_[0.0, rates, 0.0]))
     ramp = np.maximum(steps / real.uniform(*TABLE_ACCEL_DPS2, len(steps)), 0.3)
     shapes = real.choice(["linear", "smooth", "quintic"], len(steps))
-    mount = real.uniform(-TABLE_TOLERANCE_DEG, TABLE_TOLERANCE_DEG, 2)
-    return gen.DwellTable(rates, dwell, ramp, shapes, rest_s=20.0, mount_deg=mount)
+    mount = real.uniform(-tolerance_deg, tolerance_deg, 2)
+    return gen.DwellTable(rates, dwell, ramp, shapes, rest_s=rest_s, mount_deg=mount)
 
 
 def long_table(real):
-    """The long rate table: TABLE_RATES twice, dwells of LTABLE_DWELL_S, the unit tilted within
-    LTABLE_TOLERANCE_DEG."""
-    rates = TABLE_RATES + TABLE_RATES[::-1]
-    dwell = real.uniform(*LTABLE_DWELL_S, len(rates))
-    steps = np.abs(np.diff(np.r_[0.0, rates, 0.0]))
-    ramp = np.maximum(steps / real.uniform(*TABLE_ACCEL_DPS2, len(steps)), 0.3)
-    shapes = real.choice(["linear", "smooth", "quintic"], len(steps))
-    mount = real.uniform(-LTABLE_TOLERANCE_DEG, LTABLE_TOLERANCE_DEG, 2)
-    return gen.DwellTable(rates, dwell, ramp, shapes, rest_s=60.0, mount_deg=mount)
+    """The long rate table: dwells of LTABLE_DWELL_S, the unit tilted within LTABLE_TOLERANCE_DEG, 60-s rests."""
+    return dwell_table(real, LTABLE_DWELL_S, LTABLE_TOLERANCE_DEG, 60.0)
 
 
 def mounted_table(real):
