@@ -236,8 +236,9 @@ def diagnose(case: Case, max_effects: int = 4, seed: int = 0, progress=None, fac
             break
         best = _deterministic_first(sig)
         accepted.add(best.effect)
+        clean = reference.clean(case, resid)
         # a hand-mounted table's candidate was fitted with each mounting (mounting.mounting_fit): no second check
-        tilt_note = "" if best.mounting_theta is not None else fixture.check(case, best, reference.clean(case, resid))
+        tilt_note = "" if best.mounting_theta is not None else fixture.check(case, best, clean)
         if tilt_note:  # the fixture's own tilt (a nuisance) can stand for it: not ranked
             not_separable[best.effect] = tilt_note
             continue
@@ -248,12 +249,12 @@ def diagnose(case: Case, max_effects: int = 4, seed: int = 0, progress=None, fac
                 model_errors.append(_model_error(best, broken, grade, grade_how))
             if vague:
                 unidentified[best.effect] = _unidentified_note(vague)
-            best = _refit_without(best, broken + vague, grade, case, reference.clean(case, resid))
+            best = _refit_without(best, broken + vague, grade, case, clean)
             if best is None:
                 continue
         rounds += 1
         new_model = add_effect(model, best)
-        held = mounting.without_mountings(case, best, reference.clean(case, resid))  # a table's mountings: nuisance
+        held = mounting.without_mountings(case, best, clean)  # a table's mountings: nuisance
         name, before, after = (slow_curve_metric(case, best, model, held) if slow_curve_on_table(case, best)
                                else fit_metric(case, best, model, new_model, held, seed))
         new_resid = residual(case, new_model)
@@ -280,7 +281,7 @@ def diagnose(case: Case, max_effects: int = 4, seed: int = 0, progress=None, fac
             "evidence": rounded(evidence(best)),
             "statistic": {"name": best.statistic, "value": rounded(best.stat), "threshold": rounded(best.threshold)},
             "explanation": " ".join(filter(None, [EXPLAIN.get(best.effect, best.effect), best.caveat])),
-            "mismatch_energy": rounded(share.energy(case, best, model, reference.clean(case, resid)))})
+            "mismatch_energy": rounded(share.energy(case, best, model, clean))})
         details.append((best, resid, new_resid))
         model, resid = new_model, new_resid
     drops = share.drop_one(case, model, case.model, findings, [d[0] for d in details])

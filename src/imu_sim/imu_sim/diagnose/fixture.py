@@ -205,8 +205,10 @@ def _setup(case, cand_columns: dict, resid: np.ndarray):
         tilt = np.hstack([tilt, wander[0]])
     eff = _stack(cand_columns, n, k)
     raw = resid.T.ravel()
-    _, th = _rss(np.hstack([tilt, eff]), raw)
-    sigma = np.std((raw - np.hstack([tilt, eff]) @ th).reshape(6, n), axis=1)
+    design = np.hstack([tilt, eff])
+    _, th = _rss(design, raw)
+    fit_resid = (raw - design @ th).reshape(6, n)
+    sigma = np.std(fit_resid, axis=1)
     # the moves between holds are left out: the simulator's path between two tilted holds is not the first-order
     # blend of their tilts (a rotation-vector path of up to 180 deg), so only the holds are compared
     hold = np.all(np.isin(weights[0], (0.0, 1.0)), axis=1)
@@ -216,7 +218,7 @@ def _setup(case, cand_columns: dict, resid: np.ndarray):
     # (flicker, a Gauss-Markov bias) makes a hold's offsets vary more than white noise, so each channel is weighted
     # by its effective sample size too (a consumer fixture's warm-up and Gauss-Markov bias were taken by a
     # misalignment of white-noise statistic far above threshold)
-    infl = inflation((raw - np.hstack([tilt, eff]) @ th).reshape(6, n), hold, case.dt)
+    infl = inflation(fit_resid, hold, case.dt)
     w = np.repeat(1.0 / np.maximum(sigma * np.sqrt(infl), 1e-300), n) * np.tile(hold, 6)
     # the tolerance is a Gaussian prior (sd = tolerance) on each tilt: a rotation about the gravity axis, which the
     # specific force cannot see, stays within it instead of fitting the Earth rate's noise with tens of degrees

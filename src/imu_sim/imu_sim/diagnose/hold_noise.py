@@ -38,10 +38,11 @@ def inflation(resid: np.ndarray, hold: np.ndarray, dt: float) -> np.ndarray:
 def gyro_bias_wander(case, w: np.ndarray):
     """(columns (6 n, 3 m), prior precisions (3 m,)) of each hold's own gyro bias offset (``w`` (n, m): each hold's
     weight at each sample, as the fixture's tilts), the model's stated gyro bias instability B (plus a stated rate
-    random walk K over the record, K sqrt(T / 3)) as its prior sd (rad/s); None when the model states neither. On still holds a gyro sees only the Earth rate (7.3e-5 rad/s), less than a consumer
-    gyro's bias wander (10-50 deg/h): a gyro scale factor or misalignment fitted there took the holds' bias changes
-    (blind seeds 1 and 2: gyro misalignments of 0.02-1.4 rad and scale factors of 0.06-1.3 as findings), and the
-    effective sample size, measured within the holds, misses the wander from one hold to the next."""
+    random walk K over the record, K sqrt(T / 3)) as its prior sd (rad/s); None when the model states neither.
+    On still holds a gyro sees only the Earth rate (7.3e-5 rad/s), less than a consumer gyro's bias wander
+    (10-50 deg/h): a gyro scale factor or misalignment fitted there took the holds' bias changes (blind seeds 1 and
+    2: gyro misalignments of 0.02-1.4 rad and scale factors of 0.06-1.3 as findings), and the effective sample size,
+    measured within the holds, misses the wander from one hold to the next."""
     gm = case.model.gyro
     span = float(case.t[-1] - case.t[0])
     sd = np.sqrt(np.asarray(gm.bias_instability, float) ** 2 + np.asarray(gm.rate_random_walk, float) ** 2 * span / 3)
