@@ -195,8 +195,9 @@ def track_floor_section(share_per_10h: float, runs: int = 2000, speed_m_s: float
                         ref_sd_rad_s: float = 2.2e-4) -> None:
     """What the gz test against the GNSS track (cross_track's window-limited GLR, its span and its gate) allows for a
     10 x bias-sd step at ``speed_m_s`` on 1-Hz fixes with the benchmark's noise, on the straight its gate is drawn
-    on (no learning, no turns: a bound on the monitor's figures): with the learned bias' error ``ref_sd_rad_s`` (the monitor's on these drives: the fitted bias instability
-    1.7e-4 and the learned bias' sd 1.4e-4, together) and with the bias before the step known exactly."""
+    on (no learning, no turns: a bound on the monitor's figures): with the learned bias' error ``ref_sd_rad_s``
+    (the monitor's on these drives: the fitted bias instability 1.7e-4 and the learned bias' sd 1.4e-4, together)
+    and with the bias before the step known exactly."""
     from sensor_health import cross_track as ct
     n = ct.SPAN_EPOCHS
     tau, length = np.arange(n, dtype=float), np.ones(n)
