@@ -42,3 +42,16 @@ def test_the_ay_gate_sits_above_a_single_gaussian_test():
     from scipy import stats
     single = stats.norm.isf(BUDGET / 36000.0 / 2)  # one test per straight second, 10 h
     assert single - 0.5 < z_gate(BUDGET) < single + 1.5
+
+
+def test_nan_samples_and_a_nan_fix_are_skipped_and_a_later_step_is_still_named():
+    t, x, (tf, lat, lon) = _drive(31, duration_s=300.0)
+    x[(t >= 100.0) & (t < 102.0), 4] = np.nan  # two seconds of a NaN ay: those blocks are left out, nothing else
+    lat = lat.copy()
+    lat[50] = np.nan  # one NaN fix: skipped, its neighbours' chords still give the speed
+    mon, events = _run(t, x, (tf, lat, lon))
+    assert events == [] and mon.observability().startswith("observable")
+    x[t >= 245.0, 4] += 0.02
+    _, events = _run(t, x, (tf, lat, lon))
+    assert [(e.effect, e.channels) for e in events] == [("bias_shift", ["ay"])]
+    assert 0 < events[0].t_s - 245.0 <= 5.0
