@@ -1,7 +1,9 @@
 """Shared test fixtures: repository paths, real-data location, an isolated ROS 2 domain per test."""
+import fcntl
 import itertools
 import os
 import re
+import tempfile
 
 # Before anything imports numpy: the tests do small dense algebra (15x15 filters, short FFTs), where BLAS threads
 # only cost time, and two test processes share the two cores.
@@ -19,9 +21,25 @@ if os.environ.get("CI", "").lower() == "true":
 
 REPO = Path(__file__).resolve().parents[1]
 SHARED_DATA = (REPO / ".." / "shared" / "data").resolve()
-# A random start per pytest process (and per xdist worker) so that concurrent runs on one machine do not
-# share a DDS domain; ids 100..199 are the tests', 0..99 are left for people running nodes by hand.
+# Ids 100..199 are the tests', 0..99 are left for people running nodes by hand. A random start per pytest
+# process spreads the ids; a lock file per id makes them exclusive, because two xdist workers (or two runs on one
+# machine) counting from random starts did meet on one domain and each test saw the other's messages.
 _DOMAIN_IDS = itertools.count(start=int.from_bytes(os.urandom(2), "little"))
+_DOMAIN_LOCKS = Path(tempfile.gettempdir()) / "nav_stack_ros_domains"
+
+
+def _claim_domain():
+    """A ROS_DOMAIN_ID in 100..199 that no other test on this machine holds: ``(id, open lock file)``."""
+    _DOMAIN_LOCKS.mkdir(exist_ok=True)
+    for _ in range(1000):
+        domain = next(_DOMAIN_IDS) % 100 + 100
+        lock = open(_DOMAIN_LOCKS / f"{domain}.lock", "w")
+        try:
+            fcntl.flock(lock, fcntl.LOCK_EX | fcntl.LOCK_NB)
+            return domain, lock
+        except BlockingIOError:
+            lock.close()
+    raise RuntimeError(f"every ROS domain 100..199 is held by another test (locks in {_DOMAIN_LOCKS})")
 
 
 def shared_data(*parts) -> Path:
@@ -55,13 +73,15 @@ def one_error_line(capsys, *words) -> str:
 @pytest.fixture
 def ros_env(monkeypatch):
     """Environment for node processes: a test-private ROS_DOMAIN_ID, localhost-only discovery."""
-    domain = str(next(_DOMAIN_IDS) % 100 + 100)  # 100..199; helpers may use 0..99 by hand
+    number, lock = _claim_domain()
+    domain = str(number)
     env = dict(os.environ)
     env.update({"ROS_DOMAIN_ID": domain, "ROS_AUTOMATIC_DISCOVERY_RANGE": "LOCALHOST",
                 "PYTHONUNBUFFERED": "1", "RCUTILS_LOGGING_BUFFERED_STREAM": "0"})
     monkeypatch.setenv("ROS_DOMAIN_ID", domain)
     monkeypatch.setenv("ROS_AUTOMATIC_DISCOVERY_RANGE", "LOCALHOST")
-    return env
+    yield env
+    lock.close()  # releases the domain for the next test
 
 
 @pytest.fixture
