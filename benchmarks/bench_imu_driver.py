@@ -189,7 +189,7 @@ def main() -> None:
     p = argparse.ArgumentParser(description=__doc__)
     p.add_argument("--quick", action="store_true", help="small sizes, a few seconds")
     args = p.parse_args()
-    env = dict(os.environ, ROS_DOMAIN_ID=str(random.randint(200, 230)),
+    env = dict(os.environ, ROS_DOMAIN_ID=os.environ.get("ROS_DOMAIN_ID", str(random.randint(200, 230))),
                ROS_AUTOMATIC_DISCOVERY_RANGE="LOCALHOST")
     bench_decoder(0.5 if args.quick else 10.0)
     bench_noise(2.0 if args.quick else 20.0)

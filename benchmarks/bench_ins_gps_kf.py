@@ -93,7 +93,8 @@ def bench_node_cpu(rate_hz: float, seconds: float):
         from nav_core.ros_node import SENSOR_QOS, imu_from_arrays, stamp_from_s
     except ImportError:
         return None
-    env = dict(os.environ, ROS_DOMAIN_ID=str(200 + os.getpid() % 30), ROS_AUTOMATIC_DISCOVERY_RANGE="LOCALHOST")
+    env = dict(os.environ, ROS_DOMAIN_ID=os.environ.get("ROS_DOMAIN_ID", str(200 + os.getpid() % 30)),
+               ROS_AUTOMATIC_DISCOVERY_RANGE="LOCALHOST")
     os.environ.update({k: env[k] for k in ("ROS_DOMAIN_ID", "ROS_AUTOMATIC_DISCOVERY_RANGE")})
     imu, gnss = make_drive(seconds + 80.0, rate_hz)
     node = NodeProcess("ins_gps_kf_node", env=env, ros_args={"imu_rate_hz": rate_hz, "alignment_time_s": 5.0})

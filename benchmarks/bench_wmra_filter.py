@@ -87,7 +87,8 @@ def node_cpu_share(rate_hz: float, hop: int, seconds: float, intake_s: float = 0
     from nav_core.imu_cdr import encode_imu
     from nav_core.ros_node import SENSOR_QOS, Probe
 
-    env = dict(os.environ, ROS_DOMAIN_ID=str(200 + os.getpid() % 30), ROS_AUTOMATIC_DISCOVERY_RANGE="LOCALHOST")
+    env = dict(os.environ, ROS_DOMAIN_ID=os.environ.get("ROS_DOMAIN_ID", str(200 + os.getpid() % 30)),
+               ROS_AUTOMATIC_DISCOVERY_RANGE="LOCALHOST")
     os.environ.update({k: env[k] for k in ("ROS_DOMAIN_ID", "ROS_AUTOMATIC_DISCOVERY_RANGE")})
     with tempfile.TemporaryDirectory() as tmp:
         path = save(_model(rate_hz), Path(tmp) / "model.yaml")
