@@ -97,6 +97,8 @@ class Candidate:
     mounting_theta: object = None
     """On a hand-mounted rate table: each mounting's fitted rotation (rad) from the joint fit, and the statistic alone."""
     stat_alone: float | None = None
+    given_rivals: dict = field(default_factory=dict)
+    """A slow-wander candidate's statistic given each significant rival in the model (:mod:`ranking`), by effect."""
 
     @property
     def significant(self) -> bool:

@@ -26,7 +26,7 @@ from imu_sim.diagnose.candidate import (ALPHA, EXPLAIN, GNSS_EFFECTS, Candidate,
 from imu_sim.diagnose.case import CHANNELS, Case, residual
 from imu_sim.diagnose.effect_tests import TESTS
 from imu_sim.diagnose.heldout import fit_metric
-from imu_sim.diagnose.ranking import (heldout_fraction, order_by_heldout_evidence, rank_low_frequency,
+from imu_sim.diagnose.ranking import (SLOW_CURVES, heldout_fraction, order_by_heldout_evidence, rank_low_frequency,
                                       slow_curve_metric, slow_curve_on_table)
 from imu_sim.diagnose.spectral import Whitener, noise_psd
 
@@ -113,14 +113,22 @@ MOTION_EFFECTS = ("earth_rotation", "gravity_model", "coriolis", "scale_factor",
 def _deterministic_first(sig: list) -> Candidate:
     """The candidate to fit next from the significant ones (best evidence first): a significant effect with a motion
     or physics regressor goes before any stochastic term, which only takes what remains once it is fitted (a
-    Gauss-Markov bias can mimic the step response of a rate table's scale factor)."""
+    Gauss-Markov bias can mimic the step response of a rate table's scale factor); so does a slow deterministic
+    curve (temperature, warm-up) still significant with the stochastic term in the model (blind seed 3: a
+    temperature coefficient of 1e-3 m/s^2/degC came third, behind a bias random walk fitted to its curve and an
+    accelerometer scale factor fitted to what the walk left on the holds)."""
     if sig[0].kind == "noise" or sig[0].effect == "colored_gps_noise":
-        motion = [c for c in sig if c.effect in MOTION_EFFECTS]
-        if motion:
-            motion[0].caveat = " ".join(filter(None, [motion[0].caveat, (
-                f"Fitted before the stochastic term {sig[0].effect} (which ranked higher alone): deterministic "
-                "effects with a motion regressor come first.")]))
-            return motion[0]
+        noise = sig[0].effect
+        first = [c for c in sig if c.effect in MOTION_EFFECTS or (
+            c.effect in SLOW_CURVES and c.kind == "regression" and c.given_rivals.get(noise, -np.inf) > c.threshold)]
+        if first:
+            what = "a motion regressor" if first[0].effect in MOTION_EFFECTS else (
+                f"a regressor of its own, significant given {noise} "
+                f"({first[0].given_rivals.get(noise, np.nan):.4g} against {first[0].threshold:.3g})")
+            first[0].caveat = " ".join(filter(None, [first[0].caveat, (
+                f"Fitted before the stochastic term {noise} (which ranked higher alone): deterministic "
+                f"effects come first ({what}).")]))
+            return first[0]
     return sig[0]
 
 
@@ -183,7 +191,8 @@ def _refit_without(cand: Candidate, broken: list, grade: str, case=None, resid=N
         if again.rank == fixture.IMPLAUSIBLE_RANK:
             return None
     if (not again.significant or plausibility.violations(again, grade, again.constant_scale)
-            or plausibility.unidentified(again, grade)):
+            or plausibility.unidentified(again, grade)
+            or (case is not None and plausibility.below_reference(again, case))):
         return None
     again.caveat = " ".join(filter(None, [again.caveat, (
         f"Refitted without {', '.join(names)}: outside the {grade}-grade bounds (reported under "
@@ -199,6 +208,14 @@ def _unidentified_note(vague: list) -> str:
             f"[{worst['interval'][0]:.3g}, {worst['interval'][1]:.3g}], bound {worst['bound']:g}) without being "
             "determined to it: the fit takes what the record cannot tell from it (on still holds, each hold's "
             "gyro bias change against the Earth rate), not sensor physics")
+
+
+def _floor_note(small: list) -> str:
+    """The ``tested`` note of accelerometer scale factors below what a fixture's reference can tell."""
+    values = ", ".join(f"{v['parameter']} = {v['value']:.2g}" for v in small)
+    return (f"below what the reference can tell on this record: {values}, within {small[0]['floor']:.2g} (the "
+            f"site's gravity known to {plausibility.GRAVITY_ANOMALY:g} of g, each hold's tilt cosine error within "
+            "attitude_tolerance_deg): not sensor physics")
 
 
 @dataclass
@@ -244,12 +261,14 @@ def diagnose(case: Case, max_effects: int = 4, seed: int = 0, progress=None, fac
             continue
         broken = plausibility.violations(best, grade, best.constant_scale)
         vague = plausibility.unidentified(best, grade)
-        if broken or vague:  # not sensor physics: kept out of the model, and it does not use up a round
+        floor = plausibility.below_reference(best, case)
+        if broken or vague or floor:  # not sensor physics: kept out of the model, and it does not use up a round
             if broken:
                 model_errors.append(_model_error(best, broken, grade, grade_how))
-            if vague:
-                unidentified[best.effect] = _unidentified_note(vague)
-            best = _refit_without(best, broken + vague, grade, case, clean)
+            if vague or floor:
+                unidentified[best.effect] = "; ".join(filter(None, [vague and _unidentified_note(vague),
+                                                                    floor and _floor_note(floor)]))
+            best = _refit_without(best, broken + vague + floor, grade, case, clean)
             if best is None:
                 continue
         rounds += 1

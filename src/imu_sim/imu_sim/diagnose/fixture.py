@@ -14,9 +14,10 @@ from __future__ import annotations
 from types import SimpleNamespace
 
 import numpy as np
+from scipy.linalg import block_diag
 
 from imu_sim.diagnose import plausibility
-from imu_sim.diagnose.hold_noise import gyro_bias_wander, inflation
+from imu_sim.diagnose.hold_noise import Prior, bias_wander, inflation, penalised_fit
 from imu_sim.diagnose.unstated import is_rate_table, unreferenced_segments
 
 NOT_SEPARABLE = "not separable from the reference on this record"
@@ -154,9 +155,9 @@ def _fit_tilts(case, weights, tilt, y, w, prior, eff=None) -> tuple:
     x = tilt if eff is None else np.hstack([tilt, eff])
     off = np.zeros_like(y)
     for _ in range(GAUSS_NEWTON_STEPS):
-        rss, theta = _rss(x * w[:, None], (y - off) * w, prior)
+        rss, theta = penalised_fit(x * w[:, None], (y - off) * w, prior)
         off = _second_order(case, weights, theta[:3 * m].reshape(m, 3))
-    rss, theta = _rss(x * w[:, None], (y - off) * w, prior)
+    rss, theta = penalised_fit(x * w[:, None], (y - off) * w, prior)
     return rss, theta, off
 
 
@@ -166,19 +167,6 @@ def _stack(columns: dict, n: int, k: int) -> np.ndarray:
     for c, x in columns.items():
         out[c * n:(c + 1) * n] = x
     return out
-
-
-def _rss(x: np.ndarray, y: np.ndarray, prior: np.ndarray | None = None) -> tuple:
-    """Residual sum of squares of y on x (with prior rows on the first parameters) and the fit. Solved on the
-    normal equations (p x p): an SVD of the (6 n, p) design took 4 s a call on a 22-dwell rate table."""
-    a, b = x.T @ x, x.T @ y
-    if prior is not None:
-        k = prior.shape[1]
-        a[:k, :k] += prior.T @ prior
-    d = np.sqrt(np.diag(a))
-    d[d == 0] = 1.0
-    theta = np.linalg.lstsq(a / np.outer(d, d), b / d, rcond=1e-12)[0] / d
-    return float(np.sum((y - x @ theta) ** 2)), theta
 
 
 def _setup(case, cand_columns: dict, resid: np.ndarray):
@@ -198,15 +186,15 @@ def _setup(case, cand_columns: dict, resid: np.ndarray):
     short = _shortening(case, weights, tol)
     if short is not None:
         tilt = np.hstack([tilt, short[0]])
-    if "fixture_hold_gyro_bias" not in case.cache:
-        case.cache["fixture_hold_gyro_bias"] = gyro_bias_wander(case, weights[0])
-    wander = case.cache["fixture_hold_gyro_bias"]
+    if "fixture_hold_bias" not in case.cache:
+        case.cache["fixture_hold_bias"] = bias_wander(case, weights[0])
+    wander = case.cache["fixture_hold_bias"]
     if wander is not None:
         tilt = np.hstack([tilt, wander[0]])
     eff = _stack(cand_columns, n, k)
     raw = resid.T.ravel()
     design = np.hstack([tilt, eff])
-    _, th = _rss(design, raw)
+    _, th = penalised_fit(design, raw)
     fit_resid = (raw - design @ th).reshape(6, n)
     sigma = np.std(fit_resid, axis=1)
     # the moves between holds are left out: the simulator's path between two tilted holds is not the first-order
@@ -222,9 +210,9 @@ def _setup(case, cand_columns: dict, resid: np.ndarray):
     w = np.repeat(1.0 / np.maximum(sigma * np.sqrt(infl), 1e-300), n) * np.tile(hold, 6)
     # the tolerance is a Gaussian prior (sd = tolerance) on each tilt: a rotation about the gravity axis, which the
     # specific force cannot see, stays within it instead of fitting the Earth rate's noise with tens of degrees
-    prior = np.diag(np.r_[np.full(3 * m, 1.0 / tol), np.zeros(6), [] if short is None else short[1],
-                          [] if wander is None else wander[1]])
-    return weights, tol, tilt, eff, raw, w, prior, hold
+    bound = np.diag(np.r_[np.full(3 * m, 1.0 / tol), np.zeros(6), [] if short is None else short[1]])
+    prior = bound if wander is None else block_diag(bound, wander[1])
+    return weights, tol, tilt, eff, raw, w, Prior(prior, bound.shape[0]), hold
 
 
 FREE_TILT_SD_RAD = 10.0
@@ -247,7 +235,7 @@ def _given(case, cand, resid: np.ndarray, cache: dict | None = None, columns: di
         prior[:3 * m, :3 * m] = np.eye(3 * m) / FREE_TILT_SD_RAD
     bias = tilt[:, 3 * m:3 * m + 6] * w[:, None]
     y = raw * w
-    lr_alone = _rss(bias, y)[0] - _rss(np.hstack([bias, eff * w[:, None]]), y)[0]
+    lr_alone = penalised_fit(bias, y)[0] - penalised_fit(np.hstack([bias, eff * w[:, None]]), y)[0]
     if lr_alone <= 0:
         return None
     if getattr(case.scenario, "source", None) != "static_segments" and lr_alone < cand.threshold:

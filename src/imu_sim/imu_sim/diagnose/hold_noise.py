@@ -1,6 +1,7 @@
 """The residual's wander within a fixture's holds: how far its autocorrelation shrinks the effective sample size
 of a mean over a hold (NumPy only), so the joint fit with the tilts (:mod:`fixture`) weights each channel by it,
-and the gyro bias's own change from one hold to the next, a nuisance of that joint fit."""
+and each sensor's own bias change from one hold to the next, a random effect of that joint fit (with the fit's
+penalised solver)."""
 from __future__ import annotations
 
 import numpy as np
@@ -35,25 +36,75 @@ def inflation(resid: np.ndarray, hold: np.ndarray, dt: float) -> np.ndarray:
     return out
 
 
-def gyro_bias_wander(case, w: np.ndarray):
-    """(columns (6 n, 3 m), prior precisions (3 m,)) of each hold's own gyro bias offset (``w`` (n, m): each hold's
-    weight at each sample, as the fixture's tilts), the model's stated gyro bias instability B (plus a stated rate
-    random walk K over the record, K sqrt(T / 3)) as its prior sd (rad/s); None when the model states neither.
+def bias_wander(case, w: np.ndarray):
+    """(columns (6 n, 6 m at most), prior (6 m, 6 m) with prior.T @ prior the offsets' precision) of each hold's own
+    bias offset of each gyro and accelerometer (``w`` (n, m): each hold's weight at each sample, as the fixture's
+    tilts) whose model states a bias instability B or a rate random walk K; None when it states neither anywhere.
+    The offsets are a random effect (a GLS term) with the unit's stated wander as their covariance per axis: B^2 on
+    each hold alone (flicker: hold means differ by about 0.9 B^2 in variance) plus K^2 min(t_i, t_j) (a walk from
+    the record's start to each hold's middle, t s), so neighbouring holds differ by K^2 times their spacing, not by
+    the whole record's walk. Its prior is charged in the joint fit's objective (:class:`Prior`).
+
     On still holds a gyro sees only the Earth rate (7.3e-5 rad/s), less than a consumer gyro's bias wander
     (10-50 deg/h): a gyro scale factor or misalignment fitted there took the holds' bias changes (blind seeds 1 and
-    2: gyro misalignments of 0.02-1.4 rad and scale factors of 0.06-1.3 as findings), and the effective sample size,
-    measured within the holds, misses the wander from one hold to the next."""
-    gm = case.model.gyro
-    span = float(case.t[-1] - case.t[0])
-    sd = np.sqrt(np.asarray(gm.bias_instability, float) ** 2 + np.asarray(gm.rate_random_walk, float) ** 2 * span / 3)
-    axes = [a for a in range(3) if sd[a] > 0]
-    if not axes:
+    2: gyro misalignments of 0.02-1.4 rad and scale factors of 0.06-1.3 as findings). An accelerometer's wander
+    from hold to hold (an industrial unit's 10-100 ug) is what an accelerometer scale factor of 1e-5..1e-4 needs on
+    +-g holds (blind seed 3's fixture null: 1.8e-5, 6.2e-5, -2.3e-5 as a finding). The effective sample size,
+    measured within the holds, misses the wander from one hold to the next. Free (uncharged) offsets took a per-hold
+    pattern far beyond the stated wander (blind seed 3: g-sensitivity's likelihood ratio 131 -> 6.8, the up/down
+    Earth rate's 37 -> 3.1)."""
+    b = np.r_[np.asarray(case.model.gyro.bias_instability, float) * np.ones(3),
+              np.asarray(case.model.accel.bias_instability, float) * np.ones(3)]
+    k = np.r_[np.asarray(case.model.gyro.rate_random_walk, float) * np.ones(3),
+              np.asarray(case.model.accel.rate_random_walk, float) * np.ones(3)]
+    chans = [c for c in range(6) if b[c] > 0 or k[c] > 0]
+    if not chans:
         return None
-    cols, prec = [], []
-    for s in range(w.shape[1]):
-        for a in axes:
+    m = w.shape[1]
+    t_mid = (case.t - case.t[0]) @ w / np.maximum(w.sum(axis=0), 1e-12)  # each hold's weighted middle, s
+    cols = []
+    for s in range(m):
+        for c in chans:
             col = np.zeros((6, case.n))
-            col[a] = w[:, s]
+            col[c] = w[:, s]
             cols.append(col.ravel())
-            prec.append(1.0 / sd[a])
-    return np.column_stack(cols), np.asarray(prec)
+    nc = len(chans)
+    prec = np.zeros((m * nc, m * nc))
+    for j, c in enumerate(chans):
+        cov = b[c] ** 2 * np.eye(m) + k[c] ** 2 * np.minimum.outer(t_mid, t_mid)
+        idx = np.arange(m) * nc + j
+        prec[np.ix_(idx, idx)] = np.linalg.inv(cov)
+    return np.column_stack(cols), np.linalg.cholesky(prec).T
+
+
+class Prior(np.ndarray):
+    """Prior rows on the joint fit's first parameters (prior.T @ prior their precision). Rows from ``charged`` on are
+    a random effect's (the holds' bias wander, :func:`bias_wander`), whose penalty counts in the fit's objective (a
+    GLS term); the rows before are bounds (each tilt within the tolerance), free within them, so only the data's
+    misfit counts."""
+
+    def __new__(cls, rows: np.ndarray, charged: int):
+        out = np.asarray(rows, float).view(cls)
+        out.charged = int(charged)
+        return out
+
+    def __array_finalize__(self, obj):
+        self.charged = getattr(obj, "charged", 0)
+
+
+def penalised_fit(x: np.ndarray, y: np.ndarray, prior: np.ndarray | None = None) -> tuple:
+    """Objective of the fit of y on x (with prior rows on the first parameters: the data's residual sum of squares
+    plus a random effect's penalty, :class:`Prior`) and the fit. Solved on the normal equations (p x p): an SVD of
+    the (6 n, p) design took 4 s a call on a 22-dwell rate table."""
+    a, b = x.T @ x, x.T @ y
+    if prior is not None:
+        k = prior.shape[1]
+        a[:k, :k] += np.asarray(prior).T @ np.asarray(prior)
+    d = np.sqrt(np.diag(a))
+    d[d == 0] = 1.0
+    theta = np.linalg.lstsq(a / np.outer(d, d), b / d, rcond=1e-12)[0] / d
+    rss = float(np.sum((y - x @ theta) ** 2))
+    charged = getattr(prior, "charged", None)
+    if charged is not None and charged < prior.shape[0]:
+        rss += float(np.sum((np.asarray(prior)[charged:] @ theta[:prior.shape[1]]) ** 2))
+    return rss, theta

@@ -133,6 +133,33 @@ def unidentified(cand, grade: str) -> list:
     return out
 
 
+GRAVITY_ANOMALY = 5e-5
+"""Relative difference between normal gravity and a site's true gravity that a user cannot be assumed to know:
+gravity anomalies of tens of mGal (5e-5 g is 49 mGal) are common (Groves 2013, sec. 2.4.7)."""
+
+
+def below_reference(cand, case) -> list:
+    """Accelerometer scale factors fitted on still fixture holds (static segments, none spinning) smaller than what
+    the reference can tell: the site's gravity known to GRAVITY_ANOMALY, and each hold's cosine error of a tilt
+    within the stated tolerance, up to (1.5 tol)^2 / 2, both along the +-g the holds apply. list of {parameter,
+    value, interval, floor}. Blind seed 3's industrial fixture null (0.25 deg, tilts up to 0.23 deg): accelerometer
+    scale factors of 1.8e-5, 6.2e-5 and -2.3e-5 (LR 4551) were a finding; gravity alone cannot tell them apart."""
+    from imu_sim.diagnose.unstated import is_rate_table
+    scenario = case.scenario
+    if cand.effect != "scale_factor" or getattr(scenario, "source", None) != "static_segments" or is_rate_table(
+            scenario.spec or []):
+        return []
+    tol = np.radians(getattr(scenario, "attitude_tolerance_deg", 0.0) or 0.0)
+    floor = GRAVITY_ANOMALY + 0.5 * (1.5 * tol) ** 2
+    out = []
+    for name, value in (cand.params or {}).items():
+        if name.startswith("accel") and np.isfinite(value) and abs(value) <= floor:
+            lo, hi = (cand.intervals or {}).get(name, (value, value))
+            out.append({"parameter": name, "value": float(value), "interval": [float(lo), float(hi)],
+                        "floor": float(floor)})
+    return out
+
+
 _KEYS = {"scale_factor": "scale_factor", "axis_misalignment": "axis_misalignment",
          "gyro_g_sensitivity": "gyro_g_sensitivity", "gauss_markov_bias": "gyro_bias_sigma"}
 """The bound of each bounded effect's parameters."""

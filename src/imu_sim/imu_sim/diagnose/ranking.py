@@ -63,6 +63,7 @@ def rank_low_frequency(ctx: Context, cands: list) -> None:
         mine = {r: v for (c, r), v in given.items() if c == cand.effect}
         if not mine:
             continue
+        cand.given_rivals = mine
         worst = min(mine, key=mine.get)
         cand.rank = mine[worst] - cand.threshold
         cand.reason = (cand.reason + "; " if cand.reason else "") + (
