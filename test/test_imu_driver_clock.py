@@ -24,7 +24,7 @@ def _run(rate_hz, drift, seed, mean_delay_s, stall_p, stall_s, drop_p, outage_s=
     if outage_s:
         start = int(0.4 * n)
         keep[start:start + int(outage_s * rate_hz)] = False
-    reads, now, first = [], t0, 0
+    reads, now, first, unstamped = [], t0, 0, deque()  # unstamped: frame times of frames read, not stamped yet
     while first < n:
         now += rng.exponential(0.004) + 1e-4
         last = int(np.searchsorted(made, now, "right"))
@@ -39,13 +39,16 @@ def _run(rate_hz, drift, seed, mean_delay_s, stall_p, stall_s, drop_p, outage_s=
         host = now + delay
         reanchors = clock.reanchors
         stamps = clock.stamp(idx % 256, host)
+        unstamped.extend(made[idx])
         reads.append(dict(host=host, delay=host - made[idx[-1]], stamps=stamps, made=made[idx],
+                          stamped_made=np.array([unstamped.popleft() for _ in stamps]),
                           ahead=clock.ahead_s, reanchored=clock.reanchors > reanchors))
     return clock, reads
 
 
 def _check(clock, reads, window_s=9.0):
-    """Strictly increasing; error within [-2 max_drift W, min delay over the window + 2 max_drift W]."""
+    """Strictly increasing; error within [-2 max_drift W, min delay over the window + 2 max_drift W] (the upper
+    bound at the read that returned a frame and its stamp; frames held while the clock settles are never early)."""
     stamps = np.concatenate([r["stamps"] for r in reads])
     assert np.all(np.diff(stamps) > 0), "a stamp went back"
     drift_allowance = 2 * clock.max_drift * window_s + 1e-9
@@ -59,9 +62,12 @@ def _check(clock, reads, window_s=9.0):
         since_anchor.append((t_now, r["delay"]))
         while since_anchor[0][0] < t_now - window_s:
             since_anchor.popleft()
+        if len(r["stamps"]):
+            assert np.min(r["stamps"] - r["stamped_made"]) >= -drift_allowance, "a stamp early"
+        if not len(r["stamps"]) or r["stamped_made"][-1] != t_now:
+            continue  # held while the clock settles after an anchor (or given out by a re-anchor): a later read's
         err = r["stamps"][-1] - t_now
         recent = since_anchor[0][1]
-        assert err >= -drift_allowance, f"stamp {-err:.6f} s early"
         assert err <= recent + drift_allowance + r["ahead"], f"stamp {err:.6f} s late, best delay {recent:.6f} s"
     return stamps
 
@@ -79,10 +85,11 @@ def test_stamps_strictly_increase_and_their_error_is_bounded_by_the_smallest_del
 
 
 @pytest.mark.parametrize("rate", [64, 1000])
-def test_a_late_first_read_under_load_is_slewed_out_never_stepped_back(rate):
-    # The start-up of the issue: the first reads come 0.40 and 0.55 s late, then the reader gets the CPU back.
+def test_a_late_read_under_load_is_slewed_out_never_stepped_back(rate):
+    # Reads 0.40 and 0.55 s late, then the reader gets the CPU back; with no settling (settle_s 0) the first reads
+    # anchor the stamps, which then come back half a period per frame (as after a stall mid-run).
     period = 1.0 / rate
-    clock = FrameClock(period)
+    clock = FrameClock(period, settle_s=0.0)
     stamps, made = [], []
     for k in range(3 * rate):
         late = 0.40 if k == 0 else 0.55 if k == 3 else 0.0005
@@ -106,17 +113,55 @@ def test_a_gap_of_whole_counter_wraps_reanchors_forward_and_a_short_one_keeps_th
     assert clock.gaps_bridged == 1 and clock.reanchors == 0
     assert s_short[0] == pytest.approx(t[305] + 0.001, abs=1e-9)
     s_long = clock.stamp(np.array([1000 % 256]), t[1000] + 0.002)  # 694 lost: the counter wrapped twice
-    assert clock.reanchors == 1 and s_long[0] > s_short[0]
-    assert s_long[0] == pytest.approx(t[1000] + 0.002, abs=1e-9)
+    assert clock.reanchors == 1 and len(s_long) == 0 and clock.held_frames == 1  # a new anchor settles again
+    s_long = np.concatenate([clock.stamp(np.array([k % 256]), t[k] + 0.002) for k in range(1001, 1040)])
+    assert len(s_long) == 40 and s_long[0] > s_short[0]
+    np.testing.assert_allclose(s_long, t[1000:1040] + 0.002, atol=1e-9)
 
 
 def test_a_reconnect_never_takes_the_stamps_back():
     period = 1 / 1000
-    clock = FrameClock(period)
+    clock = FrameClock(period, settle_s=0.0)
     last = clock.stamp(np.arange(10) % 256, 10.0)[-1]
     clock.reset()
     again = clock.stamp(np.array([77, 78]), 9.5)  # host time went back (or the port returned a stale buffer)
     assert np.all(again > last) and np.all(np.diff(again) > 0)
+
+
+def test_a_backlog_burst_at_start_up_is_stamped_one_period_apart_from_the_first_frame():
+    # bench_two_hosts, one host (1 run in 10): frames 0-5 came in one burst 80-95 ms (simulated) late, the offset
+    # was taken from that read, and the stamps slewed back at 7.8 ms for 10-12 frames: sensor_health named a
+    # sample_rate_change and a dropout at 0.3 s. The counter is exact; only the offset waits for a prompt read.
+    period = 1 / 64
+    core = DriverCore(64, max_drift=0.0)
+    made = 100.0 + np.arange(80) * period
+    out = [core.stamp(_batch(range(6)), made[5] + 0.080)]
+    out += [core.stamp(_batch([k]), made[k] + 0.0005) for k in range(6, 80)]
+    stamps = np.concatenate([o.t for o in out])
+    assert len(stamps) == 80 and core.clock.slewed_frames == 0
+    np.testing.assert_allclose(np.diff(stamps), period, rtol=0, atol=1e-9)
+    np.testing.assert_allclose(stamps - made, 0.0005, atol=1e-9)  # on the prompt reads' offset, from frame 0
+    gyro = np.concatenate([o.gyro[:, 0] for o in out])
+    np.testing.assert_array_equal(gyro, np.arange(80) * 64.0)  # every sample with its own increments, in order
+    # nothing read is lost: a port that goes quiet ends the settling, and a reconnect while settling stamps the
+    # held frames first, on the offset seen so far
+    core = DriverCore(64, max_drift=0.0)
+    assert len(core.stamp(_batch(range(3)), 10.0).t) == 0 and core.holding
+    assert len(core.stamp(_batch([]), 10.2).t) == 0
+    assert len(core.stamp(_batch([]), 10.6).t) == 3 and not core.holding
+    core = DriverCore(64, max_drift=0.0)
+    core.stamp(_batch(range(3)), 10.0)
+    core.reconnected()
+    after = core.stamp(_batch([40, 41]), 10.1)
+    assert len(after.t) == 3 and np.all(np.diff(after.t) > 0) and list(after.gyro[:, 0]) == [0.0, 64.0, 128.0]
+
+
+def _batch(counters) -> FrameBatch:
+    """Frames with these counters whose gyro x increment is the frame's counter (rad), the rest zero."""
+    counters = np.asarray(list(counters), dtype=int)
+    dtheta = np.zeros((len(counters), 3))
+    dtheta[:, 0] = counters
+    return FrameBatch(counters % 256, dtheta, np.zeros((len(counters), 3)), np.zeros(len(counters), int))
 
 
 def test_the_hull_slope_is_the_line_under_the_points_through_the_prompt_ones():

@@ -54,6 +54,8 @@ PARAMS = (
     Param("stamp_window_s", 10.0, "stamps follow the smallest read delay seen over this much time, s", 0.1, 3600.0),
     Param("stamp_slew", 0.5, "when stamps are ahead of the counter model, each frame advances at least "
           "(1 - stamp_slew) periods until they meet it (never a step back)", 0.01, 0.99),
+    Param("stamp_settle_s", 0.5, "after start-up and each re-anchor, the frames of this much time are held, then "
+          "stamped one period apart on the most prompt read among them, s (0 = stamp each read at once)", 0.0, 10.0),
     Param("frame.sync", 0xA5, "sync byte value", 0, 255),
     Param("frame.checksum", "sum_zero", "checksum kind", choices=("sum_zero", "sum", "xor")),
     Param("frame.byteorder", "little", "byte order of the int16 increments", choices=("little", "big")),
@@ -86,7 +88,7 @@ class Bp3010Driver(Node):
         # Under simulated time the unit is simulated on the clock's own time base: no drift to estimate.
         max_drift = 0.0 if sim_time else self.p["max_clock_drift_ppm"] * 1e-6
         self.core = DriverCore(self.p["rate_hz"], fmt, max_drift=max_drift, window_s=self.p["stamp_window_s"],
-                               slew=self.p["stamp_slew"])
+                               slew=self.p["stamp_slew"], settle_s=self.p["stamp_settle_s"])
         self.pub = link_publisher(self, Imu, "imu/data_raw")
         self.diag = Diagnostics(self, "BP3010", hardware_id=self.p["port"])
         self.port_state = "connecting"
@@ -206,7 +208,7 @@ class Bp3010Driver(Node):
             self._stop.wait(self.p["reconnect_period_s"])
             return
         read_at, wall = time.monotonic(), time.time()
-        if data:
+        if data or self.core.holding:  # a silent port still ends the stamps' settling after start-up
             self._publish(data, wall)
         wait = read_at + self.p["min_read_interval_s"] - time.monotonic()
         if wait > 0 and data:

@@ -6,7 +6,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from imu_driver.bp3010_codec import DEFAULT_FORMAT, FrameFormat, StreamDecoder
+from imu_driver.bp3010_codec import DEFAULT_FORMAT, FrameBatch, FrameFormat, StreamDecoder
 
 
 def hull_slope(u, y) -> float:
@@ -54,6 +54,13 @@ class FrameClock:
     meet the model again, instead of stepping back. A counter gap keeps the offset when its
     length (modulo the counter's wrap) can be told from host time; otherwise, and after a
     reconnect, the clock re-anchors on host time, forward only.
+
+    After each anchor the frames of the first ``settle_s`` of host time are held and then stamped
+    together on the offset of the most prompt read among them, so the stamps are one period apart
+    from the first frame: the first reads at start-up are often a burst of frames that waited
+    (a writer or port catching up, a reader not yet scheduled), and an offset taken from them
+    alone was up to 95 ms late, slewed back at half a period per frame over the next 12 frames
+    (a false sample-rate change and dropout at start-up in sensor_health).
     """
 
     period_s: float
@@ -61,6 +68,7 @@ class FrameClock:
     window_s: float = 10.0
     slew: float = 0.5
     modulo: int = 256
+    settle_s: float = 0.5
     reanchors: int = 0
     gaps_bridged: int = 0
     slewed_frames: int = 0
@@ -68,12 +76,19 @@ class FrameClock:
     def __post_init__(self):
         self._block_s = self.window_s / 10.0
         self._last_stamp = None
+        self._held = []  # device frame indices (arrays) of the reads since the anchor, not stamped while settling
+        self._released = np.zeros(0)  # stamps of held frames a reset gave out; the next stamp() returns them first
         self.reset()
         self.ahead_s = 0.0
         """How far the last stamp is ahead of the model (still slewing back), s."""
 
     def reset(self) -> None:
-        """Forget counter and offsets (a reconnect or a rate change); stamps still only go forward."""
+        """Forget counter and offsets (a reconnect or a rate change); stamps still only go forward.
+
+        Frames still held for the settling are stamped first, on the offset seen so far."""
+        if self._held:
+            self._released = np.concatenate([self._released, self._release()])
+        self._settle_until = None  # host time (s) at which the frames held since the anchor are stamped
         self._last_counter = None
         self._x = 0  # frames since the anchor
         self._blocks = deque()  # (block index, u, y) of each finished block's most prompt read, in the window
@@ -91,24 +106,50 @@ class FrameClock:
         e = self.drift
         return min(self._z_blocks, self._best[1] - e * self._best[0]) + e * u
 
+    @property
+    def held_frames(self) -> int:
+        """Frames read since the anchor and not stamped yet (the settling)."""
+        return sum(len(x) for x in self._held)
+
     def stamp(self, counters, host_time_s: float) -> np.ndarray:
-        """Stamps (n,) in s of the frames with ``counters`` (n,) that one read returned at ``host_time_s``."""
-        n = len(counters)
-        if n == 0:
-            return np.zeros(0)
+        """Stamps in s of the frames with ``counters`` (n,) that one read returned at ``host_time_s``, after those of
+        the frames held before them: none while the clock settles after an anchor, then all the held ones at once.
+
+        A read of no frames (``counters`` empty) ends the settling when its time has come."""
+        if len(counters) == 0:
+            if self._held and host_time_s >= self._settle_until:
+                return self._with_released(self._release())
+            return self._with_released(np.zeros(0))
         x, gap = self._unwrap(counters)
-        period = self.period_s
         if self._last_counter is not None and gap is not None:
             self._bridge_or_reanchor(x, gap, host_time_s)
         if self._block is None:
             self.reanchors += self._last_stamp is not None
             x = x - x[0]  # a new anchor: device time counts from the first frame of this read
-        u_last = x[-1] * period
+            self._settle_until = host_time_s + self.settle_s if self.settle_s > 0 else -np.inf
+        u_last = x[-1] * self.period_s
         self._observe(u_last, host_time_s - u_last)
-        model = x * period + self.offset_s(u_last)
-        self.delay_s = host_time_s - model[-1]
         self._x, self._last_counter = int(x[-1]), int(counters[-1])
-        return self._forward_only(model, x)
+        offset = self.offset_s(u_last)
+        self.delay_s = host_time_s - u_last - offset
+        if self._held or host_time_s < self._settle_until:
+            self._held.append(x)
+            return self._with_released(self._release() if host_time_s >= self._settle_until else np.zeros(0))
+        return self._with_released(self._forward_only(x * self.period_s + offset, x))
+
+    def _release(self) -> np.ndarray:
+        """Stamps of the held frames on the counter model at the offset now known (forward only); none held after."""
+        x = np.concatenate(self._held)
+        self._held = []
+        self._settle_until = -np.inf  # settled: every later read is stamped at once, until the next anchor
+        return self._forward_only(x * self.period_s + self.offset_s(x[-1] * self.period_s), x)
+
+    def _with_released(self, stamps: np.ndarray) -> np.ndarray:
+        """``stamps`` after those a reset released (the frames held before a re-anchor come first)."""
+        if not len(self._released):
+            return stamps
+        out, self._released = np.concatenate([self._released, stamps]), np.zeros(0)
+        return out
 
     def _unwrap(self, counters):
         """Frames since the anchor of each counter (a step is the shortest one forward), and the last gap's index."""
@@ -290,6 +331,10 @@ class SimTimeStamper:
             else:
                 break  # the later reads are no better known (a rate not measured, a standing clock's last message)
             self._pending.popleft()
+        if not self._pending and self.core.holding:  # no frames came: the held ones' settling may be over
+            sim = self.follower.now(wall_s)
+            if sim is not None:
+                out.append(self.core.stamp(FrameBatch.empty(), sim))
         return out
 
 
@@ -309,16 +354,28 @@ class DriverCore:
         self.rate_hz = rate_hz
         self.decoder = StreamDecoder(fmt=fmt)
         self.clock = FrameClock(1.0 / rate_hz, modulo=fmt.counter_modulo, **clock)
+        self._waiting = None  # (gyro (n, 3) rad/s, accel (n, 3) m/s^2) of the samples the clock holds, oldest first
 
     def feed(self, data: bytes, host_time_s: float) -> ImuSamples:
         """Decode ``data`` read at ``host_time_s``; stamp the frames by their counters."""
         return self.stamp(self.decoder.feed(data), host_time_s)
 
     def stamp(self, batch, host_time_s: float) -> ImuSamples:
-        """Stamp decoded frames (a ``FrameBatch``) read at ``host_time_s``; rates from increments."""
+        """Stamp decoded frames (a ``FrameBatch``) read at ``host_time_s``; rates from increments. The samples come
+        out in order once stamped: those the clock holds while it settles come out with a later read's."""
         t = self.clock.stamp(batch.counter, host_time_s)
         dt = 1.0 / self.rate_hz
-        return ImuSamples(t, batch.dtheta / dt, batch.dv / dt)
+        gyro, accel = batch.dtheta / dt, batch.dv / dt
+        if self._waiting is not None:  # samples held for their stamps go first
+            gyro, accel = np.vstack([self._waiting[0], gyro]), np.vstack([self._waiting[1], accel])
+        n = len(t)
+        self._waiting = (gyro[n:], accel[n:]) if n < len(gyro) else None
+        return ImuSamples(t, gyro[:n], accel[:n])
+
+    @property
+    def holding(self) -> bool:
+        """Samples read and not stamped yet (the clock settles after an anchor)."""
+        return self._waiting is not None
 
     def reconnected(self) -> None:
         """Drop partial bytes and the counter anchor after the port came back."""
