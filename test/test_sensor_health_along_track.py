@@ -103,13 +103,11 @@ def test_the_gz_track_cusum_holds_its_false_alarm_share_on_fresh_noise_and_peaks
     from sensor_health import cross_track as ct
     rate = 0.01  # per fix: 360 per 10 h, so 6000 fresh fixes can check it
     gate = ct.llr_gate(rate * 3600.0 * 10.0, 0.45, 0.06, 0.6, epochs=6000)
-    n = ct.SPAN_EPOCHS
-    tau, length = np.arange(n, dtype=float), np.ones(n)
-    ci = ct.drift_inverse_covariance(length, tau, 0.45, 1.0, 0.06)
-    base, steps = np.column_stack([np.ones(n), np.cumsum(length)]), ct.step_columns(tau, length)
-    step, sd = ct.glr(ci, base, steps, ct.simulated_drifts(6000, 0.45, 0.06, np.random.default_rng(7)))
+    step, sd = ct.straight_glr(ct.simulated_drifts(6000, 0.45, 0.06, np.random.default_rng(7)), 0.45, 0.06)
     seen = np.mean(ct.known_step_llr(step, sd, 0.6).max(axis=1) > gate)
     assert 0.4 * rate < seen < 2.5 * rate
-    step, sd = ct.glr(ci, base, steps, 0.6 * steps[30])
+    n = ct.SPAN_EPOCHS
+    steps = ct.step_columns(np.arange(n, dtype=float), np.ones(n))
+    step, sd = ct.straight_glr(0.6 * steps[30], 0.45, 0.06)
     llr = ct.known_step_llr(step, sd, 0.6)
     assert np.argmax(llr) == 30 and abs(step[30] - 0.6) < 1e-9

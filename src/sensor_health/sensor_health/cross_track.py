@@ -371,12 +371,18 @@ def simulated_drifts(epochs: int, arw_rel: float, ref_sd_rel: float, rng) -> np.
     return np.cumsum(d - d[:, :1] - ref_err[:, None] * np.arange(n), axis=1)
 
 
-def straight_glr_z(y, arw_rel: float, ref_sd_rel: float) -> np.ndarray:
-    """The GLR's z (epochs, m) of each step on simulated drifts ``y`` (epochs, SPAN_EPOCHS) (straight, 1-s chords)."""
+def straight_glr(y, arw_rel: float, ref_sd_rel: float) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`glr`'s step (epochs, m) and sd (m,) of each onset on simulated drifts ``y`` (epochs, SPAN_EPOCHS)
+    (straight, 1-s chords)."""
     n = y.shape[-1]
     tau, length = np.arange(n, dtype=float), np.ones(n)
-    step, sd = glr(drift_inverse_covariance(length, tau, arw_rel, 1.0, ref_sd_rel),
-                   np.column_stack([np.ones(n), np.cumsum(length)]), step_columns(tau, length), y)
+    return glr(drift_inverse_covariance(length, tau, arw_rel, 1.0, ref_sd_rel),
+               np.column_stack([np.ones(n), np.cumsum(length)]), step_columns(tau, length), y)
+
+
+def straight_glr_z(y, arw_rel: float, ref_sd_rel: float) -> np.ndarray:
+    """The GLR's z (epochs, m) of each step on simulated drifts ``y`` (epochs, SPAN_EPOCHS) (straight, 1-s chords)."""
+    step, sd = straight_glr(y, arw_rel, ref_sd_rel)
     return step / sd
 
 
@@ -387,11 +393,8 @@ def llr_gate(budget_per_test_10h: float, arw_rel: float, ref_sd_rel: float, step
     the span, for ``budget_per_test_10h`` false events per 10 h at one test per 1-s fix: its run length measured by
     Monte Carlo on :func:`simulated_drifts` (the heading's random walk, the learned bias' slow error: autocorrelated
     from fix to fix), exponential tail."""
-    n = SPAN_EPOCHS
-    tau, length = np.arange(n, dtype=float), np.ones(n)
-    y = simulated_drifts(epochs, arw_rel, ref_sd_rel, np.random.default_rng(seed))
-    step, sd = glr(drift_inverse_covariance(length, tau, arw_rel, 1.0, ref_sd_rel),
-                   np.column_stack([np.ones(n), np.cumsum(length)]), step_columns(tau, length), y)
+    step, sd = straight_glr(simulated_drifts(epochs, arw_rel, ref_sd_rel, np.random.default_rng(seed)), arw_rel,
+                            ref_sd_rel)
     llr = known_step_llr(step, sd, step_rel).max(axis=1)
     return thr.exp_tail_threshold(llr, budget_per_test_10h / thr.SECONDS_PER_10H)
 
