@@ -10,7 +10,7 @@ from imu_driver.bp3010_codec import FrameBatch
 from imu_driver.driver_core import ClockFollower, DriverCore, FrameClock, SimTimeStamper, hull_slope
 
 
-def _run(rate_hz, drift, seed, mean_delay_s, stall_p, stall_s, drop_p, outage_s=0.0, seconds=24.0, calm_tail_s=10.0):
+def _run(rate_hz, drift, seed, mean_delay_s, stall_p, stall_s, drop_p, outage_s=0.0, seconds=16.0, calm_tail_s=10.0):
     """Read a simulated unit whose frame n is made at ``t0 + n P (1 + drift)``: reads at random instants, each
     stamped late by a random delay; frames dropped; one outage. Returns per read (true time, delay, stamps,
     frame times, clock state)."""

@@ -160,7 +160,7 @@ def _recovery_case(n, seed, ops, chunk, lookahead):
     return intact, confirmable, counts, set(rows)
 
 
-@settings(max_examples=200, deadline=None)
+@settings(max_examples=150, deadline=None)
 @given(n=st.integers(1, 80), seed=st.integers(0, 2**32 - 1), ops=damage_ops, chunk=st.integers(1, 64))
 @example(n=1, seed=0, ops=[("flip", 1, b"\x00", 1), ("flip", 3, b"\x00", 1)], chunk=1)  # checksum-invisible
 @example(n=5, seed=224, ops=[("drop", 2 * 16, b"\x00", 1)], chunk=7)  # frame 1 ends in 0xA5, frame 2's sync dropped
@@ -170,7 +170,7 @@ def test_lookahead_decoder_recovers_every_confirmable_intact_frame_and_counts_th
         assert (i % 256, tuple(counts[i])) in got, f"intact frame {i} not recovered"
 
 
-@settings(max_examples=200, deadline=None)
+@settings(max_examples=150, deadline=None)
 @given(n=st.integers(1, 80), seed=st.integers(0, 2**32 - 1), ops=damage_ops, chunk=st.integers(1, 64))
 @example(n=5, seed=224, ops=[("drop", 2 * 16, b"\x00", 1)], chunk=7)
 def test_live_decoder_never_raises_counts_damage_and_loses_confirmable_frames_only_after_a_passing_cut(

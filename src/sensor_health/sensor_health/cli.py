@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import sys
 from pathlib import Path
 
 import numpy as np
@@ -48,7 +49,7 @@ def build_parser() -> argparse.ArgumentParser:
 def run(args) -> int:
     """Read, monitor, write; returns 0."""
     model = sensor_model.load(args.model)
-    imu = recording.read_imu(args.recording)
+    imu = in_time_order(recording.read_imu(args.recording))
     gnss = recording.read_gnss(args.gnss) if args.gnss else None
     if len(imu) < 2:
         raise recording.RecordingError(f"{args.recording}: fewer than 2 IMU samples")
@@ -73,6 +74,19 @@ def run(args) -> int:
     for e in events:
         print(f"  t {e.t_s:.3f} s  {e.level:5s} {e.effect} {','.join(e.channels)}: {e.message}")
     return 0
+
+
+def in_time_order(imu):
+    """The samples stamped after every sample before them; the others (a repeated or earlier stamp) are skipped
+    and named on stderr: the monitor takes no interval from them, but their values would enter its statistics."""
+    check = recording.check_timestamps(imu.t, str(imu.source or "recording"))
+    said = check.messages(("duplicates", "backwards"))
+    if not said:
+        return imu
+    keep = imu.t > np.fmax.accumulate(np.r_[-np.inf, imu.t[:-1]])
+    print(f"{'; '.join(said)}: skipped {int(np.sum(~keep))} sample(s) not after the ones before them",
+          file=sys.stderr)
+    return imu.select(keep)
 
 
 def monitor_recording(monitor: HealthMonitor, imu, chunk_s: float, progress: bool = False) -> list:
