@@ -54,6 +54,11 @@ TEMP_REALISTIC = 3.0
 """The realistic temperature case's coefficients are this many times larger: 1e-6 rad/s/degC over the +-10 degC cycle
 (period 30 min) is a 1e-5 rad/s bias wave under a flicker bias instability of 2e-5 rad/s, whose PSD at 0.56 mHz is
 three times the white level: its likelihood ratio is ~7 against a threshold of 19.7, so no method could name it."""
+FIXTURE_TEMP_ACCEL = np.array([5e-4, -4e-4, 6e-4])
+"""An industrial accelerometer's bias temperature coefficient on the fixture cases (m/s^2/degC; 0.05 mg/degC,
+times the square root of the grade's noise factor: 1.6e-4 tactical, 1.1e-3 consumer): uncompensated MEMS units
+drift 0.1-1 mg/degC (the blind's tactical fixture carried ~1e-3 m/s^2/degC); the 1.5e-5 m/s^2/degC it had before
+hid under an industrial unit's accelerometer wander."""
 HOLDS_REALISTIC_S = (20.0, 35.0)
 """A realistic tumble holds each pose for a time drawn from this range (s), as an operator turning a cube by hand."""
 UPDOWN_PAUSE_S = 2.0
@@ -515,7 +520,7 @@ def _fixture(site, rng, real, folder, kind, effect, par, seed):
         accel_out[:, 2] += k * par["accel_z"] * s
     elif effect == "temperature_bias":
         gyro_out += k * TEMP_REALISTIC * (temp - 25.0)[:, None] * TEMP_COEF
-        accel_out += k * TEMP_REALISTIC * (temp - 25.0)[:, None] * 5e-6
+        accel_out += np.sqrt(k) * (temp - 25.0)[:, None] * FIXTURE_TEMP_ACCEL
     elif effect == "gauss_markov_bias":
         gyro_out += gen.gauss_markov(rng, n, dt, [k * par["gyro"]] * 3, par["tau"])
         accel_out += gen.gauss_markov(rng, n, dt, [k * par["accel"]] * 3, par["tau"])
