@@ -223,7 +223,7 @@ def main(argv=None) -> int:
     two = hosts.HostRun(cut, args.rate) if args.hosts == 2 else None
     specs = graph_specs(args, run_dir, sim_dir)
     graph = Graph(hosts.link_qos(specs) if two else specs, env, args.params, log_dir=run_dir / "logs",
-                  prefix=two.prefix if two else None)
+                  prefix=two.prefix if two else None, progress=lambda text: print(f"[demo] {text}", flush=True))
     player = "bag_play" if args.recording else "scenario_player"
     print(f"[demo] starting the graph (ROS_DOMAIN_ID={env['ROS_DOMAIN_ID']}); output in {run_dir}")
     try:
@@ -240,6 +240,8 @@ def main(argv=None) -> int:
     print("[demo] exit codes: " + ", ".join(f"{k} {v}" for k, v in codes.items()))
     from nav_bringup.report import write_report
 
+    # a minute or two on 2 cores after a whole drive: the offline replay, the GNSS-outage study, the plots
+    print("[demo] writing the report: the bag replayed offline, GNSS outages cut from it, the plots", flush=True)
     summary = write_report(run_dir, sim_dir=sim_dir, truth_csv=args.truth, exit_codes=codes,
                            filter_params=filter_params(args.params, graph.specs))
     print(summary)

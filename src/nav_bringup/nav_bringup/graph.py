@@ -29,8 +29,10 @@ class Graph:
     """A set of node processes sharing one environment (ROS_DOMAIN_ID) and params file."""
 
     def __init__(self, specs, env: dict, params_file: Path = PARAMS_FILE, log_dir: Path | None = None,
-                 prefix=None):
-        """``prefix(executable)``: the command prefix that starts a node on its host (:mod:`nav_bringup.hosts`)."""
+                 prefix=None, progress=None):
+        """``prefix(executable)``: the command prefix that starts a node on its host (:mod:`nav_bringup.hosts`);
+        ``progress(text)``: told as each node becomes ready (starting the graph takes tens of seconds)."""
+        self.progress = progress or (lambda text: None)
         self.specs = list(specs)
         self.prefix = prefix or (lambda executable: ())
         self.env = env
@@ -40,7 +42,8 @@ class Graph:
 
     def start(self, timeout_s: float = 60.0) -> None:
         """Start every node in order and wait for each to say it is ready."""
-        for spec in self.specs:
+        started = time.monotonic()
+        for k, spec in enumerate(self.specs, 1):
             remaps = [a for src, dst in spec.remaps for a in ("-r", f"{src}:={dst}")]
             args = (*spec.args, "--ros-args", *remaps, "--") if remaps else spec.args
             proc = NodeProcess(spec.executable, args, env=self.env, params_file=self.params_file,
@@ -52,6 +55,7 @@ class Graph:
                     f"did not become ready within {timeout_s} s (exit {code})"
                 self.stop()
                 raise GraphError(f"{spec.executable} {why}:\n{proc.output[-3000:]}", code)
+            self.progress(f"{spec.executable} ready ({k}/{len(self.specs)}, {time.monotonic() - started:.0f} s)")
 
     def dead(self) -> dict:
         """Nodes that have exited: executable -> exit code."""

@@ -30,7 +30,7 @@ from scipy.spatial.transform import Rotation  # noqa: E402
 
 from imu_calib.status import AllanStatus  # noqa: E402
 from imu_driver.status import DriverStatus  # noqa: E402
-from ins_gps_kf.status import FilterStatus  # noqa: E402
+from ins_gps_kf.status import INPUT_STALE_S, FilterStatus  # noqa: E402
 from nav_eval.metrics import rms  # noqa: E402
 from nav_bringup.offline_runs import (BAG_LATE_FIXES, BAG_LATE_IMU, MISSED_FIXES, MISSED_IMU,  # noqa: E402
                                       compare_with_offline, outage_lines, outage_table, run_outages)
@@ -382,10 +382,18 @@ def _summary(run_dir, res, odom, gnss, raw, den, diags, codes) -> str:
         status = node_status(name, level, message, values)
         detail = status.summary() if status is not None else ""
         lines.append(f"    [{level_name(level):5}] {name}: {message}" + (f" ({detail})" if detail else ""))
+        if isinstance(status, FilterStatus) and status.input_stale_s > INPUT_STALE_S and _player_done(codes):
+            lines.append("            (its last status came after the player stopped: the input ended with the "
+                         "drive, not in a fault)")
     lines += _health_lines(res.get("health_events", []))
     if codes:
         lines.append("    exit codes: " + ", ".join(f"{k} {v}" for k, v in codes.items()))
     return "\n".join(lines)
+
+
+def _player_done(codes: dict) -> bool:
+    """Whether the run's player (scenario_player or bag_play) exited 0 (the end of its drive, or Ctrl-C)."""
+    return any(codes.get(player) == 0 for player in ("scenario_player", "bag_play"))
 
 
 def _table(rows: dict) -> str:
