@@ -15,6 +15,8 @@ import numpy as np
 from imu_driver.bp3010_codec import StreamDecoder, encode_counts
 from imu_driver.emulator import PtyPort
 
+SETTLE_S = 0.5  # bp3010_driver's stamp_settle_s (config/navigation.yaml)
+
 
 def damaged_stream(n_frames: int, damage: float, seed: int = 0) -> bytes:
     """n_frames frames with a fraction ``damage`` of them flipped, cut or followed by garbage."""
@@ -135,9 +137,12 @@ def bench_latency(seconds: float, env: dict) -> None:
         rclpy.try_shutdown()
         drv.stop()
         port.unplug()
-    print(f"frame written -> Imu received at 64 Hz: p50 {np.percentile(lat, 50) * 1e3:.2f} ms, "
-          f"p99 {np.percentile(lat, 99) * 1e3:.2f} ms, max {lat.max() * 1e3:.2f} ms over {len(lat)} frames "
-          f"(target p99 < 5 ms)")
+    # the driver holds its first stamp_settle_s (0.5 s) of frames to stamp them on the most prompt read among them
+    held = written[idx] - written[0] < SETTLE_S + 2 / 64
+    lat, first = lat[~held], lat[held]
+    print(f"frame written -> Imu received at 64 Hz after the start-up settling: p50 {np.percentile(lat, 50) * 1e3:.2f} "
+          f"ms, p99 {np.percentile(lat, 99) * 1e3:.2f} ms, max {lat.max() * 1e3:.2f} ms over {len(lat)} frames "
+          f"(target p99 < 5 ms); the first {len(first)} frames, held for the settling: up to {first.max() * 1e3:.0f} ms")
 
 
 def bench_stamps(seconds: float, env: dict) -> None:
