@@ -183,13 +183,20 @@ def _refit_without(cand: Candidate, broken: list, grade: str, case=None, resid=N
     reference_or_model_error), when the rest is still significant and plausible - on a fixture, given the holds'
     tilts again (:func:`fixture.rank_given_tilts`) - ; None otherwise."""
     names = [b["parameter"] for b in broken]
-    if cand.refit is None or len(names) >= len(cand.params):
-        return None
-    again = cand.refit(names)
-    if case is not None and again.significant:
-        fixture.rank_given_tilts(case, [again], resid)
-        if again.rank == fixture.IMPLAUSIBLE_RANK:
+    while True:
+        if cand.refit is None or len(names) >= len(cand.params):
             return None
+        again = cand.refit(names)
+        if case is not None and again.significant:
+            fixture.rank_given_tilts(case, [again], resid)
+            if again.rank == fixture.IMPLAUSIBLE_RANK:
+                return None
+        # a parameter the refit moves outside its bound undetermined is dropped too (own long industrial table
+        # 7002: without gyro y, gyro x left its bound with an interval of +-0.46, and gyro z at LR 2811 was lost)
+        more = [v["parameter"] for v in plausibility.unidentified(again, grade) if v["parameter"] not in names]
+        if not more or not again.significant:
+            break
+        names += more
     if (not again.significant or plausibility.violations(again, grade, again.constant_scale)
             or plausibility.unidentified(again, grade)
             or (case is not None and plausibility.below_reference(again, case))):

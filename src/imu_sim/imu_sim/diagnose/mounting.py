@@ -8,6 +8,8 @@ has a tilt of its own in each mounting; fitted without them, the blind consumer 
 """
 from __future__ import annotations
 
+import copy
+
 import numpy as np
 from scipy.spatial.transform import Rotation
 
@@ -48,27 +50,88 @@ def mounting_groups(case) -> list:
 def _mounting_system(ctx, cand, keep: list, resid_f: np.ndarray | None = None):
     """(A, b, k, tol) of ``cand``'s parameters ``keep`` followed by a rotation of each mounting
     (:func:`mounting_groups`: w x d on the gyros, f x d on the accelerometers, one d per mounting shared by both
-    triads), the tolerance as a Gaussian prior on each d, then a turn-on bias per channel (a mounting tilt's f x d is
-    constant on a level table, the bias's own shape: only the mountings' differences tell them apart)."""
+    triads), the tolerance as a Gaussian prior on each d, then the table axis's tilt from the vertical
+    (:func:`table_tilt_columns`, the tolerance its prior too), each mounting's own accelerometer bias offset
+    (:func:`accel_wander_sd` its prior; none when the model states no wander), then a turn-on bias per channel (a
+    mounting tilt's f x d is constant on a level table, the bias's own shape: only the mountings' differences tell
+    them apart)."""
     case, wh = ctx.case, _white(ctx)
     tol = np.radians(float(getattr(case.scenario, "attitude_tolerance_deg", 1.0)))
-    groups, rot = mounting_groups(case), rotation_columns(case)
+    groups, rot, tilt = mounting_groups(case), rotation_columns(case), table_tilt_columns(case)
+    wander = accel_wander_sd(case, groups) if len(groups) > 1 else np.zeros(0)
     stated = ~case.unstated if getattr(case, "unstated", None) is not None else np.ones(case.n, bool)
-    k, m = len(keep), 3 * len(groups)
-    a, b = np.zeros((k + m + 6, k + m + 6)), np.zeros(k + m + 6)
+    k, m, nt, nw = len(keep), 3 * len(groups), tilt[0].shape[1], len(wander)
+    size = k + m + nt + nw + 6
+    a, b = np.zeros((size, size)), np.zeros(size)
     for ch in range(6):
         xc = cand.columns[ch][:, keep] if ch in cand.columns else np.zeros((case.n, k))
         bias = np.zeros((case.n, 6))
         bias[:, ch] = 1.0  # the turn-on bias as a parameter: under coloured weights a demeaned column is not
         # orthogonal to a constant (a navigation-grade mounting fit was 0.06 deg off without it)
-        x = np.hstack([xc] + [rot[ch] * g[:, None] for g in groups] + [bias])
-        xf = wh.spectrum(np.where(stated[:, None], x - x[stated].mean(axis=0) * (np.arange(x.shape[1]) < k + m), 0.0))
+        offsets = np.zeros((case.n, nw))
+        if nw and ch >= 3:
+            for g, mask in enumerate(groups):
+                offsets[:, 3 * g + ch - 3] = mask
+        x = np.hstack([xc] + [rot[ch] * g[:, None] for g in groups] + [tilt[ch], offsets, bias])
+        demean = np.arange(x.shape[1]) < k + m + nt
+        xf = wh.spectrum(np.where(stated[:, None], x - x[stated].mean(axis=0) * demean, 0.0))
         a += wh.gram(ch, xf, xf)
         b += wh.gram(ch, xf, (ctx.resid_f if resid_f is None else resid_f)[:, ch])
     # the tolerance as a prior (sd = tolerance): a rotation about the table axis, which only the Earth rate's
     # horizontal part shows, stays within it instead of fitting that part's noise
-    a[k:k + m, k:k + m] += np.eye(m) / max(tol, 1e-12) ** 2
+    a[k:k + m + nt, k:k + m + nt] += np.eye(m + nt) / max(tol, 1e-12) ** 2
+    if nw:
+        a[k + m + nt:k + m + nt + nw, k + m + nt:k + m + nt + nw] += np.diag(1.0 / wander**2)
     return a, b, k, tol
+
+
+def table_tilt_columns(case) -> dict:
+    """Per channel (n, 2) the residual a tilt of the table's spin axis from the vertical makes (rad, about east and
+    north): the unit turns about the tilted axis, so its gyros see no change, but gravity in the body axes tilts
+    with the table angle - a sinusoid at the table angle on the accelerometers, R^T (f x t) for the truth's
+    body-to-ENU R and specific force f in ENU. Without it, a table level only to 0.01 deg left its accelerometers'
+    mean over each mounting to pin that mounting's tilt wrongly, and the gyro misalignment took the difference (own
+    tactical three-mounting null: LR 423 given the mountings, 3-6e-5 rad; blind tactical table null: 0.3-1.1e-4 rad
+    at LR 108). Zero columns when the truth's attitude is not known."""
+    if "table_tilt_columns" not in case.cache:
+        rot = body_to_enu(case)
+        cols = {ch: np.zeros((case.n, 2 if rot is not None else 0)) for ch in range(6)}
+        if rot is not None:
+            f_n = np.einsum("nij,nj->ni", rot, case.accel_true)
+            for j in range(2):
+                cols_j = np.einsum("nji,nj->ni", rot, np.cross(f_n, np.eye(3)[j]))
+                for i in range(3):
+                    cols[3 + i][:, j] = cols_j[:, i]
+        case.cache["table_tilt_columns"] = cols
+    return case.cache["table_tilt_columns"]
+
+
+def body_to_enu(case):
+    """(n, 3, 3) the truth's body-to-ENU rotation at each sample (None when the case has no truth trajectory)."""
+    if "body_to_enu" not in case.cache:
+        try:
+            from imu_sim.diagnose.case import trajectory
+            case.cache["body_to_enu"] = trajectory(case).attitude.rotation(case.sim_t_abs).as_matrix()
+        except (AttributeError, TypeError):
+            case.cache["body_to_enu"] = None
+    return case.cache["body_to_enu"]
+
+
+def accel_wander_sd(case, groups: list) -> np.ndarray:
+    """(3 m,) prior sd (m/s^2) of each mounting's own accelerometer bias offset (mounting-major): the model's stated
+    bias instability B and rate random walk K over a mounting's span T, sqrt(B^2 + K^2 T); empty when it states
+    neither. The accelerometers' mean over each mounting pins that mounting's tilt against one turn-on bias: their
+    wander from one mounting to the next (5e-4 m/s^2) put the own three-mounting null's gyro misalignment at LR
+    200-1900 given the mountings."""
+    model = getattr(case, "model", None)
+    if model is None:
+        return np.zeros(0)
+    b = np.asarray(model.accel.bias_instability, float) * np.ones(3)
+    k = np.asarray(model.accel.rate_random_walk, float) * np.ones(3)
+    if not np.any(b > 0) and not np.any(k > 0):
+        return np.zeros(0)
+    span = [float(np.ptp(case.t[g])) if g.any() else 0.0 for g in groups]
+    return np.concatenate([np.maximum(np.sqrt(b**2 + k**2 * s), 1e-12) for s in span])
 
 
 def _white(ctx):
@@ -150,7 +213,7 @@ def hand_mounted_table(case) -> bool:
     return table_record(case) and not getattr(case.scenario, "moves_known", False)
 
 
-def mounting_fit(ctx, cand) -> None:
+def mounting_fit(ctx, cand, drop=()) -> None:
     """On a hand-mounted rate table, an effect fitted jointly with a rotation of each mounting within the tolerance
     (:func:`_mounting_system`), its statistic the likelihood ratio given them. A scale factor's or misalignment's fit
     and intervals come from that joint fit, so they carry the mountings' uncertainty and no mounting tilt is fitted as
@@ -165,6 +228,7 @@ def mounting_fit(ctx, cand) -> None:
     effects = MOUNTED_EFFECTS + MOUNTING_RANKED
     if cand.effect not in effects or not cand.identifiable or not cand.columns or not table_record(ctx.case):
         return
+    original = copy.copy(cand)  # the fit is rewritten in place: its refit starts again from this
     if not hand_mounted_table(ctx.case):  # a motorised sequence (moves_known): one mounting, a check only
         if cand.effect == "axis_misalignment" and cand.significant and (note := mounting_note(ctx, cand)):
             cand.identifiable, cand.reason = False, (cand.reason + "; " if cand.reason else "") + note
@@ -174,7 +238,10 @@ def mounting_fit(ctx, cand) -> None:
     names = list(cand.params)[:k_all]
     own = cand.effect in MOUNTED_EFFECTS and len(names) == k_all
     keep = [j for j, nm in enumerate(names) if not (own and nm.startswith("accel"))] if own else list(range(k_all))
-    if not keep:
+    # parameters a refit drops stay in the joint fit as a nuisance, after the reported ones (effect_tests._without)
+    keep = [j for j in keep if names[j] not in drop] + [j for j in keep if names[j] in drop]
+    kr = len(keep) - sum(names[j] in drop for j in keep)
+    if not kr:
         return
     a, b, k, tol = _mounting_system(ctx, cand, keep)
     theta_all, inv = _solve(a, b)
@@ -183,7 +250,7 @@ def mounting_fit(ctx, cand) -> None:
         b = _mounting_system(ctx, cand, keep, ctx.resid_f - np.fft.rfft(rest, axis=0))[1]
         theta_all = inv @ b
     before = cand.stat_alone = cand.stat
-    cand.stat = float(_lr(a, b) - _lr(a[k:, k:], b[k:]))
+    cand.stat = float(_lr(a, b) - _lr(a[kr:, kr:], b[kr:]))
     cand.mounting_theta = theta_all[k:k + 3 * len(mounting_groups(ctx.case))].copy()
     groups = len(mounting_groups(ctx.case))
     told = (f"fitted jointly with a rotation of each of the unit's {groups} mountings on the table (within "
@@ -198,8 +265,9 @@ def mounting_fit(ctx, cand) -> None:
         elif cand.rank is not None:
             cand.rank = min(cand.rank, cand.stat - cand.threshold)
         return
-    theta, sd = theta_all[:k], np.sqrt(np.clip(np.diag(inv)[:k], 0.0, None))
-    cand.threshold = threshold(k, ctx.m_tests, 1, ctx.factor(cand.effect))
+    theta, sd = theta_all[:kr], np.sqrt(np.clip(np.diag(inv)[:kr], 0.0, None))
+    cand.threshold = threshold(kr, ctx.m_tests, 1, ctx.factor(cand.effect))
+    keep = keep[:kr]
     full = np.zeros(len(names))
     full[keep] = theta
     cand.params = {names[j]: float(v) for j, v in zip(keep, theta)}
@@ -211,7 +279,11 @@ def mounting_fit(ctx, cand) -> None:
         cand.contrib[:, ch] = x @ full
     cand.columns = {c: x[:, keep] for c, x in cand.columns.items() if np.any(x[:, keep] != 0)}
     cand.channels = [ch for ch in cand.channels if not ch.startswith("a")] if cand.channels else cand.channels
-    cand.refit, cand.rank = None, None
+    cand.rank = None
+    # without some parameters (not identifiable on this record, or out of the grade's bounds): the joint fit again,
+    # those kept as a nuisance - on a one-axis table the undetermined gyro x/y scale factors of a z-table's fit had
+    # dropped the whole effect (own long industrial table 7002: gyro z significant at LR 2811, no finding)
+    cand.refit = lambda names_out: _refit(ctx, original, [*drop, *names_out])
     if getattr(cand, "design", None) is not None:
         cand.design = cand.design.without([j for j in range(len(names)) if j not in keep])
     dropped = len(names) - k
@@ -228,6 +300,13 @@ def mounting_fit(ctx, cand) -> None:
             f"not separable from the reference on this record: fitted with it, a mounting leaves the scenario's "
             f"attitude_tolerance_deg ({np.degrees(top):.2g} deg against {np.degrees(tol):g}), so the joint fit's "
             f"parameters and intervals do not hold; not ranked")
+
+
+def _refit(ctx, original, drop: list):
+    """``original`` (a candidate before its joint fit) fitted with the mountings again without ``drop``."""
+    again = copy.copy(original)
+    mounting_fit(ctx, again, drop)
+    return again
 
 
 def mounting_note(ctx, cand) -> str:
