@@ -42,7 +42,9 @@ def test_node_collects_duration_of_live_data_then_writes_the_model(tmp_path, ros
             pub.publish(imu_from_arrays(t, g, a))
             rclpy.spin_once(probe, timeout_sec=0.0)
             time.sleep(0.004)
-        assert probe.spin_until(lambda p: _result(p) is not None, 30), node.output
+        # The characterisation runs at nice +10: on a machine loaded 10x over it took more than 30 s; a deadline
+        # for a result, not a speed claim.
+        assert probe.spin_until(lambda p: _result(p) is not None, 120), node.output
         status = _result(probe)
         values = {kv.key: kv.value for kv in status.values}
         assert status.level == DiagnosticStatus.OK, status.message
