@@ -121,6 +121,8 @@ class ColoredFit:
     tau_ci: list = field(default_factory=list)
     by_tau: list = field(default_factory=list)
     """(tau s, per-axis variance) at each correlation time of tau's 95 % set."""
+    lr_by_tau: list = field(default_factory=list)
+    """The likelihood ratio at each correlation time profiled."""
 
 
 def whitening_taus(gr: GnssResidual) -> np.ndarray:
@@ -153,6 +155,7 @@ def colored_fit(r: np.ndarray, gr: GnssResidual, taus: np.ndarray | None = None)
     inside = taus[keep]
     best.tau_ci = [float(inside.min()), float(inside.max())]
     best.by_tau = [(float(tau), var) for tau, var, k in zip(taus, var_by_tau, keep) if k]
+    best.lr_by_tau = [float(v) for v in lr_by_tau]
     # the variance interval at every tau of tau's own 95 % set, joined: tau's uncertainty is carried over
     sets = [ci for ci, k in zip(ci_by_tau, keep) if k]
     best.var_ci = [(min(ci[a][0] for ci in sets), max(ci[a][1] for ci in sets)) for a in range(3)]
@@ -273,14 +276,14 @@ def gls_whiteness_first(gr: GnssResidual, design: np.ndarray, level: float = 0.0
     exact = len(gr.r) <= EXACT_MAX_FIXES
     fit = gls_exact(gr.r, design, noise_cov(gr)) if exact else gls(gr.r, design, psd, gr.dt)
     left = gr.r - np.einsum("nak,k->na", design, fit.theta)
-    col = colored_fit(left, gr)
-    coloured = col.lr > stats.chi2.isf(level / col.n_grid, 6)
+    col = colored_fit(left, gr, whitening_taus(gr))  # once: the test's own grid is its first len(tau_grid) points
+    grid = len(tau_grid(gr))
+    coloured = max(col.lr_by_tau[:grid]) > stats.chi2.isf(level / grid, 6)
     if coloured or gr.reference_error:
         # the regression must hold up under every coloured term the residual allows (each correlation time in the
         # 95 % set of its profile, its variance fitted there, the grid continued to the run's length): under the
         # best one alone a slow error the regressor half follows was whitened at too short a time constant (blind
         # consumer drive: lever arm LR 29 under tau 32 s for a 130-s error)
-        col = colored_fit(left, gr, whitening_taus(gr))
         fits = []
         for tau, var in col.by_tau:
             psd_t = psd + np.array([var[a] * ar1_psd(freqs, gr.dt, 1.0, tau) for a in range(3)])
