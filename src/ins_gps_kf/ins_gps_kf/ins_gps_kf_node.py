@@ -59,7 +59,7 @@ from ins_gps_kf import strapdown  # noqa: E402
 from ins_gps_kf.filter import Estimate, InsGpsFilter  # noqa: E402
 from ins_gps_kf.intake import RESUME_WAIT_S, StampOrderIntake, warm_up  # noqa: E402
 from ins_gps_kf.offline import load_model  # noqa: E402
-from ins_gps_kf.status import INPUT_STALE_S, filter_status, mark_stale  # noqa: E402
+from ins_gps_kf.status import INPUT_STALE_S, StatusOnResume, filter_status, mark_stale  # noqa: E402
 
 GPS, WHEEL, IMU = 0, 1, 2  # arrival-merge order of a fix, a wheel speed and an IMU message received at one instant
 WHEEL_TYPES = {"nav_msgs/msg/Odometry": Odometry, "geometry_msgs/msg/TwistStamped": TwistStamped}
@@ -146,6 +146,7 @@ class InsGpsKfNode(Node):
         # the node's own steady clock
         self._last_input_wall: float | None = None
         self._stale_said_wall = -math.inf  # steady s of the last status said because the input was stale
+        self.on_resume = StatusOnResume()  # the status said at the first fix after a stale spell, not a period later
         self.create_timer(STALE_TICK_S, self._locked(self._diagnostics_if_stale),
                           clock=Clock(clock_type=ClockType.STEADY_TIME))
         start = time.monotonic()
@@ -208,6 +209,7 @@ class InsGpsKfNode(Node):
         now = time.monotonic()
         if self._last_input_wall is not None and now - self._last_input_wall > INPUT_STALE_S:
             self.intake.hold_for_fixes(now + RESUME_WAIT_S)
+            self.on_resume.input_resumed(self.filter.counters.fixes)
         self._last_input_wall = now
         batch = self.imu_intake.decode([blob for blob, _ in imu])
         if len(batch) != len(imu):  # a bad message was skipped: arrival order is lost for this batch only
@@ -276,7 +278,8 @@ class InsGpsKfNode(Node):
     def _on_run(self, estimates, t, gyro, accel):
         """After a chunk of IMU samples: publish its epochs' odometry; queue its newest sample for imu/data.
 
-        A non-finite estimate is never published: it is counted and the filter reset (it re-aligns).
+        A non-finite estimate is never published: it is counted and the filter reset (it re-aligns). The first
+        fix taken after a stale spell has the status said now (:class:`ins_gps_kf.status.StatusOnResume`).
         """
         for est in estimates:
             if not _finite(est):
@@ -285,6 +288,8 @@ class InsGpsKfNode(Node):
                 return
             self.publish_odometry(est)
         self.publish_imu(t, gyro, accel)
+        if self.on_resume.due(self.filter.counters.fixes) and not self.closing:
+            self.publish_diagnostics()
 
     def close(self):
         """Run what is still buffered through the filter without publishing (called by run_node on shutdown)."""

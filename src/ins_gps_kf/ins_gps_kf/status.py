@@ -139,3 +139,24 @@ def mark_stale(st: FilterStatus, stale_s: float) -> FilterStatus:
         st.level = "WARN" if st.level == "OK" else st.level
         st.message = f"input stale for {stale_s:.1f} s (no IMU or GPS message): holding the last estimate; {st.message}"
     return st
+
+
+class StatusOnResume:
+    """Says when the filter node's status is due out of its period: at the first fix taken after a stale spell of
+    its input (a link back), so 'input stale' turns to 'navigating' at once, not up to a status period (one
+    simulated second) later. It only reads the filter's fix count: the filter's output is the same either way."""
+
+    def __init__(self):
+        self.fixes_before: int | None = None  # the filter's fix count when the input came back (None: not armed)
+
+    def input_resumed(self, fixes: int) -> None:
+        """The input came back after a stale spell, the filter having taken ``fixes`` fixes so far."""
+        self.fixes_before = int(fixes)
+
+    def due(self, fixes: int) -> bool:
+        """Whether a status is due now, the filter having taken ``fixes`` fixes: once, at the first fix since
+        :meth:`input_resumed`."""
+        if self.fixes_before is None or fixes <= self.fixes_before:
+            return False
+        self.fixes_before = None
+        return True
