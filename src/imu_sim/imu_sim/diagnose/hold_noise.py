@@ -37,7 +37,8 @@ def inflation(resid: np.ndarray, hold: np.ndarray, dt: float) -> np.ndarray:
 
 
 def bias_wander(case, w: np.ndarray):
-    """(columns (6 n, 6 m at most), prior (6 m, 6 m) with prior.T @ prior the offsets' precision) of each hold's own
+    """(columns (6 n, 6 m at most), prior (6 m, 6 m) with prior.T @ prior the offsets' precision, each column's
+    channel 0..5) of each hold's own
     bias offset of each gyro and accelerometer (``w`` (n, m): each hold's weight at each sample, as the fixture's
     tilts) whose model states a bias instability B or a rate random walk K; None when it states neither anywhere.
     The offsets are a random effect (a GLS term) with the unit's stated wander as their covariance per axis: B^2 on
@@ -74,22 +75,22 @@ def bias_wander(case, w: np.ndarray):
         cov = b[c] ** 2 * np.eye(m) + k[c] ** 2 * np.minimum.outer(t_mid, t_mid)
         idx = np.arange(m) * nc + j
         prec[np.ix_(idx, idx)] = np.linalg.inv(cov)
-    return np.column_stack(cols), np.linalg.cholesky(prec).T
+    return np.column_stack(cols), np.linalg.cholesky(prec).T, np.tile(chans, m)
 
 
 class Prior(np.ndarray):
-    """Prior rows on the joint fit's first parameters (prior.T @ prior their precision). Rows from ``charged`` on are
+    """Prior rows on the joint fit's first parameters (prior.T @ prior their precision). Rows marked ``charged`` are
     a random effect's (the holds' bias wander, :func:`bias_wander`), whose penalty counts in the fit's objective (a
-    GLS term); the rows before are bounds (each tilt within the tolerance), free within them, so only the data's
+    GLS term; no row mixes two channels' offsets); the others are bounds (each tilt within the tolerance), free within them, so only the data's
     misfit counts."""
 
-    def __new__(cls, rows: np.ndarray, charged: int):
+    def __new__(cls, rows: np.ndarray, charged: np.ndarray):
         out = np.asarray(rows, float).view(cls)
-        out.charged = int(charged)
+        out.charged = np.asarray(charged, bool)
         return out
 
     def __array_finalize__(self, obj):
-        self.charged = getattr(obj, "charged", 0)
+        self.charged = getattr(obj, "charged", None)
 
 
 def penalised_fit(x: np.ndarray, y: np.ndarray, prior: np.ndarray | None = None) -> tuple:
@@ -105,6 +106,6 @@ def penalised_fit(x: np.ndarray, y: np.ndarray, prior: np.ndarray | None = None)
     theta = np.linalg.lstsq(a / np.outer(d, d), b / d, rcond=1e-12)[0] / d
     rss = float(np.sum((y - x @ theta) ** 2))
     charged = getattr(prior, "charged", None)
-    if charged is not None and charged < prior.shape[0]:
-        rss += float(np.sum((np.asarray(prior)[charged:] @ theta[:prior.shape[1]]) ** 2))
+    if charged is not None and np.any(charged):
+        rss += float(np.sum((np.asarray(prior)[charged] @ theta[:prior.shape[1]]) ** 2))
     return rss, theta
