@@ -68,7 +68,10 @@ def run_diagnose(folder: Path, pkg_root: Path, timeout_s: float, drop=()):
            "--out", str(folder / "out")]
     if (folder / "gnss.csv").exists():
         cmd += ["--gnss", str(folder / "gnss.csv")]
-    env = dict(os.environ, PYTHONPATH=str(pkg_root), MPLBACKEND="Agg")
+    # One BLAS thread per diagnosis: two cases run side by side on two cores, and threaded BLAS under load made a
+    # long-table case ~10x slower (60 min against 2-8 min).
+    env = dict(os.environ, PYTHONPATH=str(pkg_root), MPLBACKEND="Agg",
+               OPENBLAS_NUM_THREADS=os.environ.get("OPENBLAS_NUM_THREADS", "1"))
     t0 = time.monotonic()
     try:
         proc = subprocess.run(cmd, env=env, capture_output=True, text=True, timeout=timeout_s)
