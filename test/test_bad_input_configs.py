@@ -187,6 +187,23 @@ def test_unreadable_yaml_is_one_line(tmp_path):
         scenario_mod.load(path)
 
 
+
+@pytest.mark.parametrize("damage, words", [
+    ("missing", "file not found"), ("folder", "is a folder, expected a"), ("binary", "not valid YAML")])
+def test_every_yaml_reader_names_the_file_and_its_damage(tmp_path, damage, words):
+    path = tmp_path / "in.yaml"
+    if damage == "folder":
+        path.mkdir()
+    elif damage == "binary":
+        path.write_bytes(b"a: [\xff\xfe")
+    readers = [(sensor_model.load, SensorModelError), (scenario_mod.load, ScenarioError),
+               (kfconfig.read_params_file, kfconfig.FilterConfigError)]
+    for read, error in readers:
+        with pytest.raises(error) as err:
+            read(path)
+        assert str(err.value).startswith(f"{path}: ") and words in str(err.value)
+        assert "\n" not in str(err.value)
+
 # -- params files -------------------------------------------------------------------------------------------
 
 

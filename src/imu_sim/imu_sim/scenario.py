@@ -12,9 +12,8 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
-import yaml
 
-from nav_core.params import did_you_mean, unknown_keys_error
+from nav_core.params import did_you_mean, read_yaml_file, unknown_keys_error
 from nav_core.recording import RecordingError, read_trajectory_csv
 from nav_core.sensor_model import SensorModelError, validate_physics
 
@@ -284,14 +283,7 @@ def _physics(data, where):
 def load(path) -> Scenario:
     """Read and validate a scenario YAML file."""
     path = Path(path)
-    try:
-        data = yaml.safe_load(path.read_text())
-    except FileNotFoundError:
-        raise ScenarioError(f"{path}: scenario file not found") from None
-    except (yaml.YAMLError, UnicodeDecodeError) as err:
-        raise ScenarioError(f"{path}: not valid YAML: {' '.join(str(err).split())}") from None
-    except IsADirectoryError:
-        raise ScenarioError(f"{path}: is a folder, expected a scenario YAML file") from None
+    data = read_yaml_file(path, ScenarioError, "scenario file")
     return from_dict(data, where=str(path), base_dir=path.parent)
 
 

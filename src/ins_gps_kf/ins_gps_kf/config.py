@@ -8,9 +8,7 @@ import math
 from dataclasses import dataclass
 from pathlib import Path
 
-import yaml
-
-from nav_core.params import ConfigError, Param, did_you_mean, unknown_keys_error
+from nav_core.params import ConfigError, Param, did_you_mean, read_yaml_file, unknown_keys_error
 from nav_core.units import DEG, MG, DEG_PER_H
 
 NODE_NAME = "ins_gps_kf_node"
@@ -288,15 +286,7 @@ WILDCARD_SECTIONS = ("**", "*")
 
 def read_params_file(path) -> dict:
     """A ROS 2 params file as a mapping; FilterConfigError naming the file when it is missing or not a mapping."""
-    path = Path(path)
-    try:
-        data = yaml.safe_load(path.read_text()) or {}
-    except FileNotFoundError:
-        raise FilterConfigError(f"{path}: params file not found") from None
-    except IsADirectoryError:
-        raise FilterConfigError(f"{path}: is a folder, expected a params file") from None
-    except (yaml.YAMLError, UnicodeDecodeError) as err:
-        raise FilterConfigError(f"{path}: not valid YAML: {' '.join(str(err).split())}") from None
+    data = read_yaml_file(path, FilterConfigError, "params file") or {}
     if not isinstance(data, dict):
         raise FilterConfigError(f"{path}: expected a mapping with '{NODE_NAME}: ros__parameters:'")
     return data

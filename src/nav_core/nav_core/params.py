@@ -10,6 +10,9 @@ from __future__ import annotations
 import difflib
 import math
 from dataclasses import dataclass
+from pathlib import Path
+
+import yaml
 
 
 class ConfigError(ValueError):
@@ -20,6 +23,22 @@ def did_you_mean(name: str, known) -> str:
     """`` (did you mean 'x'?)`` for the closest of ``known`` to ``name``, else an empty string."""
     close = difflib.get_close_matches(str(name), [str(k) for k in known], n=1, cutoff=0.6)
     return f" (did you mean {close[0]!r}?)" if close else ""
+
+
+def read_yaml_file(path, error: type[Exception], kind: str):
+    """The parsed YAML of ``path``; ``error`` naming the file when it is missing, a folder or not YAML.
+
+    ``kind`` names the file in the message ("sensor-model file", "params file").
+    """
+    path = Path(path)
+    try:
+        return yaml.safe_load(path.read_text())
+    except FileNotFoundError:
+        raise error(f"{path}: {kind} not found") from None
+    except IsADirectoryError:
+        raise error(f"{path}: is a folder, expected a {kind}") from None
+    except (yaml.YAMLError, UnicodeDecodeError) as err:
+        raise error(f"{path}: not valid YAML: {' '.join(str(err).split())}") from None
 
 
 def unknown_keys_error(where: str, unknown, known) -> str:

@@ -41,7 +41,7 @@ from pathlib import Path
 import numpy as np
 import yaml
 
-from nav_core.params import unknown_keys_error
+from nav_core.params import read_yaml_file, unknown_keys_error
 
 SCHEMA_VERSION = 1
 TOP_KEYS = ("sensor_model_version", "sample_rate_hz", "provenance", "gyro", "accel", "physics")
@@ -319,15 +319,7 @@ def validate_physics(physics, where: str) -> dict:
 
 def load(path) -> SensorModel:
     """Read and validate a sensor-model YAML file."""
-    path = Path(path)
-    try:
-        data = yaml.safe_load(path.read_text())
-    except FileNotFoundError:
-        raise SensorModelError(f"{path}: sensor-model file not found") from None
-    except (yaml.YAMLError, UnicodeDecodeError) as err:
-        raise SensorModelError(f"{path}: not valid YAML: {' '.join(str(err).split())}") from None
-    except IsADirectoryError:
-        raise SensorModelError(f"{path}: is a folder, expected a sensor-model YAML file") from None
+    data = read_yaml_file(path, SensorModelError, "sensor-model file")
     return from_dict(data, where=str(path))
 
 
