@@ -193,24 +193,21 @@ def floor_section(share_per_10h: float, runs: int = 4000) -> None:
 
 def track_floor_section(share_per_10h: float, runs: int = 2000, speed_m_s: float = 15.0,
                         ref_sd_rad_s: float = 2.2e-4) -> None:
-    """What the gz test against the GNSS track (cross_track's CUSUM tuned to the step and its window-limited GLR, over
-    the same span, each at its own gate) allows for a 10 x bias-sd step at ``speed_m_s`` on 1-Hz fixes with the
-    benchmark's noise, on the straight its gate is drawn on (no learning, no turns: a bound on the monitor's
-    figures): with the learned bias' error ``ref_sd_rad_s`` (the monitor's on these drives: the fitted bias
-    instability 1.7e-4 and the learned bias' sd 1.4e-4, together) and with the bias before the step known exactly.
-    The CUSUM is tuned to 10 x the fitted bias instability (1.7e-3 rad/s), the step is 10 x the unit's (2e-3)."""
+    """What the gz test against the GNSS track (cross_track's window-limited GLR at its gate) allows for a 10 x
+    bias-sd step (2e-3 rad/s) at ``speed_m_s`` on 1-Hz fixes with the benchmark's noise, on the straight its gate is
+    drawn on (no learning, no turns: a bound on the monitor's figures): with the learned bias' error
+    ``ref_sd_rad_s`` (the monitor's on these drives: the fitted bias instability 1.7e-4 and the learned bias' sd
+    1.4e-4, together) and with the bias before the step known exactly."""
     from sensor_health import cross_track as ct
     n = ct.SPAN_EPOCHS
     tau, length = np.arange(n, dtype=float), np.ones(n)
     rel = speed_m_s / GNSS_SD_M  # rad/s -> fix-noise sd per s of a 1-s chord
     arw, step = hd.SENSOR["gyro"]["white"] * rel, 10 * hd.SENSOR["gyro"]["gm_sd"] * rel
-    tuned = float(f"{ct.STEP_BIAS_SDS * 1.7e-4 * rel:.2g}")
     base = np.column_stack([np.ones(n), np.cumsum(length)])
     steps = ct.step_columns(tau, length)
     rng = np.random.default_rng(1)
     for ref_sd in (ref_sd_rad_s * rel, 0.0):
-        gates = {"glr": ct.glr_gate(share_per_10h, float(f"{arw:.2g}"), float(f"{ref_sd:.2g}")),
-                 "cusum": ct.llr_gate(share_per_10h, float(f"{arw:.2g}"), float(f"{ref_sd:.2g}"), tuned)}
+        gates = {"glr": ct.glr_gate(share_per_10h, float(f"{arw:.2g}"), float(f"{ref_sd:.2g}"))}
         ci = ct.drift_inverse_covariance(length, tau, arw, 1.0, ref_sd)
         delays = {k: np.full(runs, np.inf) for k in gates}
         for r in range(runs):
@@ -221,7 +218,7 @@ def track_floor_section(share_per_10h: float, runs: int = 2000, speed_m_s: float
             d = np.lib.stride_tricks.sliding_window_view(course_err - heading, n)[1:after + 1]
             y = np.cumsum(d - d[:, :1] - ref_sd * rng.normal() * np.arange(n), axis=1)
             b, sd = ct.glr(ci, base, steps, y)
-            stats = {"glr": np.abs(b / sd).max(axis=1), "cusum": ct.known_step_llr(b, sd, tuned).max(axis=1)}
+            stats = {"glr": np.abs(b / sd).max(axis=1)}
             for k, stat in stats.items():
                 over = np.flatnonzero(stat > gates[k])
                 if len(over):

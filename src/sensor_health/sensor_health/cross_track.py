@@ -18,9 +18,8 @@ The test is sequential: at each fix, a generalised likelihood ratio over the las
 of the bias (against the learned one) at each chord (a window-limited GLR: a step is tested on all the fixes since
 it, not diluted in a fixed window), the learned bias' lag a random effect in the covariance. Its gate on the largest
 |z| comes from Monte Carlo on the model's noise through the same span (the heading's random walk, the fixes' white
-noise, the learned bias' error), for the test's share of the budget, one test per fix. ``test="cusum"`` swaps the
-|z| for a CUSUM tuned to the 10 x step (its log-likelihood ratio at each onset of the span), gated the same way:
-tried, measured, not the monitor's (README "Measured").
+noise, the learned bias' error), for the test's share of the budget, one test per fix. (A CUSUM tuned to the 10 x
+step was tried beside it and not kept: README "Measured".)
 
 The sign of gz against the course (z up or down) is learned from the first turns. Assumes the course is the
 heading (no sideslip, a mount without a yaw that changes) and x forward. No ROS, no simulator. Times s, angles rad,
@@ -57,8 +56,6 @@ SCALE_COLUMN_TURN_RAD = 0.1
 """The span's course must turn this much for the GLR to fit a scale error too (on a straight it is noise)."""
 REFERENCE_LAG_EPOCHS = 120.0
 """Correlation time (fixes) of the learned bias' error in the gate's Monte Carlo."""
-STEP_BIAS_SDS = 10.0
-"""The step the CUSUM (``test="cusum"``) is tuned to, in the model's bias sd (the issue's 10 x step)."""
 NOISE_WINDOWS = 60
 SIGMA_FLOOR_M = 0.005
 NOT_OBSERVABLE = "not observable on this record"
@@ -67,15 +64,11 @@ NOT_OBSERVABLE = "not observable on this record"
 class CrossTrackMonitor:
     """Streaming: :meth:`push_gnss` fixes, :meth:`push_imu` gz samples; both return the events they complete."""
 
-    def __init__(self, arw_rad_sqrt_s: float, budget_per_test_10h: float, bias_sd_rad_s: float = 0.0,
-                 test: str = "glr"):
+    def __init__(self, arw_rad_sqrt_s: float, budget_per_test_10h: float, bias_sd_rad_s: float = 0.0):
         """``arw_rad_sqrt_s``: the model's white noise of gz; ``bias_sd_rad_s``: its bias instability (the wander the
-        learned bias lags behind, added to the bias change's variance); ``test``: "glr" (a step of any size: the
-        monitor's) or "cusum" (tuned to a step of STEP_BIAS_SDS bias sd: faster on the benchmark's steps, but a false
-        event on its healthy drives where the GLR has none; README "Measured")."""
+        learned bias lags behind, added to the bias change's variance)."""
         self.arw = float(arw_rad_sqrt_s)
         self.bias_sd = float(bias_sd_rad_s)
-        self.test = test
         self.budget = float(budget_per_test_10h)
         self.gate = None
         """The GLR's gate on max |z|, from Monte Carlo when the test first runs (it needs the drive's speed and the
@@ -193,17 +186,12 @@ class CrossTrackMonitor:
         return []
 
     def _glr(self) -> tuple[float, float]:
-        """The test's statistic over the span's onsets (the CUSUM's log-likelihood ratio or the GLR's |z|) and the z
-        (signed) of a bias step against the learned bias at the onset it picks."""
+        """The GLR's largest |z| over the span's onsets and that z (signed) of a bias step against the learned bias."""
         ref, learned_sd = self.refs[0]
         _, tau, length, _, y, turn = self._drift(ref)
         step, sd = glr(self._inverse_covariance(length, tau, np.hypot(self.bias_sd, learned_sd)),
                        self._base(length, turn), step_columns(tau, length), y)
         z = step / sd
-        if self.test == "cusum":
-            llr = known_step_llr(step, sd, STEP_BIAS_SDS * self.bias_sd)
-            j = int(np.argmax(llr))
-            return float(llr[j]), float(z[j])
         j = int(np.argmax(np.abs(z)))
         return float(abs(z[j])), float(z[j])
 
@@ -222,13 +210,7 @@ class CrossTrackMonitor:
         if self.gate is None:
             rel = float(np.median(np.array(self.chords)[:, 1])) / self.sig  # rad/s -> fixes' sd per s of a chord
             arw = float(f"{self.arw * rel:.2g}")
-            if self.test == "cusum":
-                # the reference's error as the test's covariance carries it (the model's wander and the learned
-                # bias' own sd): the CUSUM's weights depend on it, the GLR's |z| hardly
-                ref_sd = float(f"{np.hypot(self.bias_sd, self.refs[0][1]) * rel:.2g}")
-                self.gate = llr_gate(self.budget, arw, ref_sd, float(f"{STEP_BIAS_SDS * self.bias_sd * rel:.2g}"))
-            else:
-                self.gate = glr_gate(self.budget, arw, float(f"{self.bias_sd * rel:.2g}"))
+            self.gate = glr_gate(self.budget, arw, float(f"{self.bias_sd * rel:.2g}"))
         return self.gate
 
     def _drift(self, ref, n=None):
@@ -283,7 +265,7 @@ class CrossTrackMonitor:
         step *= -self.sign  # the heading drift's slope is minus the bias (in gz's sign)
         return bias_shift_event(tk, float(tm[j]), "gz", step, sd,
                                 f"gz mean stepped by {step:.3g} rad/s (against the GNSS track, {abs(z):.1f} sd)",
-                                {"z": float(z), self.test: float(stat), "gate": self._gate()})
+                                {"z": float(z), "glr": float(stat), "gate": self._gate()})
 
     @staticmethod
     def _gls_scores(x, ci, y):
@@ -345,14 +327,6 @@ def glr(ci, base, steps, y) -> tuple[np.ndarray, np.ndarray]:
     return (y @ rs.T) / info, 1.0 / np.sqrt(info)
 
 
-def known_step_llr(step, sd, step_size) -> np.ndarray:
-    """Log-likelihood ratio (..., m) of a bias step of +-``step_size`` at each onset, from the GLS estimates ``step``
-    (..., m) of sd ``sd`` (m,) (the CUSUM tuned to that step, over the span's onsets: its drift is half the step in
-    sd units, which grow with the fixes since the onset), the better sign."""
-    delta = step_size / sd
-    return delta * np.abs(step / sd) - 0.5 * delta**2
-
-
 def simulated_drifts(epochs: int, arw_rel: float, ref_sd_rel: float, rng) -> np.ndarray:
     """Summed lateral drifts (epochs, SPAN_EPOCHS) of the spans ending at successive fixes on a straight at constant
     speed, on the model's noise alone (1-s chords; units of the chord length and the fixes' noise sd: the heading's
@@ -371,32 +345,13 @@ def simulated_drifts(epochs: int, arw_rel: float, ref_sd_rel: float, rng) -> np.
     return np.cumsum(d - d[:, :1] - ref_err[:, None] * np.arange(n), axis=1)
 
 
-def straight_glr(y, arw_rel: float, ref_sd_rel: float) -> tuple[np.ndarray, np.ndarray]:
-    """:func:`glr`'s step (epochs, m) and sd (m,) of each onset on simulated drifts ``y`` (epochs, SPAN_EPOCHS)
-    (straight, 1-s chords)."""
-    n = y.shape[-1]
-    tau, length = np.arange(n, dtype=float), np.ones(n)
-    return glr(drift_inverse_covariance(length, tau, arw_rel, 1.0, ref_sd_rel),
-               np.column_stack([np.ones(n), np.cumsum(length)]), step_columns(tau, length), y)
-
-
 def straight_glr_z(y, arw_rel: float, ref_sd_rel: float) -> np.ndarray:
     """The GLR's z (epochs, m) of each step on simulated drifts ``y`` (epochs, SPAN_EPOCHS) (straight, 1-s chords)."""
-    step, sd = straight_glr(y, arw_rel, ref_sd_rel)
+    n = y.shape[-1]
+    tau, length = np.arange(n, dtype=float), np.ones(n)
+    step, sd = glr(drift_inverse_covariance(length, tau, arw_rel, 1.0, ref_sd_rel),
+                   np.column_stack([np.ones(n), np.cumsum(length)]), step_columns(tau, length), y)
     return step / sd
-
-
-@functools.lru_cache(maxsize=32)
-def llr_gate(budget_per_test_10h: float, arw_rel: float, ref_sd_rel: float, step_rel: float, epochs: int = 20000,
-             seed: int = 0) -> float:
-    """Gate on the largest :func:`known_step_llr` of a step of ``step_rel`` (rad/s x chord length / fixes' sd) over
-    the span, for ``budget_per_test_10h`` false events per 10 h at one test per 1-s fix: its run length measured by
-    Monte Carlo on :func:`simulated_drifts` (the heading's random walk, the learned bias' slow error: autocorrelated
-    from fix to fix), exponential tail."""
-    step, sd = straight_glr(simulated_drifts(epochs, arw_rel, ref_sd_rel, np.random.default_rng(seed)), arw_rel,
-                            ref_sd_rel)
-    llr = known_step_llr(step, sd, step_rel).max(axis=1)
-    return thr.exp_tail_threshold(llr, budget_per_test_10h / thr.SECONDS_PER_10H)
 
 
 @functools.lru_cache(maxsize=32)
