@@ -224,3 +224,18 @@ def test_a_long_flat_top_in_a_turn_is_a_clip_when_the_lateral_acceleration_goes_
     frozen[at:, 2] = frozen[at, 2]
     first = _run(frozen, t)[0]
     assert (first.effect, first.channels) == ("stuck_output", ["gz"]) and first.t_s - t[at] <= 1.5
+
+
+def test_the_bias_filter_walks_with_the_models_rate_random_walk_where_it_is_faster_than_the_baseline():
+    """The bias filter's random walk per window is the model's K^2 window_s (the unit's own wander, which a walk
+    sized at the 600-s baseline lagged: slow excess in the innovations, false gx/gy events), the baseline's where
+    that is faster (az's 5-s one), and the baseline's alone for a model without K."""
+    from sensor_health.thresholds import bias_walk_variance
+    model = _model()
+    model.gyro.rate_random_walk = np.full(3, 1.2e-5)
+    sd_mean = np.r_[[1.5e-3] * 3, [2e-3] * 3]
+    tau_s = np.r_[[600.0] * 5, 5.0]
+    q = bias_walk_variance(model, sd_mean, tau_s, 1.0)
+    assert np.allclose(q[:3], 1.2e-5**2)
+    assert np.allclose(q[3:5], (2e-3 / 600.0) ** 2) and np.isclose(q[5], (2e-3 / 5.0) ** 2)
+    assert np.allclose(bias_walk_variance(_model(), sd_mean, tau_s, 1.0)[:3], (1.5e-3 / 600.0) ** 2)

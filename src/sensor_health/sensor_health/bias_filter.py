@@ -4,7 +4,7 @@ A land vehicle rolls in a turn and pitches when it brakes: gx sees the roll rate
 (and the pitch rate), az loses a little of gravity and gains the lateral acceleration times the roll. The body's
 roll and pitch follow the lateral and longitudinal accelerations, so each of these means is, to first order, a
 linear function of a few products of the other channels (``motion_regressors``). A Kalman filter per tested
-channel carries its bias (a random walk as slow as the model's bias drift) and the regression coefficients
+channel carries its bias (a random walk as fast as the model's bias wanders: ``thresholds.bias_walk_variance``) and the regression coefficients
 (learned while driving, starting unknown): its innovation, standardised by its own variance (which includes the
 coefficients' uncertainty, so an untrained turn is not a fault), feeds the two-sided bias CUSUM. The bias test
 thus runs through turns, not only on straights.
@@ -52,14 +52,14 @@ class BiasFilter:
     """Kalman filters (one per tested channel, run together) of [bias, motion coefficients]; SI units.
 
     ``chans`` (C,) channel indices; ``sd_mean`` (C,) sd of a window mean of the model's white and quantization
-    noise; ``tau_windows`` (C,) the bias' random-walk time constant in windows (the Kalman gain on a level at
-    steady state is about 1 / tau)."""
+    noise; ``q_bias`` (C,) the bias' random-walk variance per window (channel units squared; the Kalman gain on a
+    level at steady state is about sqrt(q_bias) / sd_mean)."""
 
-    def __init__(self, chans, sd_mean, tau_windows):
+    def __init__(self, chans, sd_mean, q_bias):
         self.chans = np.asarray(chans, int)
         self.sd_mean = np.asarray(sd_mean, float)
         c, p = len(self.chans), len(REGRESSORS) + 1
-        self.q_bias = self.sd_mean**2 / np.asarray(tau_windows, float) ** 2
+        self.q_bias = np.asarray(q_bias, float)
         prior = np.array([PRIOR_COEF_SD["gyro" if ch < 3 else "accel"] for ch in self.chans])
         self.coef_var0 = prior**2
         self.theta = np.zeros((c, p))

@@ -87,7 +87,7 @@ class HealthMonitor(VibrationCheck):
         self.cleared = []
         """Faults that went away: {"effect", "channels", "t_s" (cleared), "since_s" (named)}."""
         chans = list(thr.BIAS_CHANNELS)
-        self.bias_filter = BiasFilter(chans, self.thr.bias_sd[chans], self.thr.bias_tau_s[chans] / self.thr.window_s)
+        self.bias_filter = BiasFilter(chans, self.thr.bias_sd[chans], self.thr.bias_q[chans])
         self.bias_hist = []
         """(t0, t1, motion (C,), used (C,), mean - motion (C,)) of the recent windows: the motion part is taken out
         of the samples before the change point is looked for."""

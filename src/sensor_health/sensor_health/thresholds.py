@@ -51,6 +51,18 @@ def bias_warmup_windows(window_s: float) -> int:
 def baseline_times(bias_k: np.ndarray, baseline_s: float) -> np.ndarray:
     """Per-channel baseline time constant, s: FAST_BASELINE_S where k is at its cap, else ``baseline_s``."""
     return np.where(bias_k >= BIAS_K_RANGE[1], FAST_BASELINE_S, baseline_s)
+
+
+def bias_walk_variance(model: SensorModel, sd_mean: np.ndarray, tau_s: np.ndarray, window_s: float) -> np.ndarray:
+    """The bias filter's random-walk variance per window (6,), channel units squared: the model's rate random walk
+    (K^2 window_s), or the baseline's (sd_mean / tau in windows, squared) where that is faster.
+
+    Sized at the baseline alone (sqrt 2.5e-6 rad/s per 1-s window on the benchmark's gyro), the filter lagged the
+    unit's own wander (Allan K 1.2e-5 rad/s/sqrt(s)): the innovations' 60-s means had sd 0.155 on the healthy drives
+    against 0.129 for white ones, and that slow excess, which the 8000-window Monte Carlo's extrapolated run length
+    does not carry, is what gave the false gx and gy events. At the model's K they have 0.130."""
+    rrw = np.concatenate([model.gyro.rate_random_walk, model.accel.rate_random_walk])
+    return np.maximum((sd_mean * window_s / tau_s) ** 2, rrw**2 * window_s)
 BIAS_CHANNELS = (0, 1, 5)
 """gx, gy, az: on a land vehicle their means stay near constant (roll and pitch rates average out, az near g);
 gz, ax, ay carry the vehicle's turns and accelerations, so a bias step there is not seen in the raw signal."""
@@ -81,6 +93,8 @@ class Thresholds:
     """(6,) threshold per channel (inf where not monitored)."""
     bias_tau_s: np.ndarray
     """(6,) time constant of the slow baseline the window means are compared with, s."""
+    bias_q: np.ndarray
+    """(6,) the bias filter's random-walk variance per window (:func:`bias_walk_variance`), channel units squared."""
     line_h: float
     """chi-square(2) gate of the line statistic."""
     stuck_run: np.ndarray
@@ -136,10 +150,11 @@ def cusum_threshold(y: np.ndarray, k: float, target_windows: float) -> float:
     return float((np.log(target_windows) - icpt) / slope)
 
 
-def bias_innovations(ws, phi: np.ndarray, sd_mean: np.ndarray, tau_windows: np.ndarray) -> np.ndarray:
-    """The bias filter's standardised innovations (nw, len(BIAS_CHANNELS)) on windows ``ws`` with regressors phi."""
+def bias_innovations(ws, phi: np.ndarray, sd_mean: np.ndarray, q_bias: np.ndarray) -> np.ndarray:
+    """The bias filter's standardised innovations (nw, len(BIAS_CHANNELS)) on windows ``ws`` with regressors phi;
+    ``q_bias`` (6,) the bias' random-walk variance per window."""
     chans = list(BIAS_CHANNELS)
-    filt = bias_filter.BiasFilter(chans, sd_mean[chans], tau_windows[chans])
+    filt = bias_filter.BiasFilter(chans, sd_mean[chans], q_bias[chans])
     use = np.ones(len(chans), bool)
     return np.array([filt.step(ws.mean[w], phi[w], ws.level[w], use)[0] for w in range(len(phi))])
 
@@ -228,7 +243,8 @@ def monte_carlo(model: SensorModel, grid: WindowGrid, window_s: float, budget_pe
     # short baseline, which follow it; a smaller accelerometer step than 3 sd per window is not claimed
     bias_k[3:] = BIAS_K_RANGE[1]
     tau = baseline_times(bias_k, baseline_s)
-    z = bias_innovations(ws, bias_filter.motion_regressors(x), white_sd, tau / window_s)
+    bias_q = bias_walk_variance(model, white_sd, tau, window_s)
+    z = bias_innovations(ws, bias_filter.motion_regressors(x), white_sd, bias_q)
     z = z[bias_warmup_windows(window_s):]
     bias_h = np.full(6, np.inf)
     for i, c in enumerate(BIAS_CHANNELS):
@@ -241,6 +257,6 @@ def monte_carlo(model: SensorModel, grid: WindowGrid, window_s: float, budget_pe
     clip_per_10h = clip_per_10h if clip_per_10h > 0 else per_test
     clip_span = clip_threshold(sample_sigma(model, grid.dt), model_lattice(model, grid.dt), grid.n,
                                clip_per_10h * window_s / SECONDS_PER_10H, seed=seed)
-    return Thresholds(window_s, mu, sd, noise_k, noise_h, white_sd, bias_k, bias_h, tau, line_h, stuck, clip_ties,
+    return Thresholds(window_s, mu, sd, noise_k, noise_h, white_sd, bias_k, bias_h, tau, bias_q, line_h, stuck, clip_ties,
                       clip_span, sample_sigma(model, grid.dt), budget_per_10h, mc_windows,
                       gyro_bias_per_10h, clip_per_10h)
