@@ -100,6 +100,19 @@ MTABLE_MIS = np.array([[0.0, 1.2e-3, -0.8e-3], [0.9e-3, 0.0, 1.1e-3], [-1.0e-3, 
 SLOW_LEGS = [(kind, dur, val * SLOW_SPEED if kind == "speed" else val) for kind, dur, val in gen.STOP_AND_GO]
 """--drive slow: the town drive's legs at SLOW_SPEED of their speeds (a slow vehicle: up to 9 m/s, mean 5.9 m/s,
 1.4 km in 240 s)."""
+SHORT_LEGS = [("stand", 5, 0), ("speed", 10, 3.1), ("cruise", 45, 0), ("turn", 20, 90), ("cruise", 45, 0),
+              ("turn", 20, -90), ("cruise", 45, 0), ("turn", 20, 90), ("cruise", 45, 0), ("turn", 20, -90),
+              ("cruise", 30, 0), ("speed", 5, 0)]
+"""--drive short: a 6-knot (3.1 m/s) boat or slow vehicle, four 90-deg turns, ~900 m in 300 s (~300 fixes), the
+blind's short consumer drive."""
+GNSS_WHITE_M = [0.5, 0.5, 1.0]
+"""White fix noise of the drives (m, E N U), stated in the scenario and in the fixes' std columns."""
+SHORT_WHITE_M = [1.5, 1.5, 3.0]
+"""--drive short: a consumer receiver's white fix noise (m, E N U): the blind's short drive had its coloured term at a
+Whittle LR of 183, which 1.3/1.3/1.9 m over 0.5/0.5/1.0 m white reaches 600-1100 times."""
+SHORT_COLORED = ([1.3, 1.3, 1.9], 150.0)
+"""--drive short --realistic: the coloured GNSS error (m E N U, tau s) of the blind's short drive: tau half the
+record."""
 TABLE_TYPED_S = 0.5
 """The realistic rate table's segments are typed to this (s): t0, t1 from the controller's schedule or a coarse log
 rounded to it, so a stated dwell may begin up to half of it inside the ramp before it (or end inside the next)."""
@@ -200,6 +213,11 @@ SCALE_FREE = ("earth_rate_rad_per_s", "gravity_mps2", "frequency_hz", "time_cons
 """Parameters a fixture case's grade does not scale."""
 
 
+def gnss_white_m() -> list:
+    """The drive's white fix noise (m, E N U)."""
+    return SHORT_WHITE_M if DRIVE == "short" else GNSS_WHITE_M
+
+
 def grade_of(kind: str, seed: int) -> str:
     """The sensor grade of a case: cycled over GRADES by seed for the realistic table and drive cases, else the
     plain cases' industrial sensor."""
@@ -210,7 +228,8 @@ def effect_params(name: str, grade: str) -> dict:
     """A case's concealed parameters; the table's scale factor and misalignment scaled with the grade's noise."""
     par = dict(CASES[name][2])
     if name == "colored_gps_noise" and REALISTIC:
-        par["sigma"] = COLORED_SIGMA_REALISTIC
+        par["sigma"] = SHORT_COLORED[0] if DRIVE == "short" else COLORED_SIGMA_REALISTIC
+        par["tau"] = SHORT_COLORED[1] if DRIVE == "short" else par["tau"]
     for key in ("gyro_z", "xz"):
         if key in par and CASES[name][0] in ("table", "ltable"):
             par[key] *= GRADES[grade]
@@ -226,7 +245,8 @@ def true_values(name: str, grade: str) -> dict:
         k = GRADES[grade] * (TEMP_REALISTIC if name == "fx_temperature_bias" else 1.0)
         return {p: v * (1.0 if p in SCALE_FREE else k) for p, v in TRUE.get(name, {}).items()}
     if name == "colored_gps_noise" and REALISTIC:
-        return {f"sigma_m[{a}]": v for a, v in zip("enu", COLORED_SIGMA_REALISTIC)}
+        sigma, tau = SHORT_COLORED if DRIVE == "short" else (COLORED_SIGMA_REALISTIC, CASES[name][2]["tau"])
+        return {**{f"sigma_m[{a}]": v for a, v in zip("enu", sigma)}, "correlation_time_s": tau}
     return TRUE.get(name, {})
 
 
@@ -291,6 +311,8 @@ def motion_of(kind: str):
     if kind == "drive":
         if DRIVE == "slow":
             return gen.StopAndGo(240.0, legs=SLOW_LEGS), 50.0, 100.0
+        if DRIVE == "short":
+            return gen.StopAndGo(300.0, legs=SHORT_LEGS), 50.0, 100.0
         return (gen.StopAndGo(240.0) if DRIVE == "town" else gen.FigureEight(1200.0)), 50.0, 100.0
     if kind == "updown":
         return None, 64.0, None
@@ -400,7 +422,7 @@ def generate(name: str, seed: int, folder: Path) -> dict:
         gen.write_csv(folder / "truth.csv", site.truth_rows(motion, truth_rate))
         scenario.update(trajectory="truth.csv", gps=False)
     if kind == "drive":
-        scenario["gps"] = {"rate_hz": 1.0, "sigma_m": [0.5, 0.5, 1.0]}
+        scenario["gps"] = {"rate_hz": 1.0, "sigma_m": list(gnss_white_m())}
         paths["gnss"] = _gnss(site, motion, rng, folder, effect, par)
     paths["scenario"] = folder / "scenario.yaml"
     paths["scenario"].write_text(yaml.safe_dump(scenario, sort_keys=False))
@@ -460,13 +482,14 @@ def _gnss(site, motion, rng, folder, effect, par):
     lag = par["latency"] if effect == "gps_latency" else 0.0
     rows = site.truth_rows(motion, 1.0, lever_arm_m=arm, t=t - lag)
     enu = site.enu_offset(np.radians(rows["lat_deg"]), np.radians(rows["lon_deg"]), rows["h_m"])
-    enu += rng.normal(0, 1, (len(t), 3)) * [0.5, 0.5, 1.0]
+    white = gnss_white_m()
+    enu += rng.normal(0, 1, (len(t), 3)) * white
     if effect == "colored_gps_noise":
         enu += gen.gauss_markov(rng, len(t), 1.0, par["sigma"], par["tau"])
     r = site.r0 + enu @ site.c_e_enu0.T
     lat, lon, h = gen.geodetic_from_ecef(r)
     cols = {"t": t, "lat_deg": np.degrees(lat), "lon_deg": np.degrees(lon), "h_m": h,
-            "std_e": np.full(len(t), 0.5), "std_n": np.full(len(t), 0.5), "std_u": np.full(len(t), 1.0)}
+            "std_e": np.full(len(t), white[0]), "std_n": np.full(len(t), white[1]), "std_u": np.full(len(t), white[2])}
     return gen.write_csv(folder / "gnss.csv", cols)
 
 
@@ -694,8 +717,9 @@ def main(argv=None) -> int:
     parser.add_argument("--out", default="/tmp/diag_independent")
     parser.add_argument("--resume", default=None, help="rows.json of an earlier run of the same code to reuse")
     parser.add_argument("--quick", action="store_true", help="1 seed of one effect and one null (a smoke run)")
-    parser.add_argument("--drive", choices=("figure8", "town", "slow"), default="figure8",
-                        help="drive of the GNSS, coriolis and null_drive cases (town: 240 s with stops, see DRIVE)")
+    parser.add_argument("--drive", choices=("figure8", "town", "slow", "short"), default="figure8",
+                        help="drive of the GNSS, coriolis and null_drive cases (town: 240 s with stops, see DRIVE; "
+                             "short: 300 s at 6 knots, SHORT_LEGS)")
     parser.add_argument("--realistic", action="store_true",
                         help="misstated noise, flicker bias instability, off-nominal fixtures, a 10-Hz drive truth with "
                              "slow error, the rate table typed as its holds (module docstring)")
