@@ -37,6 +37,15 @@ def test_grade_is_read_from_the_model_or_inferred_from_its_gyro_noise():
         plausibility.grade_of(_model(grade="military"))
 
 
+def test_a_note_names_an_inferred_grade_as_inferred_never_as_the_units_own():
+    """Blind seed 4: consumer and tactical records read 'industrial-grade bound' with nothing said of where the grade
+    came from; a grade the model does not state is named with how it was inferred."""
+    assert plausibility.grade_text(*plausibility.grade_of(_model(grade="consumer"))) == "consumer-grade"
+    text = plausibility.grade_text(*plausibility.grade_of(_model(2e-4)))
+    assert text.startswith("industrial-grade (inferred from the gyro angle random walk 0.688 deg/sqrt(h)")
+    assert "states no provenance.grade" in text
+
+
 def test_bounds_widen_from_navigation_to_consumer():
     for key in plausibility.BOUNDS["navigation"]:
         values = [plausibility.BOUNDS[g][key] for g in plausibility.GRADES]

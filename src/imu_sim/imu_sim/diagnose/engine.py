@@ -174,11 +174,13 @@ def _model_error(cand: Candidate, broken: list, grade: str, how: str) -> dict:
             "value": worst["value"], "bound": worst["bound"], "grade": grade, "grade_source": how,
             "all_out_of_bounds": broken, "parameters": cand.params, "intervals": cand.intervals,
             "statistic": {"name": cand.statistic, "value": rounded(cand.stat), "threshold": rounded(cand.threshold)},
-            "explanation": (f"A {cand.effect} fit of this size is not possible for a {grade}-grade sensor: the "
+            "explanation": (f"A {cand.effect} fit of this size is not possible for a "
+                            f"{plausibility.grade_text(grade, how)} sensor: the "
                             "reference (fixture attitude, trajectory, site) or the model is wrong, not the sensor.")}
 
 
-def _refit_without(cand: Candidate, broken: list, grade: str, case=None, resid=None) -> Candidate | None:
+def _refit_without(cand: Candidate, broken: list, grade: str, case=None, resid=None,
+                   label: str | None = None) -> Candidate | None:
     """The regression refitted without its out-of-bound or unidentified parameters (the former reported as
     reference_or_model_error), when the rest is still significant and plausible - on a fixture, given the holds'
     tilts again (:func:`fixture.rank_given_tilts`) - ; None otherwise."""
@@ -202,16 +204,16 @@ def _refit_without(cand: Candidate, broken: list, grade: str, case=None, resid=N
             or (case is not None and plausibility.below_reference(again, case))):
         return None
     again.caveat = " ".join(filter(None, [again.caveat, (
-        f"Refitted without {', '.join(names)}: outside the {grade}-grade bounds (reported under "
+        f"Refitted without {', '.join(names)}: outside the {label or grade + '-grade'} bounds (reported under "
         "reference_or_model_error, or not identifiable on this record), not sensor physics.")]))
     return again
 
 
-def _unidentified_note(vague: list) -> str:
+def _unidentified_note(vague: list, label: str | None = None) -> str:
     """The ``tested`` note of parameters fitted outside the grade's bounds with intervals wider than the bound."""
     worst = max(vague, key=lambda v: abs(v["value"]) / v["bound"])
     return (f"not identifiable on this record: {', '.join(v['parameter'] for v in vague)} fitted outside the "
-            f"{worst['grade']}-grade bound ({worst['parameter']} = {worst['value']:.4g}, 95 % interval "
+            f"{label or worst['grade'] + '-grade'} bound ({worst['parameter']} = {worst['value']:.4g}, 95 % interval "
             f"[{worst['interval'][0]:.3g}, {worst['interval'][1]:.3g}], bound {worst['bound']:g}) without being "
             "determined to it: the fit takes what the record cannot tell from it (on still holds, each hold's "
             "gyro bias change against the Earth rate), not sensor physics")
@@ -245,6 +247,7 @@ def diagnose(case: Case, max_effects: int = 4, seed: int = 0, progress=None, fac
     resid = resid0
     findings, details, tested, accepted = [], [], None, set()
     grade, grade_how = plausibility.grade_of(case.model)
+    label = plausibility.grade_text(grade, grade_how)
     model_errors, rounds, not_separable, unidentified = [], 0, {}, {}
     while rounds < max_effects + 2:
         if len(findings) >= max_effects:
@@ -273,9 +276,9 @@ def diagnose(case: Case, max_effects: int = 4, seed: int = 0, progress=None, fac
             if broken:
                 model_errors.append(_model_error(best, broken, grade, grade_how))
             if vague or floor:
-                unidentified[best.effect] = "; ".join(filter(None, [vague and _unidentified_note(vague),
+                unidentified[best.effect] = "; ".join(filter(None, [vague and _unidentified_note(vague, label),
                                                                     floor and _floor_note(floor)]))
-            best = _refit_without(best, broken + vague + floor, grade, case, clean)
+            best = _refit_without(best, broken + vague + floor, grade, case, clean, label)
             if best is None:
                 continue
         rounds += 1
@@ -327,7 +330,7 @@ def diagnose(case: Case, max_effects: int = 4, seed: int = 0, progress=None, fac
         flagged = [e for e in model_errors if e["effect_tested"] == entry["effect"]]
         if flagged:
             entry["note"] = (entry["note"] + "; " if entry["note"] else "") + (
-                f"fit outside the {grade}-grade bounds ({flagged[0]['parameter']} = {flagged[0]['value']:.4g}, "
+                f"fit outside the {label} bounds ({flagged[0]['parameter']} = {flagged[0]['value']:.4g}, "
                 f"bound {flagged[0]['bound']}): reported as reference_or_model_error, not as sensor physics" + (
                     "; the effect's other parameters refitted without it and kept"
                     if entry["effect"] in [f["effect"] for f in findings] else ""))

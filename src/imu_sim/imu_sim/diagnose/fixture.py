@@ -17,7 +17,7 @@ import numpy as np
 from scipy.linalg import block_diag
 
 from imu_sim.diagnose import plausibility
-from imu_sim.diagnose.hold_noise import Prior, bias_wander, inflation, penalised_fit
+from imu_sim.diagnose.hold_noise import Prior, bias_wander, inflation, penalised_fit, stated_inflation
 from imu_sim.diagnose.unstated import is_rate_table, unreferenced_segments
 
 NOT_SEPARABLE = "not separable from the reference on this record"
@@ -169,9 +169,10 @@ def _stack(columns: dict, n: int, k: int) -> np.ndarray:
     return out
 
 
-def _setup(case, cand_columns: dict, resid: np.ndarray):
+def _setup(case, cand_columns: dict, resid: np.ndarray, slow: bool = False):
     """Shared pieces of the joint fit: weights, design, stacked effect, residual, row weights (noise std per channel
-    on the holds only), tilt prior; None when the record has no fixture holds or no tolerance."""
+    on the holds only; a ``slow`` curve's by :func:`hold_noise.stated_inflation` too), tilt prior; None when the
+    record has no fixture holds or no tolerance."""
     if "fixture_weights" not in case.cache:  # the same for every candidate and pass
         case.cache["fixture_weights"] = _weights(case)
     weights = case.cache["fixture_weights"]
@@ -207,6 +208,8 @@ def _setup(case, cand_columns: dict, resid: np.ndarray):
     # by its effective sample size too (a consumer fixture's warm-up and Gauss-Markov bias were taken by a
     # misalignment of white-noise statistic far above threshold)
     infl = inflation(fit_resid, hold, case.dt)
+    if slow:  # its evidence within a hold lies at the hold's own scale, where a stated flicker has grown
+        infl = np.maximum(infl, stated_inflation(case.model, hold, case.dt))
     w = np.repeat(1.0 / np.maximum(sigma * np.sqrt(infl), 1e-300), n) * np.tile(hold, 6)
     # the tolerance is a Gaussian prior (sd = tolerance) on each tilt: a rotation about the gravity axis, which the
     # specific force cannot see, stays within it instead of fitting the Earth rate's noise with tens of degrees
@@ -230,7 +233,7 @@ def _given(case, cand, resid: np.ndarray, cache: dict | None = None, columns: di
     parameters and covariance in the joint fit) or None when the record has no fixture holds, or the candidate no
     evidence on them. ``cache`` keeps the tilt-only fit; ``columns`` replace the candidate's (a warm-up's time
     constant profiled); ``free`` leaves each hold's attitude free instead of within the tolerance."""
-    setup = _setup(case, columns or cand.columns, resid)
+    setup = _setup(case, columns or cand.columns, resid, slow=cand.effect in SLOW_CURVES)
     if setup is None:
         return None
     weights, tol, tilt, eff, raw, w, prior, _ = setup
@@ -393,7 +396,19 @@ def _warmup_given_tilts(case, cand, resid: np.ndarray, cache: dict):
     cand.intervals["time_constant_s"] = profile_interval(np.log([f[1] for f in fits]), np.array([f[0] for f in fits]),
                                                          i)
     cand.physics = dict(cand.physics or {}, time_constant_s=float(best[1]))
-    return best[3]
+    return _with_tau_uncertainty(case, cand, resid, cache, best)
+
+
+def _with_tau_uncertainty(case, cand, resid: np.ndarray, cache: dict, best: tuple) -> tuple:
+    """The best time constant's joint fit, its amplitudes' covariance carried through the time constant's own
+    uncertainty: refitted with the curve's derivative in tau as one more column (its Jacobian, as the tilt-blind GLS
+    does). At a fixed tau the amplitudes' intervals knew nothing of it (blind navigation warm-ups: 4/7 covering)."""
+    theta, k, rel = best[3][3], len(best[3][3]), (case.t - case.t[0]) / float(best[1]) ** 2
+    got = _given(case, cand, resid, cache, columns={c: np.hstack([x, ((x @ theta) * rel)[:, None]])
+                                                     for c, x in best[2].items()})
+    if got is None or got is MOVES_ONLY or not np.all(np.isfinite(got[4])):
+        return best[3]
+    return (*best[3][:4], got[4][:k, :k])
 
 
 def _from_joint_fit(case, cand, theta: np.ndarray, cov: np.ndarray) -> None:
@@ -409,9 +424,8 @@ def _from_joint_fit(case, cand, theta: np.ndarray, cov: np.ndarray) -> None:
     cand.params.update({m: float(v) for m, v in zip(names, theta)})
     cand.intervals.update({m: [float(v - h), float(v + h)] for m, v, h in zip(names, theta, half)})
     tau = cand.params.get("time_constant_s")
-    cand.physics = design.to_physics(np.asarray(theta, float))
-    if tau is not None:
-        cand.physics["time_constant_s"] = float(tau)
+    cand.physics = dict(design.to_physics(np.asarray(theta, float)), **({} if tau is None else
+                                                                        {"time_constant_s": float(tau)}))
     cand.contrib = np.zeros((case.n, 6))
     for ch, x in cand.columns.items():
         cand.contrib[:, ch] = x @ theta

@@ -73,6 +73,15 @@ def grade_of(model) -> tuple:
     return grade, "inferred from the gyro " + " and ".join(w for _, w in found)
 
 
+def grade_text(grade: str, how: str) -> str:
+    """How a note names the grade whose bounds it applies: '<grade>-grade' when the model states it, else with how it
+    was inferred (a consumer unit's quiet gyro can read as industrial: the note must not pass that off as the
+    unit's own)."""
+    if how.startswith("stated"):
+        return f"{grade}-grade"
+    return f"{grade}-grade ({how}; the model states no provenance.grade)"
+
+
 def violations(cand, grade: str, scale: float | None = None) -> list:
     """Parameters of a candidate outside the grade's bounds: list of {parameter, value, bound, grade}.
 
