@@ -189,7 +189,10 @@ def _refit_without(cand: Candidate, broken: list, grade: str, case=None, resid=N
         if cand.refit is None or len(names) >= len(cand.params):
             return None
         again = cand.refit(names)
-        if case is not None and again.significant:
+        # a hand-mounted table's refit is the joint fit with its mountings again, which evaluate() also applies after
+        # the fixture's tilts: the tilts' joint fit must not overwrite it (own tactical long table 7001: gyro z
+        # 6.87e-5 [6.61e-5, 7.14e-5] for 7e-5 in the first pass, 4.05e-5 [3.78e-5, 4.31e-5] after the refit)
+        if case is not None and again.significant and getattr(again, "mounting_theta", None) is None:
             fixture.rank_given_tilts(case, [again], resid)
             if again.rank == fixture.IMPLAUSIBLE_RANK:
                 return None
