@@ -19,8 +19,9 @@ class HealthConfig:
     gyro_bias_per_10h: float = 0.0
     """False events per 10 h allowed to each of the gx and gy bias CUSUMs, on top of ``false_alarms_per_10h``
     (0: an equal share of it). A step of 10x a MEMS gyro's bias sd is ~1.3 sd of a 1-s mean, at its white-noise
-    floor, where a larger share shortens the delay (bench_sensor_health --floor); but the bias filter's motion
-    misfit on real driving eats it: at 0.1 the benchmark's healthy drives gave 3 false gx events in 4 h."""
+    floor, where a larger share shortens the delay (bench_sensor_health --floor); but the unit's slow bias wander
+    eats it: at 0.1 the benchmark's healthy drives gave 3 false gx events in 4 h (11 gx/gy crossings in 40 h with
+    the filter's walk from the model's K, mostly on straights)."""
     track_bias_per_10h: float = 0.1
     """False events per 10 h allowed to each of the bias tests against the GNSS track (gz, ax, ay), on top of
     ``false_alarms_per_10h`` (0: an equal share of it): a 10x bias-sd gz step shows against the track no faster than
