@@ -134,6 +134,8 @@ def _deterministic_first(sig: list) -> Candidate:
 
 NOT_SEPARABLE_MARK = "not separable from the reference"
 """What every not-separable note (fixture tilt, moving truth, unstated moves) says."""
+BARRED_MARKS = (NOT_SEPARABLE_MARK, "not significant on the holds")
+"""Notes that bar a candidate from later passes: not separable, or below threshold on a fixture's holds."""
 
 
 def _bar_not_separable(cands: list, barred: dict, first_pass: bool) -> None:
@@ -142,7 +144,7 @@ def _bar_not_separable(cands: list, barred: dict, first_pass: bool) -> None:
     fixture's tilts in the first pass was fitted in the second, with 96 % of the share). The first pass's own notes
     are in ``tested`` already; a later pass's are added there."""
     for cand in cands:
-        if not cand.identifiable and NOT_SEPARABLE_MARK in (cand.reason or "") and cand.effect not in barred:
+        if not cand.identifiable and any(m in (cand.reason or "") for m in BARRED_MARKS) and cand.effect not in barred:
             barred[cand.effect] = "" if first_pass else f"in a later pass: {cand.reason}"
 
 

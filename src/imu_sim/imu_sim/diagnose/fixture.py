@@ -17,10 +17,10 @@ import numpy as np
 from scipy.linalg import block_diag
 
 from imu_sim.diagnose import plausibility
+from imu_sim.diagnose.fixture_notes import NOT_SEPARABLE, free_note as _free_note, tilt_note as _note
 from imu_sim.diagnose.hold_noise import Prior, bias_wander, inflation, penalised_fit, stated_inflation
 from imu_sim.diagnose.unstated import is_rate_table, unreferenced_segments
 
-NOT_SEPARABLE = "not separable from the reference on this record"
 TILT_EFFECTS = ("axis_misalignment", "scale_factor", "gyro_g_sensitivity", "gravity_model", "earth_rotation",
                 "warmup_drift", "temperature_bias")
 """Effects whose regressors a fixture tilt can reproduce (true rate / specific force on a static segment; a slow
@@ -281,13 +281,6 @@ def _spinning_holds(case) -> bool:
     return any(np.max(np.abs(case.gyro_true[a:b])) >= STILL_RAD_S for a, b in holds(case))
 
 
-def _note(case, cand, lr_alone: float, given: float, top: float) -> str:
-    return (f"{NOT_SEPARABLE}: on the holds, given a tilt of each static segment's fixture (at most "
-            f"{np.degrees(top):.3g} deg, tolerance {case.scenario.attitude_tolerance_deg:g} deg: "
-            f"attitude_tolerance_deg) its likelihood ratio falls from {lr_alone:.3g} to {given:.3g}, below the "
-            f"threshold {cand.threshold:.3g}; not ranked")
-
-
 def check(case, cand, resid: np.ndarray) -> str | None:
     """The note when a fixture tilt within tolerance can stand for ``cand`` (None: separable or not applicable).
 
@@ -360,14 +353,6 @@ def _free_attitude_holds(case) -> bool:
     accelerometer misalignment both make, one for one."""
     segs = unreferenced_segments(case.scenario)
     return segs is not None and not is_rate_table(segs)
-
-
-def _free_note(case, cand, given: float, free: float) -> str:
-    return (f"{NOT_SEPARABLE}: on a fixture of still holds each hold's attitude is its own, and a tilt of each hold "
-            "makes the same level accelerometer readings as an accelerometer misalignment (the gyros see only the "
-            f"Earth rate, 7.3e-5 rad/s, to tell them apart); with each hold's attitude free its likelihood ratio is "
-            f"{free:.3g} (within attitude_tolerance_deg {case.scenario.attitude_tolerance_deg:g} deg: {given:.3g}), "
-            f"below the threshold {cand.threshold:.3g}; not ranked")
 
 
 WARMUP_TAU_STEP = 2

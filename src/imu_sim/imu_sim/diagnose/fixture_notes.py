@@ -1,0 +1,31 @@
+"""The notes a fixture's nuisance test writes into ``tested`` for a candidate it does not rank (text only)."""
+from __future__ import annotations
+
+import numpy as np
+
+NOT_SEPARABLE = "not separable from the reference on this record"
+
+
+def tilt_note(case, cand, lr_alone: float, given: float, top: float) -> str:
+    """Why a tilt-sensitive candidate is not ranked on a fixture's holds: below threshold there given the holds' bias
+    offsets, or only given the fixture's tilts within attitude_tolerance_deg (not separable from the reference)."""
+    if lr_alone < cand.threshold:
+        # the tilts took nothing: the holds' own evidence is below threshold once each hold's bias offset and the
+        # unit's stated wander are allowed for, so calling it inseparable from the reference would blame the fixture
+        return (f"not significant on the holds: given each hold's bias offset and the unit's stated wander its "
+                f"likelihood ratio there is {lr_alone:.3g} ({given:.3g} given a tilt of each static segment's fixture "
+                f"too), below the threshold {cand.threshold:.3g}; not ranked")
+    return (f"{NOT_SEPARABLE}: on the holds, given a tilt of each static segment's fixture (at most "
+            f"{np.degrees(top):.3g} deg, tolerance {case.scenario.attitude_tolerance_deg:g} deg: "
+            f"attitude_tolerance_deg) its likelihood ratio falls from {lr_alone:.3g} to {given:.3g}, below the "
+            f"threshold {cand.threshold:.3g}; not ranked")
+
+
+def free_note(case, cand, given: float, free: float) -> str:
+    """Why an accelerometer misalignment on a fixture of still holds is not ranked: a free tilt of each hold makes the
+    same readings."""
+    return (f"{NOT_SEPARABLE}: on a fixture of still holds each hold's attitude is its own, and a tilt of each hold "
+            "makes the same level accelerometer readings as an accelerometer misalignment (the gyros see only the "
+            f"Earth rate, 7.3e-5 rad/s, to tell them apart); with each hold's attitude free its likelihood ratio is "
+            f"{free:.3g} (within attitude_tolerance_deg {case.scenario.attitude_tolerance_deg:g} deg: {given:.3g}), "
+            f"below the threshold {cand.threshold:.3g}; not ranked")
