@@ -117,6 +117,20 @@ def test_any_overwritten_span_keeps_every_intact_imu_message(tmp_path, mcap_bag,
         assert damage and str(path) in damage and "bytes" in damage
 
 
+def test_a_byte_flipped_in_a_chunks_time_range_loses_no_message(tmp_path, mcap_bag):
+    """A chunk's stated start time is only a resynchronisation aid: its intact messages outside it still chain (CI,
+    28 Nov: one byte of the first chunk's start time, +4.3 s, lost 275 intact IMU messages)."""
+    _, name, data, spans = mcap_bag
+    chunk = data.index(b"\x06", 8 + 9 + struct.unpack_from("<Q", data, 9)[0])  # the record after the header
+    for field in (0, 8):  # message start time, then end time
+        damaged = bytearray(data)
+        damaged[chunk + 9 + field + 4] ^= 0x01 if field == 0 else 0xFF  # start 4.3 s later; end far earlier
+        path = tmp_path / name
+        path.write_bytes(bytes(damaged))
+        got = {log_ns for _, _, log_ns, _ in bagio.iter_raw(path, ["imu/data_raw"])}
+        assert set(spans) <= got
+
+
 def test_a_20_byte_mcap_is_a_recording_error_naming_the_file(tmp_path, mcap_bag):
     path = tmp_path / "tiny.mcap"
     path.write_bytes(mcap_bag[2][:20])
