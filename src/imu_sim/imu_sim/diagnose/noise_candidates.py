@@ -121,8 +121,6 @@ def _above_hold_scale(case, model, resid, m: int, tb: float, best: list) -> list
     10 s: 3.9-4.7e-4, at 40 s 2.9-3.5e-4 and no interval covering; blind consumer fixtures 1/12 covered). Above
     it only the level over the correlation time is seen once the latter passes the hold, and the band's interval,
     joined over its profile's set, says how far the level can reach."""
-    if not hasattr(case, "cache"):
-        return best  # the held-out metric's refit on a half (a length and an interval only): no holds, no intervals
     spans = reference.holds(case)
     if len(spans) < 2:
         return best
@@ -178,7 +176,9 @@ def noise(ctx: Context, effect: str) -> Candidate:
     """Gauss-Markov bias or bias random walk beyond the model's noise (exact block-mean likelihood, else Whittle),
     on the residual less each hold's own offset when the record has several holds (:func:`reference.hold_demeaned`:
     the fixture's tilt per hold is a nuisance the slow terms must not take)."""
-    if hasattr(ctx.case, "scenario"):
+    # the held-out metric's refit on half a record is a stand-in with a length and an interval only: no holds
+    on_record = hasattr(ctx.case, "scenario")
+    if on_record:
         ctx = replace(ctx, resid=reference.hold_demeaned(ctx.case, ctx.resid))
     case, model, resid = ctx.case, ctx.model, ctx.resid
     if effect == "bias_random_walk":
@@ -204,7 +204,7 @@ def noise(ctx: Context, effect: str) -> Candidate:
     lr_ch = robust_lr(ctx, effect, taus, np.array([b[0] for b in best]), cut)
     thr = threshold(dof, ctx.m_tests, n_grid, ctx.factor(effect))
     cand = Candidate(effect, float(lr_ch.sum()), thr, f"{statistic}; {ROBUST_TEXT}", kind="noise")
-    if effect == "gauss_markov_bias" and statistic.startswith("Whittle"):
+    if effect == "gauss_markov_bias" and statistic.startswith("Whittle") and on_record:
         best = _above_hold_scale(ctx.case, model, resid, m, tb, best)
     cand.channels = [CHANNELS[c] for c in range(6) if lr_ch[c] > cut]
     mdl = effective_model(model)
