@@ -43,6 +43,9 @@ DRIVE = "figure8"
 """``--drive town``: the drive cases run on a 240-s town drive (stops, quintic speed changes <= 2 m/s^2, turns with
 lateral acceleration <= 2.5 m/s^2, hills, body roll; ``independent_gen.StopAndGo``) instead of the 1200-s
 figure-eight."""
+TRUTH_VELOCITY = True
+"""``--truth-positions``: a realistic drive's truth.csv has positions and attitude only (no ve/vn/vu rows), as a
+track smoothed from GNSS is often written: the simulator's specific force then comes from the positions' spline."""
 NOISE_MISSTATED = 0.10
 """Largest relative error of a noise level the user's model states (realistic cases)."""
 GYRO_FLICKER, ACCEL_FLICKER = 2e-5, 1e-4
@@ -151,6 +154,7 @@ CASES = {
     "earth_rotation_updown": ("updown", "earth_rotation", {}),  # one record, the turn recorded
     "gps_latency": ("drive", "gps_latency", {"latency": 0.03}),
     "gps_lever_arm": ("drive", "gps_lever_arm", {"arm": [0.35, -0.25, 0.4]}),
+    "gps_lever_arm_z": ("drive", "gps_lever_arm", {"arm": [0.0, 0.0, 1.68]}),  # a roof antenna over the IMU
     "colored_gps_noise": ("drive", "colored_gps_noise", {"sigma": [0.3, 0.3, 0.5], "tau": 30.0}),
     "coriolis": ("drive", "coriolis", {}),  # the user's model leaves out 2 Omega x v (and the transport rate)
     # a six-position test on an imperfect fixture, moved by hand (FIXTURE_* below); parameters at industrial grade,
@@ -201,6 +205,7 @@ TRUE = {
     "bias_random_walk": {f"gyro_rad_per_s_per_sqrt_s[{a}]": 6e-7 for a in "xyz"},
     "gps_latency": {"latency_s": 0.03},
     "gps_lever_arm": {"lever_arm_m[x]": 0.35, "lever_arm_m[y]": -0.25},
+    "gps_lever_arm_z": {"lever_arm_m[z]": 1.68},
     "colored_gps_noise": {"sigma_m[e]": 0.3, "sigma_m[n]": 0.3, "sigma_m[u]": 0.5},
     "coriolis": {"coriolis_scale": 1.0},
     "fx_earth_rotation_updown": {"earth_rate_rad_per_s": gen.OMEGA_E},
@@ -472,6 +477,9 @@ def _smoothed_gnss_truth(site, motion, real) -> dict:
                 vn=rows["vn"] + vel[:, 1], vu=rows["vu"] + vel[:, 2], roll_deg=rows["roll_deg"] + att[:, 0],
                 pitch_deg=rows["pitch_deg"] + att[:, 1],
                 yaw_deg=(rows["yaw_deg"] + att[:, 2] + 180.0) % 360.0 - 180.0)
+    if not TRUTH_VELOCITY:
+        for key in ("ve", "vn", "vu"):
+            rows.pop(key)
     return rows
 
 
@@ -723,7 +731,11 @@ def main(argv=None) -> int:
     parser.add_argument("--realistic", action="store_true",
                         help="misstated noise, flicker bias instability, off-nominal fixtures, a 10-Hz drive truth with "
                              "slow error, the rate table typed as its holds (module docstring)")
+    parser.add_argument("--truth-positions", action="store_true",
+                        help="a realistic drive's truth.csv without velocity rows (positions and attitude only)")
     args = parser.parse_args(argv)
+    global TRUTH_VELOCITY
+    TRUTH_VELOCITY = not args.truth_positions
     global REALISTIC
     REALISTIC = args.realistic
     global DRIVE

@@ -440,3 +440,34 @@ def test_a_short_drives_slow_coloured_fix_error_gains_held_out_and_its_intervals
     for seed in range(2):
         before, after = gt.heldout_noise_deviance(_short_drive(seed, colored=False))
         assert before - after < engine.MIN_DEVIANCE_GAIN, (seed, before, after)
+
+
+def test_a_weak_lever_arm_axis_states_the_scatter_of_its_joint_estimate_as_its_floor():
+    # a vertical arm on a level drive shows only through the body's roll in the turns (0.02 rad here): z is left out
+    # as weak, and the standard error stated for it (the joint fit's) is the scatter of z fitted with x and y
+    zs, sds = [], []
+    for seed in range(60):
+        gr = _residual(seed)
+        turning = np.r_[0.0, np.diff(np.unwrap(Rotation.from_matrix(gr.rot).as_euler("zyx")[:, 0]))] > 0
+        gr.rot = Rotation.from_euler("zyx", np.column_stack([Rotation.from_matrix(gr.rot).as_euler("zyx")[:, 0],
+                                                              np.zeros(N), 0.02 * turning])).as_matrix()
+        gr.r = gr.r + gr.rot @ np.array([0.3, -0.2, 1.68])
+        fit = gt.gls(gr.r, gt.design_lever_arm(gr), gt.model_psd(gr, np.fft.rfftfreq(N, DT)), DT)
+        assert 2 not in fit.used and np.isfinite(fit.sd_joint[2])
+        x = gt.design_lever_arm(gr) - gt.design_lever_arm(gr).mean(axis=0)
+        y = (gr.r - gr.r.mean(axis=0)) / gr.sigma_w
+        x = x / gr.sigma_w[None, :, None]
+        zs.append(np.linalg.solve(np.einsum("nai,naj->ij", x, x), np.einsum("nai,na->i", x, y))[2])
+        sds.append(fit.sd_joint[2])
+    ratio = np.var(zs) / np.mean(np.square(sds))
+    lo, hi = stats.chi2.ppf(0.001, 59) / 59, stats.chi2.isf(0.001, 59) / 59
+    assert lo <= ratio <= hi, f"scatter of z over its stated variance {ratio:.2f} not in {lo:.2f}..{hi:.2f}"
+
+
+def test_joint_standard_errors_are_the_inverse_and_infinite_for_a_collinear_column():
+    a = np.array([[4.0, 1.0, 0.0], [1.0, 3.0, 0.0], [0.0, 0.0, 2.0]])
+    assert np.allclose(gt.joint_sd(a), np.sqrt(np.diag(np.linalg.inv(a))))
+    x = np.random.default_rng(0).standard_normal((50, 2))
+    x = np.column_stack([x, x[:, 0] + x[:, 1]])
+    assert np.all(np.isinf(gt.joint_sd(x.T @ x)))
+    assert np.isinf(gt.joint_sd(np.diag([1.0, 0.0]))[1])

@@ -51,16 +51,27 @@ def _regression(effect, design, gr, thr, statistic, names, base, unit_note):
         val = float(base[i] + fit.theta[i])
         cand.params[names[i]] = val
         cand.intervals[names[i]] = [val - 1.96 * float(sd[i]), val + 1.96 * float(sd[i])]
-    missing = [names[i] for i in range(design.shape[2]) if i not in fit.used]
+    missing = [i for i in range(design.shape[2]) if i not in fit.used]
     if missing:
-        cand.reason = (f"not identifiable by this scenario: {', '.join(missing)} (regressor constant or "
-                       f"{gt.WEAK_SD_RATIO:g}x less determined than the others)")
+        cand.reason = "not identifiable by this scenario: " + "; ".join(_floor(names[i], fit, i, thr) for i in missing)
     contrib = np.einsum("nak,k->na", design, np.nan_to_num(fit.theta))
     cand.channels = [gt.CHANNELS[a] for a in range(3) if np.std(contrib[:, a]) > 0.05 * np.std(contrib)]
     cand.columns = {a: design[:, a, fit.used] for a in range(3)}
     cand.contrib = contrib
     cand.block_s = BLOCK_S
     return cand
+
+
+def _floor(name: str, fit, i: int, thr: float) -> str:
+    """Why parameter ``i`` was left out, with the smallest size the record would see: the size whose likelihood ratio
+    alone reaches the test's threshold, sqrt(threshold) times its standard error in the joint fit (a vertical lever
+    arm on a level drive shows only through the body's roll and pitch: a few centimetres per metre in the turns)."""
+    sd = fit.sd_joint[i] if fit.sd_joint is not None else np.inf
+    if not np.isfinite(sd):
+        return f"{name} (its regressor is constant or explained by the others on this record)"
+    unit = name.split("[")[0].rsplit("_", 1)[-1]  # lever_arm_m[z] -> m, latency_s -> s
+    return (f"{name} ({gt.WEAK_SD_RATIO:g}x less determined than the others: +-{sd:.3g} {unit} in the joint fit, "
+            f"so one smaller than {np.sqrt(thr) * sd:.3g} {unit} would not reach the threshold on this record)")
 
 
 def _latency(case, model, gr, m_tests, factors):

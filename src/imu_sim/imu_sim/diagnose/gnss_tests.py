@@ -175,6 +175,9 @@ class GnssGls:
     whitened_by: str
     noise_extra: tuple | None = None
     """The fitted extra Gauss-Markov it was whitened by: ((3,) variance m^2, tau s), or None."""
+    sd_joint: np.ndarray | None = None
+    """(k,) standard error of each parameter were all k fitted together (inf where the others or a constant explain
+    its regressor): what a parameter left out as weak is determined to on this record."""
 
 
 def _weights(psd: np.ndarray, n: int, dt: float) -> np.ndarray:
@@ -244,8 +247,30 @@ def gls_exact(r: np.ndarray, design: np.ndarray, cov: np.ndarray) -> GnssGls:
     return _solve_used(a_mat, b, k)
 
 
+def joint_sd(a_mat: np.ndarray) -> np.ndarray:
+    """(k,) standard error of each parameter of the normal equations ``a_mat`` fitted with all the others: one over
+    the square root of its Schur complement (inf where the other columns, or nothing, explain its regressor)."""
+    k = len(a_mat)
+    out = np.full(k, np.inf)
+    for i in range(k):
+        rest = [j for j in range(k) if j != i]
+        cross = a_mat[rest, i]
+        schur = a_mat[i, i] - (cross @ np.linalg.lstsq(a_mat[np.ix_(rest, rest)], cross, rcond=1e-12)[0]
+                               if rest else 0.0)
+        if schur > 1e-12 * max(a_mat[i, i], 1e-300):
+            out[i] = 1.0 / np.sqrt(schur)
+    return out
+
+
 def _solve_used(a_mat: np.ndarray, b: np.ndarray, k: int) -> GnssGls:
     """Estimates of the normal equations on the columns the data determine (see :data:`WEAK_SD_RATIO`)."""
+    fit = _solve_weak_dropped(a_mat, b, k)
+    fit.sd_joint = joint_sd(a_mat)
+    return fit
+
+
+def _solve_weak_dropped(a_mat: np.ndarray, b: np.ndarray, k: int) -> GnssGls:
+    """:func:`_solve_used` without the joint standard errors."""
     info = np.diag(a_mat)
     used = np.flatnonzero(info > 1e-9 * max(info.max(), 1e-300))
     theta, cov = np.zeros(k), np.full((k, k), np.nan)
