@@ -239,3 +239,38 @@ def test_the_bias_filter_walks_with_the_models_rate_random_walk_where_it_is_fast
     assert np.allclose(q[:3], 1.2e-5**2)
     assert np.allclose(q[3:5], (2e-3 / 600.0) ** 2) and np.isclose(q[5], (2e-3 / 5.0) ** 2)
     assert np.allclose(bias_walk_variance(_model(), sd_mean, tau_s, 1.0)[:3], (1.5e-3 / 600.0) ** 2)
+
+
+def test_two_flat_tops_off_the_output_lattice_are_a_clip_and_two_on_it_are_not():
+    """A clamp after scaling lands between the counts: two samples at such a value, at the extreme, are a clip at
+    the second (the tie count would need 5 or more); the same two samples at a count of the lattice are noise."""
+    t, x = _drive(7, 130.0)
+    lsb = 7e-7 * np.sqrt(12.0) * RATE
+    top = np.ceil(x[(t > 110.0) & (t < 121.0), 0].max() / lsb) + 40
+    at = np.searchsorted(t, [120.0, 120.5])
+    events = {}
+    for kind, value in (("off", (top + 0.5) * lsb), ("on", top * lsb)):
+        y = x.copy()
+        y[at, 0] = value
+        events[kind] = _run(y, t)
+    first = events["off"][0]
+    assert (first.effect, first.channels) == ("saturation", ["gx"]) and first.statistic["off_lattice"]
+    assert first.onset_s == t[at[0]] and t[at[1]] <= first.t_s <= t[at[1]] + 8 / RATE
+    assert events["on"] == []
+
+
+def test_the_output_lattice_is_read_from_the_warm_up_and_none_without_quantization():
+    from sensor_health.lattice import OutputLattice
+    from sensor_health.window_stats import sample_sigma
+    t, x = _drive(8, 60.0)
+    x[:, 4] = np.random.default_rng(1).normal(0.0, 0.016, len(t))  # ay unquantized: no lattice
+    # gz and ax carry _drive's smooth motion, off any lattice; az's gravity only shifts its lattice's phase
+    lat = OutputLattice(1e-4 * sample_sigma(_model(), 1 / RATE))
+    for a in range(0, len(t), 100):
+        lat.feed(t[a:a + 100], x[a:a + 100])
+    assert lat.ready_t == t[0] + 30.0 and np.isfinite(lat.phase).tolist() == [True, True, False, False, False, True]
+    late = np.flatnonzero(t >= lat.ready_t)
+    assert not any(lat.off(c, x[i, c], t[i], x[late, c]) for c in range(6) for i in late[::50])
+    assert lat.off(0, x[late[0], 0] + 0.5 * lat.step[0], t[late[0]], x[late, 0])
+    assert not lat.off(0, x[late[0], 0] + 0.5 * lat.step[0], t[late[0]], 1.01 * x[late, 0])  # a scale: all off
+    assert not lat.off(0, x[0, 0] + 0.5 * lat.step[0], t[0], x[late, 0])  # before the warm-up ends nothing is off

@@ -8,6 +8,11 @@ at once is named within a block of them, not up to a window later. The blocks ar
 any split of the same samples into pushes tests the same spans. The rate of such events on noise is that of the
 window test the Monte Carlo threshold is set for: the count of ties at the running extreme of the span rises when a
 new tie arrives, whichever evaluation grid sees it (``thresholds.clip_threshold``).
+
+Off the lattice (``lattice``): a value off the output's lattice that the span's extreme repeats, every other sample
+of the span on it, is a clip at OFF_LATTICE_TIES samples, no count of ties needed: the model's noise never leaves its
+lattice. A clip at a count of
+the lattice still needs the tie count.
 """
 from __future__ import annotations
 
@@ -24,6 +29,8 @@ CLIP_BLOCK = 8
 """Samples between two evaluations of the flat-top count."""
 CLIP_ONSET_LOOK_S = 60.0
 """The clip's onset: its first flat top within this many seconds before the event."""
+OFF_LATTICE_TIES = 2
+"""Samples at one value off the output's lattice, at the span's extreme, that make a clip."""
 
 
 class ClipCheck:
@@ -63,6 +70,7 @@ class ClipCheck:
         """Blocks that may fire (their count reaches the lowest threshold it can have) and the block that ends the
         lattice warm-up (the threshold can change there)."""
         low = np.minimum(self.mon.thr.clip_span_ties, 3)
+        low = np.where(np.isfinite(self.mon.lattice.phase), OFF_LATTICE_TIES, low)
         out = set(np.flatnonzero((use & (ties >= low)).any(axis=1)).tolist())
         if not self.lattice_done and self.mon.checked_s[0] is not None:
             warm = np.flatnonzero(tb[:, -1] - self.mon.checked_s[0] >= LINE_WARMUP_S)
@@ -75,25 +83,27 @@ class ClipCheck:
         t1 = float(tb[-1])
         self._lattice(t1)
         th = self.mon.thr
-        hit = use & (ties >= th.clip_span_ties)
+        off = np.array([bool(use[c]) and ties[c] >= OFF_LATTICE_TIES
+                        and self.mon.lattice.off(c, _extreme(span, c), t1, span[..., c].ravel()) for c in range(6)])
+        hit = use & ((ties >= th.clip_span_ties) | off)
         fired = np.flatnonzero(hit & (t1 - self.last > self.mon.config.clear_s))
         self.last = np.where(hit, t1, self.last)
-        return [self._event(c, t1, int(ties[c]), span) for c in fired]
+        return [self._event(c, t1, int(ties[c]), span, bool(off[c])) for c in fired]
 
-    def _event(self, c, t1, ties, span) -> Event:
+    def _event(self, c, t1, ties, span, off) -> Event:
+        value = _extreme(span, c)
         flat = span.reshape(-1, 6)
-        v = flat[np.isfinite(flat[:, c]), c]
-        hi = np.count_nonzero(v == v.max()) >= np.count_nonzero(v == v.min())
-        value = float(v.max() if hi else v.min())
         # the clip began at its first flat top, often well before enough of them gathered
         ht, hx = self.mon._hist_t, self.mon._hist_x
         recent = (ht > t1 - CLIP_ONSET_LOOK_S) & (ht <= t1)
         hits = ht[recent][hx[recent, c] == value]
         onset = float(hits[0]) if len(hits) else t1
         seconds = len(flat) * self.mon.dt
+        why = f", off the output's lattice of {self.mon.lattice.step[c]:.3g}" if off else ""
         return Event(t1, onset, "saturation", [CHANNELS[c]], "ERROR", value, [value, value],
-                     f"{CHANNELS[c]} clips at {value:.6g} ({ties} samples of the last {seconds:.3g} s at it)",
-                     {"ties": ties, "threshold": int(self.mon.thr.clip_span_ties[c])})
+                     f"{CHANNELS[c]} clips at {value:.6g} ({ties} samples of the last {seconds:.3g} s at it{why})",
+                     {"ties": ties, "threshold": OFF_LATTICE_TIES if off else int(self.mon.thr.clip_span_ties[c]),
+                      "off_lattice": off})
 
     def _lattice(self, t1) -> None:
         """Once, after LINE_WARMUP_S: the threshold again on the lattice the output shows, if finer than the
@@ -110,3 +120,12 @@ class ClipCheck:
         ties = thr.clip_threshold(mon.thr.sample_sigma, lattice, mon.grid.n, mon.thr.clip_p_window(),
                                   seed=mon.config.seed)
         mon.thr = replace(mon.thr, clip_span_ties=ties)
+
+
+def _extreme(span, c) -> float:
+    """Channel c's extreme in the span (nb, CLIP_BLOCK, 6): the largest or smallest value, whichever more samples sit
+    at (the side ``span_ties`` counts)."""
+    flat = span.reshape(-1, 6)
+    v = flat[np.isfinite(flat[:, c]), c]
+    hi = np.count_nonzero(v == v.max()) >= np.count_nonzero(v == v.min())
+    return float(v.max() if hi else v.min())

@@ -31,6 +31,7 @@ from sensor_health import thresholds as thr
 from sensor_health.along_track import AlongTrackMonitor
 from sensor_health.bias_filter import BiasFilter, motion_regressors
 from sensor_health.clip_check import ClipCheck
+from sensor_health.lattice import OutputLattice
 from sensor_health.cross_track import CrossTrackMonitor
 from sensor_health.lateral_track import LateralTrackMonitor
 from sensor_health.config import UNMONITORED, HealthConfig, Trace
@@ -71,6 +72,8 @@ class HealthMonitor(VibrationCheck):
         ranges = np.r_[[cfg.gyro_range_rad_s] * 3, [cfg.accel_range_m_s2] * 3]
         self.samples = SampleChecks(self.dt, ranges, self.thr.stuck_run, cfg.gap_factor, cfg.rate_tolerance,
                                     cfg.clear_s, self.thr.clip_ties)
+        self.lattice = OutputLattice(1e-4 * self.thr.sample_sigma)
+        self.samples.lattice = self.lattice
         self.trace = Trace() if keep_trace else None
         self._pending_t, self._pending_x, self._pending_f = np.zeros(0), np.zeros((0, 6)), np.zeros((0, 6), bool)
         self._hist_t, self._hist_x = np.zeros(0), np.zeros((0, 6))
@@ -121,6 +124,7 @@ class HealthMonitor(VibrationCheck):
         if self.checked_s[0] is None:
             self.checked_s[0] = float(t[0])
         self.checked_s[1] = float(t[-1])
+        self.lattice.feed(t, x)
         events, flags = self.samples.push(t, x)
         events += self.yaw_scale.push_imu(t, x[:, 2])
         events += self.along_track.push_imu(t, x[:, 3], x[:, 2], x[:, 4]) + self.cross_track.push_imu(t, x[:, 2])

@@ -109,6 +109,8 @@ class SampleChecks:
         self.pending = None
         self.last_dropout_t = -np.inf
         self.dropouts = 0
+        self.lattice = None
+        """The stream's ``lattice.OutputLattice`` (set by the monitor; None: none known)."""
 
     def push(self, t: np.ndarray, x: np.ndarray):
         """Events among samples t (m,) s, x (m, 6) and the flags of samples a deterministic fault touches."""
@@ -147,7 +149,7 @@ class SampleChecks:
                 start = i - self.stuck_run[c] + 1
                 onset = float(t[start]) if start >= 0 else float(self.run_start_t[c])
                 kind, fit, rows = self._repeat_kind(c, float(x[i, c]), x[:max(start, 0)], x[max(start, 0):i + 1],
-                                                    max(-start, 0))
+                                                    max(-start, 0), float(t[i]))
                 if kind == "unsure":
                     self.unsure[c] = {"onset": onset, "value": float(x[i, c]), "fit": fit, "rows": rows}
                     events += self._resolve_pending(c, t, x, run, i + 1)
@@ -189,10 +191,11 @@ class SampleChecks:
             return [self._repeat_event(c, "saturation", float(t[j0 + ends[0]]), p["onset"], p["value"])]
         return []
 
-    def _repeat_kind(self, c, value, before, run_rows, run_before):
+    def _repeat_kind(self, c, value, before, run_rows, run_before, t_s):
         """saturation, stuck_output or unsure: see CLIP_LOOK_S and MOTION_MARGIN. ``before`` (k, 6): this push's
         samples before the run; ``run_rows`` (r, 6): the run's samples in this push, ``run_before`` more of it at
-        the end of ``before`` / the previous pushes."""
+        the end of ``before`` / the previous pushes; t_s the run's latest sample, s. A held value off the output's
+        lattice is a clip."""
         context = np.vstack([self.recent, before])
         if run_before:
             run_rows = np.vstack([context[-run_before:], run_rows])
@@ -201,6 +204,8 @@ class SampleChecks:
         look = look[np.isfinite(look)]
         extreme = len(look) > 0 and (value >= look.max() or value <= look.min())
         fit = motion_fit(context, c)
+        if self.lattice is not None and self.lattice.off(c, value, t_s, look):
+            return "saturation", fit, run_rows  # a frozen sample repeats an output; a clamp lands between the counts
         margin = motion_margins(fit, run_rows, c, value)[-1]
         if margin >= MOTION_MARGIN:  # the motion went on beyond the held value: a clip, also where it set in mid-turn
             return "saturation", fit, run_rows
