@@ -58,7 +58,8 @@ def test_sensor_data_crossing_the_link_is_reliable_and_kept_for_a_cut():
     assert by_name["wmra_node"] == {"qos_overrides./imu/data_raw.subscription.reliability": "reliable",
                                     f"{den}.reliability": "reliable", f"{den}.history": "keep_last",
                                     f"{den}.depth": 30 * 64 + 10}
-    assert by_name["ins_gps_kf_node"] == {"qos_overrides./gps/fix.subscription.reliability": "reliable"}
+    assert by_name["ins_gps_kf_node"] == {"qos_overrides./gps/fix.subscription.reliability": "reliable",
+                                          "qos_overrides./imu/data_corrected.subscription.reliability": "reliable"}
     assert by_name["allan_node"] == {"out_dir": "a"}  # best effort: it may lose a cut's samples
     # the health node sees every sample the sensor sent: a sample the link lost is no sensor dropout
     assert by_name["sensor_health_node"] == {"qos_overrides./imu/data_raw.subscription.reliability": "reliable",
@@ -148,7 +149,10 @@ def check_two_hosts_run(stdout: str, out, at_s: float, for_s: float, duration_s:
     assert for_s - 1.0 < summary["odometry_max_gap_s"] < for_s + 6.0  # the cut shows as the gap, nothing else as long
     # ... as received: the cut's samples came after the link returned (reliable, kept on the sensor host), and the
     # filter ran through them in stamp order, so the trajectory has no gap and the cut costs no accuracy
-    assert summary["imu_samples_missing"] == 0 and summary["odometry_stamp_max_gap_s"] < 1.0
+    assert summary["imu_samples_missing"] == 0 and summary["odometry_stamp_max_gap_s"] < 1.0, (
+        f"the filter's input missed samples (or its stamps have a gap): {summary['stream']}, stamp gap "
+        f"{summary['odometry_stamp_max_gap_s']} s; missing in the bag too: upstream (the serial line, the link); "
+        "only in the filter: its intake of imu/data_corrected")
     assert summary["horizontal_rms_m"] <= 1.1 * summary["horizontal_rms_outside_cuts_m"]
     assert 0.0 < summary["gnss_resumed_after_s"] <= 3.0
     stream = summary["stream"]

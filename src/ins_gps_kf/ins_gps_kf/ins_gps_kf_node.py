@@ -133,7 +133,8 @@ class InsGpsKfNode(Node):
         # IMU and fixes are taken together and merged by receive time: the order per-message callbacks
         # would have seen, so a fix is never overtaken by a batch of IMU samples that arrived after it
         qos = QoSProfile(depth=self.params["input_queue_depth"], reliability=ReliabilityPolicy.BEST_EFFORT)
-        self.imu_intake = ImuBatchSubscription(self, self.params["imu_topic"], None, None, qos=qos)
+        self.imu_intake = ImuBatchSubscription(self, self.params["imu_topic"], None, None, qos=qos,
+                                               qos_overriding_options=LINK_QOS)
         self.wheel_intake: PolledSubscription | None = None  # made once the type is known (odometer_enabled)
         self.bad_wheel_messages = 0
         self._wheel_qos = qos
