@@ -6,6 +6,7 @@ from scipy.spatial.transform import Rotation
 
 from imu_sim.diagnose import gnss_tests as gt
 from imu_sim.errors import gauss_markov
+from nav_core.sensor_model import SensorModel, TriadModel
 
 N, DT = 900, 1.0
 
@@ -192,7 +193,10 @@ def _ctx(case, resid, sd):
     from imu_sim.diagnose import reference
     psd = np.repeat((sd**2 * case.dt)[:, None], case.n // 2 + 1, axis=1)
     psd = reference.with_reference_error(case, resid, psd)  # as the tests weight a moving truth's residual
-    return SimpleNamespace(case=case, wh=Whitener.from_psd(psd, resid, case.dt), resid_f=np.fft.rfft(resid, axis=0))
+    model = SensorModel(gyro=TriadModel(white_noise=sd[:3] * np.sqrt(case.dt)),
+                        accel=TriadModel(white_noise=sd[3:] * np.sqrt(case.dt)), sample_rate_hz=1.0 / case.dt)
+    return SimpleNamespace(case=case, model=model, resid=resid, wh=Whitener.from_psd(psd, resid, case.dt),
+                           resid_f=np.fft.rfft(resid, axis=0))
 
 
 def test_a_reference_whose_attitude_wanders_is_not_a_scale_factor_and_leaves_a_known_constant_at_its_value():
@@ -471,3 +475,27 @@ def test_joint_standard_errors_are_the_inverse_and_infinite_for_a_collinear_colu
     x = np.column_stack([x, x[:, 0] + x[:, 1]])
     assert np.all(np.isinf(gt.joint_sd(x.T @ x)))
     assert np.isinf(gt.joint_sd(np.diag([1.0, 0.0]))[1])
+
+
+def test_a_known_constant_is_not_weighted_out_by_the_reference_error_estimated_with_its_own_power(monkeypatch):
+    """The reference's error spectrum is estimated from the residual; with a known constant left out of the model
+    its power is in that residual, so weighting by it takes the constant's own frequencies out of its fit. Estimated
+    from the residual less the constant's fitted part, the constant keeps its evidence and its interval still covers
+    its value."""
+    from types import SimpleNamespace
+
+    from imu_sim.diagnose import reference
+    case, resid, sd = _wandering_truth_case()
+    shape = 1e-2 * np.column_stack([np.sin(2 * np.pi * case.t / 17.0), np.cos(2 * np.pi * case.t / 29.0)])
+    known = resid + np.column_stack([np.zeros((case.n, 3)), shape, np.zeros(case.n)])
+    fits = {}
+    for rounds in (0, reference.JOINT_ITERATIONS):
+        monkeypatch.setattr(reference, "JOINT_ITERATIONS", rounds)
+        kc = SimpleNamespace(effect="coriolis", constant_scale=0.0, identifiable=True, stat=0.0, threshold=8.7,
+                             reason="", columns={3: shape[:, [0]], 4: shape[:, [1]]})
+        reference.constant_given_slow_reference(_ctx(case, known, sd), kc)
+        fits[rounds] = kc
+    once, joint = fits[0], fits[max(fits)]
+    assert joint.stat > 2 * once.stat  # measured 213 -> 570
+    lo, hi = joint.intervals["coriolis_scale"]
+    assert lo < 1.0 < hi and hi - lo < 0.75 * np.diff(once.intervals["coriolis_scale"])[0]  # 0.29 -> 0.17
