@@ -10,6 +10,7 @@ healthy runs get 1-Hz GNSS fixes along the motion (``--no-gnss``: the IMU alone)
 every false event are printed with what came first. The GNSS fixes have 5-cm horizontal and 10-cm vertical white
 noise. The gz scale-factor section: a +2 % step at 1500 s of 2400-s drives (seeds 9700..), and the scale test alone
 on the healthy drives. ``--floor``: what the gyro's own white noise allows a gyro bias test at best.
+``--bias-tail HOURS``: the bias CUSUMs' false alarms counted per channel on HOURS of the model's simulated noise.
 Targets (issue 26): deterministic faults <= 1 s, noise x3 <= 5 s, a 3-sigma line <= 10 s, a 10 x bias-sd step
 <= 30 s; the right effect and channel first in >= 95 %; onset within 2 s for steps; <= 1 false event per 10 h.
 """
@@ -168,7 +169,7 @@ def floor_section(share_per_10h: float, runs: int = 4000) -> None:
     k = 0.5
     target = thr.SECONDS_PER_10H / share_per_10h
     z = rng.normal(size=400000)
-    h = thr.cusum_threshold(np.column_stack([z, -z]), k, target / 2)
+    h = thr.cusum_threshold(np.column_stack([z, -z]), k, 2 * target)  # per side: half the share
     s, d = np.zeros(runs), np.full(runs, np.nan)
     for _ in range(300):  # the CUSUM's state on healthy data when the step comes
         s = np.maximum(0.0, s + rng.normal(size=runs) - k)
@@ -230,6 +231,32 @@ def track_floor_section(share_per_10h: float, runs: int = 2000, speed_m_s: float
               f"of 20-run benchmarks, never within {after} s {np.mean(np.isinf(delays)):.3f}")
 
 
+def bias_tail_section(model, base, hours: float) -> None:
+    """The bias CUSUMs' false alarms counted on ``hours`` of simulated window means of the model's noise per channel
+    (``bias_tail``, seeds other than the monitor's) at the thresholds the monitor set: the measured false rate per
+    channel against its share."""
+    from scipy import stats as st
+    from sensor_health import noise_sim
+    from sensor_health.bias_tail import bias_tail
+    from sensor_health.window_stats import window_stats
+    th = base.thr
+    x = noise_sim.model_noise(model, 4000 * base.grid.n, base.grid.dt, np.random.default_rng(99))
+    levels = window_stats(base.grid, x.reshape(4000, base.grid.n, 6)).level
+    cfg = base.config
+    for c in thr.BIAS_CHANNELS:
+        share = cfg.gyro_bias_per_10h if c < 2 and cfg.gyro_bias_per_10h > 0 else th.budget_per_10h / thr.N_TESTS
+        start = time.process_time()
+        tail = bias_tail(model, c, th.window_s, th.bias_sd[c], levels[:, c], th.bias_q[c], th.bias_k[c], share,
+                         hours, thr.bias_warmup_windows(th.window_s), seed=1000 + c)
+        n = int(np.count_nonzero(tail.maxima > th.bias_h[c]))
+        lo, hi = (st.chi2.ppf(0.025, 2 * n) / 2 if n else 0.0), st.chi2.ppf(0.975, 2 * n + 2) / 2
+        print(f"bias tail {CHANNELS[c]}: h {th.bias_h[c]:.2f} (k {th.bias_k[c]:.2f}, {th.bias_h_how[c]} from "
+              f"{th.bias_tail_hours:g} h at start); counted on {hours:g} h of the model's noise: {n} alarms = "
+              f"{10 * n / hours:.4f} per 10 h [{10 * lo / hours:.4f}, {10 * hi / hours:.4f}] (share {share:.4f}); "
+              f"h for the share on this run {tail.h:.2f} ({tail.how}); {time.process_time() - start:.0f} s CPU",
+              flush=True)
+
+
 def named(truth, e) -> bool:
     """The right effect, and the right channel where the effect has one."""
     if e.effect != truth["effect"]:
@@ -251,6 +278,8 @@ def main(argv=None) -> int:
     p.add_argument("--faults", nargs="*", default=list(FAULT_CHANNELS), choices=list(FAULT_CHANNELS),
                    help="the fault sections to run (all by default; none: the healthy drives only)")
     p.add_argument("--floor", action="store_true", help="the information floor of a gyro bias step alone")
+    p.add_argument("--bias-tail", type=float, default=0.0, metavar="HOURS",
+                   help="the bias CUSUMs' false rate per channel counted on HOURS of simulated model noise, alone")
     p.add_argument("--no-gnss", action="store_true",
                    help="IMU alone (no 1-Hz GNSS fixes) in the fault and healthy runs")
     args = p.parse_args(argv)
@@ -269,6 +298,9 @@ def main(argv=None) -> int:
     print(f"model: imu-calib allan on a 1-h static run; thresholds {time.time() - start:.1f} s; "
           f"stuck run {base.thr.stuck_run.tolist()} samples, line gate {base.thr.line_h:.1f}, "
           f"noise h {base.thr.noise_h:.2f}, bias h {np.round(base.thr.bias_h, 2).tolist()}")
+    if args.bias_tail > 0:
+        bias_tail_section(model, base, args.bias_tail)
+        return 0
     if not args.no_scale:
         scale_section(model, base, args.scale_seeds, args.scale_hours)
     if args.only_scale:

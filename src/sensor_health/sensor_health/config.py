@@ -42,6 +42,8 @@ class HealthConfig:
     """An effect on a channel is reported again only after this long without it."""
     history_s: float = 120.0
     mc_windows: int = 8000
+    bias_mc_hours: float = 1000.0
+    """Hours of simulated window means the bias CUSUMs' alarms are counted on (``bias_tail``; ~1 s per channel)."""
     seed: int = 0
 
 

@@ -68,7 +68,7 @@ class HealthMonitor(VibrationCheck):
         self.grid = WindowGrid.for_model(model, n, self.dt, cfg.f_min_hz)
         self.thr = thresholds or thr.monte_carlo(model, self.grid, n * self.dt, cfg.false_alarms_per_10h,
                                                  cfg.baseline_s, cfg.mc_windows, cfg.seed,
-                                                 cfg.gyro_bias_per_10h, cfg.clip_per_10h)
+                                                 cfg.gyro_bias_per_10h, cfg.clip_per_10h, cfg.bias_mc_hours)
         ranges = np.r_[[cfg.gyro_range_rad_s] * 3, [cfg.accel_range_m_s2] * 3]
         self.samples = SampleChecks(self.dt, ranges, self.thr.stuck_run, cfg.gap_factor, cfg.rate_tolerance,
                                     cfg.clear_s, self.thr.clip_ties)

@@ -4,9 +4,11 @@ The model's noise (:mod:`sensor_health.noise_sim`) is cut into windows and run t
 statistics and the same CUSUM recursions as the monitor. Per detector and channel the false-alarm budget is
 ``false_alarms_per_10h / (number of monitored detector-channels)``:
 
-* CUSUM detectors (noise level, bias): run lengths are *measured* on the simulated series at a grid of low
-  thresholds (restart after each alarm), log(mean run length) is fitted linear in h (the CUSUM's run length
-  grows exponentially with its threshold) and solved for the budget's run length;
+* the noise-level CUSUM: run lengths are *measured* on the simulated series at a grid of low thresholds (restart
+  after each alarm), log(mean run length) is fitted linear in h (the CUSUM's run length grows exponentially with
+  its threshold) and solved for the budget's run length;
+* the bias CUSUMs: alarms *counted* on ``bias_hours`` of simulated window means through the same filter
+  (:mod:`sensor_health.bias_tail`: the slow wander's tail, which 8000 windows do not show);
 * the line gate (one window, chi-square(2) max over the searched bins): an exponential tail fitted to the
   upper 2 % of the simulated maxima, solved for the budget's per-window probability.
 * the clip test (samples of the last 10 windows exactly at their extreme): two more than the most simulated;
@@ -20,7 +22,7 @@ import numpy as np
 from scipy import stats
 
 from nav_core.sensor_model import SensorModel
-from sensor_health import bias_filter, noise_sim
+from sensor_health import bias_tail, noise_sim
 from sensor_health.window_stats import WindowGrid, sample_sigma, span_ties, window_stats
 
 SECONDS_PER_10H = 36000.0
@@ -111,6 +113,10 @@ class Thresholds:
     mc_windows: int
     gyro_bias_per_10h: float
     """False events per 10 h allowed to each of the gx and gy bias CUSUMs (beyond ``budget_per_10h``)."""
+    bias_tail_hours: float
+    """Hours of simulated window means the bias thresholds were counted on."""
+    bias_h_how: list
+    """(6,) per bias channel 'measured' (the share's rate between two counted points) or 'extended' (beyond them)."""
     clip_per_10h: float
     """False events per 10 h allowed to the flat-top clip count of each channel (beyond ``budget_per_10h``)."""
 
@@ -148,15 +154,6 @@ def cusum_threshold(y: np.ndarray, k: float, target_windows: float) -> float:
         return max(exp_tail_threshold(y.ravel(), 1.0 / target_windows) - k, 0.0)
     slope, icpt = np.polyfit(hs[ok], np.log(arl[ok]), 1)
     return float((np.log(target_windows) - icpt) / slope)
-
-
-def bias_innovations(ws, phi: np.ndarray, sd_mean: np.ndarray, q_bias: np.ndarray) -> np.ndarray:
-    """The bias filter's standardised innovations (nw, len(BIAS_CHANNELS)) on windows ``ws`` with regressors phi;
-    ``q_bias`` (6,) the bias' random-walk variance per window."""
-    chans = list(BIAS_CHANNELS)
-    filt = bias_filter.BiasFilter(chans, sd_mean[chans], q_bias[chans])
-    use = np.ones(len(chans), bool)
-    return np.array([filt.step(ws.mean[w], phi[w], ws.level[w], use)[0] for w in range(len(phi))])
 
 
 def exp_tail_threshold(x: np.ndarray, p: float, top: float = 0.02) -> float:
@@ -222,9 +219,9 @@ def observed_lattice(x: np.ndarray, floor: np.ndarray) -> np.ndarray:
 
 def monte_carlo(model: SensorModel, grid: WindowGrid, window_s: float, budget_per_10h: float,
                 baseline_s: float, mc_windows: int = 20000, seed: int = 0,
-                gyro_bias_per_10h: float = 0.0, clip_per_10h: float = 0.0) -> Thresholds:
-    """Thresholds for ``model`` from ``mc_windows`` simulated windows (seeded: the same model gives the same
-    thresholds in the CLI and the node). ``gyro_bias_per_10h`` > 0: the gx and gy bias CUSUMs each get that share
+                gyro_bias_per_10h: float = 0.0, clip_per_10h: float = 0.0, bias_hours: float = 1000.0) -> Thresholds:
+    """Thresholds for ``model`` from ``mc_windows`` simulated windows and ``bias_hours`` of simulated window means
+    for the bias CUSUMs (seeded: the same model gives the same thresholds in the CLI and the node). ``gyro_bias_per_10h`` > 0: the gx and gy bias CUSUMs each get that share
     instead of an equal one of ``budget_per_10h``; ``clip_per_10h`` > 0 likewise each channel's clip count."""
     rng = np.random.default_rng(seed)
     x = noise_sim.model_noise(model, mc_windows * grid.n, grid.dt, rng).reshape(mc_windows, grid.n, 6)
@@ -244,13 +241,12 @@ def monte_carlo(model: SensorModel, grid: WindowGrid, window_s: float, budget_pe
     bias_k[3:] = BIAS_K_RANGE[1]
     tau = baseline_times(bias_k, baseline_s)
     bias_q = bias_walk_variance(model, white_sd, tau, window_s)
-    z = bias_innovations(ws, bias_filter.motion_regressors(x), white_sd, bias_q)
-    z = z[bias_warmup_windows(window_s):]
-    bias_h = np.full(6, np.inf)
-    for i, c in enumerate(BIAS_CHANNELS):
+    bias_h, how = np.full(6, np.inf), [""] * 6
+    for c in BIAS_CHANNELS:
         share = gyro_bias_per_10h if c < 2 and gyro_bias_per_10h > 0 else per_test
-        bias_h[c] = cusum_threshold(np.column_stack([z[:, i], -z[:, i]]), bias_k[c],
-                                    SECONDS_PER_10H / window_s / share / 2)
+        tail = bias_tail.bias_tail(model, c, window_s, white_sd[c], ws.level[:, c], bias_q[c], bias_k[c], share,
+                                   bias_hours, bias_warmup_windows(window_s), seed)
+        bias_h[c], how[c] = tail.h, tail.how
     line_h = exp_tail_threshold(ws.line.ravel(), per_test * window_s / SECONDS_PER_10H)
     stuck = stuck_run_length(model, grid.dt, per_test, max_run=max(3, grid.n))
     clip_ties = np.maximum(3, ws.ties.max(axis=0) + 2)
@@ -259,4 +255,4 @@ def monte_carlo(model: SensorModel, grid: WindowGrid, window_s: float, budget_pe
                                clip_per_10h * window_s / SECONDS_PER_10H, seed=seed)
     return Thresholds(window_s, mu, sd, noise_k, noise_h, white_sd, bias_k, bias_h, tau, bias_q, line_h, stuck, clip_ties,
                       clip_span, sample_sigma(model, grid.dt), budget_per_10h, mc_windows,
-                      gyro_bias_per_10h, clip_per_10h)
+                      gyro_bias_per_10h, bias_hours, how, clip_per_10h)
