@@ -274,3 +274,15 @@ def test_the_output_lattice_is_read_from_the_warm_up_and_none_without_quantizati
     assert lat.off(0, x[late[0], 0] + 0.5 * lat.step[0], t[late[0]], x[late, 0])
     assert not lat.off(0, x[late[0], 0] + 0.5 * lat.step[0], t[late[0]], 1.01 * x[late, 0])  # a scale: all off
     assert not lat.off(0, x[0, 0] + 0.5 * lat.step[0], t[0], x[late, 0])  # before the warm-up ends nothing is off
+
+
+def test_a_bias_steps_onset_is_sought_where_its_cusum_rose_not_at_a_noisy_window_before_the_event():
+    """A gx step of 3e-3 rad/s at 100 s; one window of +6 sd of a window mean 2-3 s before the event pulls the
+    unknown-step change point over the whole span to it (104 s: the code before), not the one sought near the
+    CUSUM's rise."""
+    t, x = _drive(22, 200.0)
+    x[t >= 100.0, 0] += 3e-3
+    first = [e for e in _run(x, t) if e.effect == "bias_shift"][0]
+    x[(t >= first.t_s - 3.0) & (t < first.t_s - 2.0), 0] += 6 * 1.5e-3
+    events = [e for e in _run(x, t) if e.effect == "bias_shift"]
+    assert events and events[0].channels == ["gx"] and abs(events[0].onset_s - 100.0) <= 2.0
