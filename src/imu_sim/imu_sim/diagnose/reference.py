@@ -100,26 +100,27 @@ def dwell_yaw_columns(case) -> list:
     horizontal part rotated about the axis; the table's own rate is along the axis and gravity along it too, so
     nothing else moves. Demeaned over the dwell: only its turning part is used, a constant (a misalignment or a
     bias times the dwell's rate) is left to the tests. [] when the record is no such table."""
+    from imu_sim.diagnose.unstated import is_rate_table
+    scenario = getattr(case, "scenario", None)
+    segs = getattr(scenario, "spec", None) or []
+    if getattr(scenario, "source", None) != "static_segments" or not is_rate_table(segs):
+        return []
     if "dwell_yaw_columns" in case.cache:
         return case.cache["dwell_yaw_columns"]
     from nav_core.earth import RATE as EARTH_RATE
-
-    from imu_sim.diagnose.unstated import is_rate_table
     out = []
-    segs = getattr(case.scenario, "spec", None) or []
-    if getattr(case.scenario, "source", None) == "static_segments" and is_rate_table(segs):
-        traj = trajectory(case)
-        rot = traj.attitude.rotation(case.sim_t_abs).as_matrix()
-        lat = float(traj.geodetic(np.array([case.sim_t_abs[0]]))[0][0])
-        w_ie = np.einsum("nji,j->ni", rot, EARTH_RATE * np.array([0.0, np.cos(lat), np.sin(lat)]))
-        col = np.cross(rot[:, 2, :], w_ie)  # the ENU up axis in body coordinates is row 2 of body-to-ENU
-        stated = ~case.unstated if getattr(case, "unstated", None) is not None else np.ones(case.n, bool)
-        for seg in segs:
-            if not float(seg.get("rate_dps", 0.0) or 0.0):
-                continue
-            idx = np.flatnonzero((case.sim_t_abs > float(seg["t0"])) & (case.sim_t_abs <= float(seg["t1"])) & stated)
-            if len(idx) > 10:
-                out.append((idx, col[idx] - col[idx].mean(axis=0)))
+    traj = trajectory(case)
+    rot = traj.attitude.rotation(case.sim_t_abs).as_matrix()
+    lat = float(traj.geodetic(np.array([case.sim_t_abs[0]]))[0][0])
+    w_ie = np.einsum("nji,j->ni", rot, EARTH_RATE * np.array([0.0, np.cos(lat), np.sin(lat)]))
+    col = np.cross(rot[:, 2, :], w_ie)  # the ENU up axis in body coordinates is row 2 of body-to-ENU
+    stated = ~case.unstated if getattr(case, "unstated", None) is not None else np.ones(case.n, bool)
+    for seg in segs:
+        if not float(seg.get("rate_dps", 0.0) or 0.0):
+            continue
+        idx = np.flatnonzero((case.sim_t_abs > float(seg["t0"])) & (case.sim_t_abs <= float(seg["t1"])) & stated)
+        if len(idx) > 10:
+            out.append((idx, col[idx] - col[idx].mean(axis=0)))
     case.cache["dwell_yaw_columns"] = out
     return out
 
