@@ -169,6 +169,9 @@ CASES = {
     "fx_temperature_bias": ("fixture", "temperature_bias", {}),
     "fx_gauss_markov_bias": ("fixture", "gauss_markov_bias", {"gyro": 3.7e-5, "accel": 1.9e-4, "tau": 10.0}),
     "fx_bias_random_walk": ("fixture", "bias_random_walk", {"gyro": 3e-6, "accel": 1.5e-5}),
+    # the blind's industrial fixture Gauss-Markov bias (2.8e-4 rad/s at tau 40 s: the correlation time near the
+    # holds, its wander across holds bounded where a walk's keeps growing); accel in the suite case's ratio
+    "fx_gauss_markov_slow": ("fixture", "gauss_markov_bias", {"gyro": 2.8e-4, "accel": 1.4e-3, "tau": 40.0}),
     "fx_earth_rotation_updown": ("updown_fixture", "earth_rotation", {}),
 }
 NULLS = {"null_drive": "drive", "null_table": "table", "null_mtable": "mtable", "null_ltable": "ltable", "null_single_naive": "static_rw",
@@ -210,6 +213,7 @@ TRUE = {
     "coriolis": {"coriolis_scale": 1.0},
     "fx_earth_rotation_updown": {"earth_rate_rad_per_s": gen.OMEGA_E},
     "fx_bias_random_walk": {f"gyro_rad_per_s_per_sqrt_s[{a}]": 3e-6 for a in "xyz"},
+    "fx_gauss_markov_slow": {f"gyro_sigma_rad_per_s[{a}]": 2.8e-4 for a in "xyz"},
 }
 for _name in ("earth_rotation", "gravity_model", "gyro_g_sensitivity", "warmup_drift", "vibration", "quantization",
               "temperature_bias", "gauss_markov_bias"):
@@ -248,7 +252,11 @@ def true_values(name: str, grade: str) -> dict:
         return {k: v * GRADES[grade] for k, v in TRUE[name].items()}
     if CASES.get(name, ("",))[0] in ("fixture", "updown_fixture"):  # sensor effects scale with the grade's noise
         k = GRADES[grade] * (TEMP_REALISTIC if name == "fx_temperature_bias" else 1.0)
-        return {p: v * (1.0 if p in SCALE_FREE else k) for p, v in TRUE.get(name, {}).items()}
+        out = {p: v * (1.0 if p in SCALE_FREE else k) for p, v in TRUE.get(name, {}).items()}
+        if name == "fx_temperature_bias":  # the accelerometers' coefficients too (the blind scored six intervals)
+            out.update({f"accel_coeff_mps2_per_degc[{a}]": np.sqrt(GRADES[grade]) * v
+                        for a, v in zip("xyz", FIXTURE_TEMP_ACCEL)})
+        return out
     if name == "colored_gps_noise" and REALISTIC:
         sigma, tau = SHORT_COLORED if DRIVE == "short" else (COLORED_SIGMA_REALISTIC, CASES[name][2]["tau"])
         return {**{f"sigma_m[{a}]": v for a, v in zip("enu", sigma)}, "correlation_time_s": tau}

@@ -17,8 +17,11 @@ import numpy as np
 from scipy.linalg import block_diag
 
 from imu_sim.diagnose import plausibility
-from imu_sim.diagnose.fixture_notes import NOT_SEPARABLE, free_note as _free_note, tilt_note as _note
-from imu_sim.diagnose.hold_noise import Prior, bias_wander, inflation, penalised_fit, stated_inflation
+from imu_sim.diagnose.fixture_notes import (NOT_SEPARABLE, floor_note, free_note as _free_note, tilt_note as _note,
+                                            wander_note)
+from imu_sim.diagnose.candidate import add_effect
+from imu_sim.diagnose.hold_noise import (INFLATION_BLOCKS_S, WANDER_TERMS, Prior, bias_wander, hold_scale_blocks,
+                                         inflation, noise_key as _noise_key, penalised_fit, stated_inflation)
 from imu_sim.diagnose.unstated import is_rate_table, unreferenced_segments
 
 TILT_EFFECTS = ("axis_misalignment", "scale_factor", "gyro_g_sensitivity", "gravity_model", "earth_rotation",
@@ -28,11 +31,9 @@ drift sampled by a sequence of holds, each with its own offset)."""
 
 
 def _weights(case) -> np.ndarray | None:
-    """(n, segments) weight of each static segment's tilt at each sample and its time derivative (1/s), or None.
-
-    1 on the hold; across a move the tilt passes from one hold's to the next's with the move's own profile (the
-    simulator moves along a smoothstep in rotation-vector space, so its rate magnitude is that profile's slope).
-    """
+    """(n, segments) weight of each static segment's tilt at each sample and its time derivative (1/s), or None: 1 on
+    the hold; across a move the tilt passes from one hold's to the next's with the move's own profile (the simulator
+    moves along a smoothstep in rotation-vector space, so its rate magnitude is that profile's slope)."""
     if getattr(case.scenario, "source", None) != "static_segments":
         return _truth_hold_weights(case)
     t = case.sim_t_abs
@@ -61,8 +62,8 @@ def _weights(case) -> np.ndarray | None:
 
 
 TILT_SLACK = 1.5
-"""A fitted tilt component up to this many tolerances is within it: a fixture off by the tolerance in each of its
-Euler angles is off by more about one body axis, and the fit carries its own scatter."""
+"""A fitted tilt up to this many tolerances is within it; beyond, an effect below threshold given them stands, but not
+a slow curve, whose hold-to-hold part any offset pattern makes (own navigation nulls 8000, 8004: tilts of 1.8 deg)."""
 STILL_RAD_S = 1e-3
 """A truth file's hold turning slower than this (rad/s; the Earth rate is 7.3e-5) is a static fixture pose."""
 
@@ -169,7 +170,7 @@ def _stack(columns: dict, n: int, k: int) -> np.ndarray:
     return out
 
 
-def _setup(case, cand_columns: dict, resid: np.ndarray, slow: bool = False):
+def _setup(case, cand_columns: dict, resid: np.ndarray, slow: bool = False, model=None):
     """Shared pieces of the joint fit: weights, design, stacked effect, residual, row weights (noise std per channel
     on the holds only; a ``slow`` curve's by :func:`hold_noise.stated_inflation` too), tilt prior; None when the
     record has no fixture holds or no tolerance."""
@@ -187,9 +188,9 @@ def _setup(case, cand_columns: dict, resid: np.ndarray, slow: bool = False):
     short = _shortening(case, weights, tol)
     if short is not None:
         tilt = np.hstack([tilt, short[0]])
-    if "fixture_hold_bias" not in case.cache:
-        case.cache["fixture_hold_bias"] = bias_wander(case, weights[0])
-    wander = case.cache["fixture_hold_bias"]
+    model = case.model if model is None else model  # the model under test: a noise term found before is in it
+    key = ("fixture_hold_bias", _noise_key(model))
+    wander = case.cache[key] = case.cache[key] if key in case.cache else bias_wander(case, weights[0], model)
     if wander is not None:
         tilt = np.hstack([tilt, wander[0]])
     eff = _stack(cand_columns, n, k)
@@ -207,22 +208,21 @@ def _setup(case, cand_columns: dict, resid: np.ndarray, slow: bool = False):
     # (flicker, a Gauss-Markov bias) makes a hold's offsets vary more than white noise, so each channel is weighted
     # by its effective sample size too (a consumer fixture's warm-up and Gauss-Markov bias were taken by a
     # misalignment of white-noise statistic far above threshold)
-    infl = inflation(fit_resid, hold, case.dt)
+    infl = inflation(fit_resid, hold, case.dt, hold_scale_blocks(hold, case.dt) if slow else INFLATION_BLOCKS_S)
     if slow:  # its evidence within a hold lies at the hold's own scale, where a stated flicker has grown
-        infl = np.maximum(infl, stated_inflation(case.model, hold, case.dt))
+        infl = np.maximum(infl, stated_inflation(model, hold, case.dt))
     w = np.repeat(1.0 / np.maximum(sigma * np.sqrt(infl), 1e-300), n) * np.tile(hold, 6)
     # the tolerance is a Gaussian prior (sd = tolerance) on each tilt: a rotation about the gravity axis, which the
     # specific force cannot see, stays within it instead of fitting the Earth rate's noise with tens of degrees
     bound = np.diag(np.r_[np.full(3 * m, 1.0 / tol), np.zeros(6), [] if short is None else short[1]])
     prior = bound if wander is None else block_diag(bound, wander[1])
     charged = np.r_[np.zeros(bound.shape[0], bool), [] if wander is None else np.ones(len(wander[2]), bool)]
-    if wander is not None:
-        case.cache["fixture_gyro_offset_rows"] = np.r_[np.zeros(bound.shape[0], bool), wander[2] < 3]
+    case.cache["fixture_gyro_offset_rows"] = (  # this model's (another model's wander may charge other channels)
+        None if wander is None else np.r_[np.zeros(bound.shape[0], bool), wander[2] < 3])
     return weights, tol, tilt, eff, raw, w, Prior(prior, charged), hold
 
 
-SLOW_CURVES = ("warmup_drift", "temperature_bias")
-"""Effects tested against free per-hold offsets (their prior not charged, :func:`_given`)."""
+SLOW_CURVES = ("warmup_drift", "temperature_bias")  # tested against free per-hold gyro offsets (:func:`_given`)
 FREE_TILT_SD_RAD = 10.0
 """Prior sd of a tilt left free (:func:`_given` with ``free``): no bound at all within a first-order fit."""
 
@@ -233,7 +233,8 @@ def _given(case, cand, resid: np.ndarray, cache: dict | None = None, columns: di
     parameters and covariance in the joint fit) or None when the record has no fixture holds, or the candidate no
     evidence on them. ``cache`` keeps the tilt-only fit; ``columns`` replace the candidate's (a warm-up's time
     constant profiled); ``free`` leaves each hold's attitude free instead of within the tolerance."""
-    setup = _setup(case, columns or cand.columns, resid, slow=cand.effect in SLOW_CURVES)
+    setup = _setup(case, columns or cand.columns, resid, slow=cand.effect in SLOW_CURVES,
+                   model=(cache or {}).get("model"))
     if setup is None:
         return None
     weights, tol, tilt, eff, raw, w, prior, _ = setup
@@ -241,7 +242,7 @@ def _given(case, cand, resid: np.ndarray, cache: dict | None = None, columns: di
     if free:
         prior = prior.copy()
         prior[:3 * m, :3 * m] = np.eye(3 * m) / FREE_TILT_SD_RAD
-    if cand.effect in SLOW_CURVES and "fixture_gyro_offset_rows" in case.cache:
+    if cand.effect in SLOW_CURVES and case.cache.get("fixture_gyro_offset_rows") is not None:
         # a curve in time sampled by the holds is what the gyro wander itself makes (a flicker's 1/f tail, a walk):
         # its stated level cannot tell them apart, so the gyro offsets stay free for it, as before (own consumer
         # null 8003 with them charged: a warm-up at 50 against 26.7); a pattern keyed to each hold's attitude
@@ -281,37 +282,34 @@ def _spinning_holds(case) -> bool:
     return any(np.max(np.abs(case.gyro_true[a:b])) >= STILL_RAD_S for a, b in holds(case))
 
 
-def check(case, cand, resid: np.ndarray) -> str | None:
-    """The note when a fixture tilt within tolerance can stand for ``cand`` (None: separable or not applicable).
-
-    Joint fit on the residual (n, 6), each channel scaled by its noise std: the candidate's likelihood ratio given
-    the tilts (and turn-on biases), against the one given the biases alone, scales its GLS statistic.
-    """
+def check(case, cand, resid: np.ndarray, model=None) -> str | None:
+    """The note when a fixture tilt within tolerance can stand for ``cand`` (None: separable or not applicable): its
+    likelihood ratio in the joint fit on the holds given the tilts and each hold's bias offset (:func:`_given`)."""
     if cand.effect not in TILT_EFFECTS or not cand.columns:
         return None
-    got = _given(case, cand, resid)
+    got = _given(case, cand, resid, {"model": model})
     if got is None or got is MOVES_ONLY:
         return None
     lr_alone, given, top = got[:3]
     tol = np.radians(case.scenario.attitude_tolerance_deg)
-    if given < cand.threshold and top <= TILT_SLACK * tol:
+    if given < cand.threshold and (top <= TILT_SLACK * tol or cand.effect in SLOW_CURVES):
         return _note(case, cand, lr_alone, given, top)
     return None
 
 
-def rank_given_tilts(case, cands: list, resid: np.ndarray) -> None:
+def rank_given_tilts(case, cands: list, resid: np.ndarray, model=None) -> None:
     """Rank every significant tilt-sensitive candidate by its evidence given the fixture's tilts (joint fit on the
-    holds): its likelihood ratio there given the tilts, less its threshold (a known constant matching its value,
-    less its misfit z^2 only: zero free parameters); so of two nested effects (an accelerometer scale factor per
-    axis and the gravity model, a scale common to all) the one with fewer parameters wins unless the other explains
-    more than its extra threshold. One not separable from
-    the tilts is not ranked. Without this, a warm-up or misalignment whose raw statistic was the tilts' own
-    (6e5 on a 1-deg tumble) outranked the missing gravity model (4e3) and took part of it."""
-    tol = np.radians(getattr(case.scenario, "attitude_tolerance_deg", 0.0) or 0.0)
-    if tol <= 0:
+    holds): its likelihood ratio there given the tilts (and a significant noise term's wander), less its threshold
+    (a known constant matching its value, less its misfit z^2 only: zero free parameters); so of two nested effects
+    (an accelerometer scale factor per axis and the gravity model) the one with fewer parameters wins unless the
+    other explains more than its extra threshold. One not separable from the tilts is not ranked. Without this, a
+    warm-up whose raw statistic was the tilts' own (6e5 on a 1-deg tumble) outranked the missing gravity model."""
+    if (tol := np.radians(getattr(case.scenario, "attitude_tolerance_deg", 0.0) or 0.0)) <= 0:
         return
-    cache: dict = {}
+    cache: dict = {"model": model}  # the model under test (None: the user's); a g-sensitivity's floor said if unseen
     for cand in cands:
+        if cand.effect == "gyro_g_sensitivity" and cand.columns and not cand.significant:
+            floor_note(cand, _given(case, cand, resid, cache))
         if cand.effect not in TILT_EFFECTS or not cand.columns or not cand.significant:
             continue
         got = _given(case, cand, resid, cache)
@@ -326,7 +324,11 @@ def rank_given_tilts(case, cands: list, resid: np.ndarray) -> None:
         if cand.effect == "warmup_drift":
             got = _warmup_given_tilts(case, cand, resid, cache) or got
         lr_alone, given, top, theta, cov = got
-        if given < cand.threshold and top <= TILT_SLACK * tol:
+        wander = _given_found_wander(case, cand, resid, cands, model)
+        if cand.effect in BOUNDED and wander < cand.threshold <= given:  # a noise term's wander across holds
+            cand.identifiable, cand.reason = False, wander_note(cand, wander)
+            continue
+        if given < cand.threshold and (top <= TILT_SLACK * tol or cand.effect in SLOW_CURVES):
             cand.identifiable, cand.reason = False, _note(case, cand, lr_alone, given, top)
             continue
         if cand.effect == "axis_misalignment" and _free_attitude_holds(case):
@@ -342,9 +344,22 @@ def rank_given_tilts(case, cands: list, resid: np.ndarray) -> None:
             # 5.7e-5 rad/s, along the axis that sees +-g): ranked below every plausible rival
             cand.rank = IMPLAUSIBLE_RANK
         else:
-            own = given - cand.threshold
+            own = min(given, wander) - cand.threshold
             cand.rank = own if cand.rank is None else min(cand.rank, own)
             _from_joint_fit(case, cand, theta, cov)
+
+
+def _given_found_wander(case, cand, resid: np.ndarray, cands: list, model) -> float:
+    """The smallest likelihood ratio on the holds given the tilts and a significant noise term's wander (in the offsets'
+    prior and a slow curve's weights; inf if none), each in ``given_rivals``: whitened, the tilts count (own industrial
+    fixture, Gauss-Markov 2.8e-4 rad/s at 40 s: a temperature curve 2.2e5 given it there, 8.2 on the holds)."""
+    out = np.inf
+    for noise in [c for c in cands if c.kind == "noise" and c.significant and c.effect in WANDER_TERMS]:
+        got = _given(case, cand, resid, {"model": add_effect(case.model if model is None else model, noise)})
+        if got is not None and got is not MOVES_ONLY:
+            cand.given_rivals[noise.effect] = min(cand.given_rivals.get(noise.effect, np.inf), got[1])
+            out = min(out, got[1])
+    return out
 
 
 def _free_attitude_holds(case) -> bool:

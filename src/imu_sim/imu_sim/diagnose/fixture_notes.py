@@ -29,3 +29,26 @@ def free_note(case, cand, given: float, free: float) -> str:
             f"Earth rate, 7.3e-5 rad/s, to tell them apart); with each hold's attitude free its likelihood ratio is "
             f"{free:.3g} (within attitude_tolerance_deg {case.scenario.attitude_tolerance_deg:g} deg: {given:.3g}), "
             f"below the threshold {cand.threshold:.3g}; not ranked")
+
+
+def floor_note(cand, got) -> None:
+    """Append to a g-sensitivity not significant on a fixture the coefficient it could have been found at: per axis
+    the value whose likelihood ratio on the holds, given the tilts and each hold's bias wander, reaches the threshold
+    alone (sqrt(threshold) standard errors of the joint fit; ``got`` is its (.., theta, cov) or None). A tactical
+    unit's 0.6-1e-6 rad/s per m/s^2 reached 10.6 against 15.9 on the blind's fixture, with no floor said."""
+    if not isinstance(got, tuple) or len(got[3]) != 3:
+        return
+    floor = np.sqrt(cand.threshold * np.clip(np.diag(got[4]), 0.0, None))
+    cand.reason = "; ".join(filter(None, [cand.reason, (
+        "not detectable on this record below " + ", ".join(f"{v:.2g} ({a})" for a, v in zip("xyz", floor))
+        + " rad/s per m/s^2 (the coefficient whose likelihood ratio on the holds, given the fixture's tilts and each "
+        "hold's bias wander, reaches the threshold alone)")]))
+
+
+def wander_note(cand, given: float) -> str:
+    """Why a hold-keyed effect (g-sensitivity, scale factor, misalignment) significant given the fixture's tilts is not
+    ranked: below threshold once a significant noise term's bias wander from hold to hold is allowed for."""
+    noise = " or ".join(k for k in ("gauss_markov_bias", "bias_random_walk") if k in cand.given_rivals)
+    return (f"not significant given the bias wander from hold to hold that {noise} makes: on the holds, given each "
+            f"hold's fixture tilt and that wander, its likelihood ratio is {given:.3g}, below the threshold "
+            f"{cand.threshold:.3g}; not ranked in this pass")

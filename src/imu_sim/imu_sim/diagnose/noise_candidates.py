@@ -10,7 +10,7 @@ from dataclasses import replace
 import numpy as np
 from scipy import stats
 
-from imu_sim.diagnose import local_level, noise_tests, reference, robust_noise
+from imu_sim.diagnose import hold_noise, local_level, noise_tests, reference, robust_noise
 from imu_sim.diagnose.candidate import Candidate, Context, threshold
 from imu_sim.diagnose.case import CHANNELS, effective_model
 
@@ -131,6 +131,16 @@ def _above_hold_scale(case, model, resid, m: int, tb: float, best: list) -> list
              (min(b[4][0], f[4][0]), max(b[4][1], f[4][1]))) for b, f in zip(best, band)]
 
 
+def _on_hold_means(case, model, raw: np.ndarray, c: int, fit: tuple) -> tuple:
+    """A gyro channel's Whittle fit (lr, sigma^2, interval, tau, interval) with tau profiled on the hold means
+    (:func:`hold_noise.gm_on_hold_means`, the raw residual's): the estimates from there, the intervals joined."""
+    got = hold_noise.gm_on_hold_means(case, model, raw, c, fit[1], fit[3]) if fit[3] else None
+    if got is None:
+        return fit
+    return (fit[0], got[0], (min(fit[2][0], got[1][0]), max(fit[2][1], got[1][1])), got[2],
+            (min(fit[4][0], got[3][0]), max(fit[4][1], got[3][1])))
+
+
 def smallest_walk(case, model, thr: float) -> tuple | None:
     """(gyro rad/s/sqrt(s), accel m/s^2/sqrt(s)): the bias random walk, on every axis of one triad, whose expected
     Whittle likelihood ratio on this record's holds reaches ``thr`` (each hold's own offset removed, so only
@@ -178,6 +188,7 @@ def noise(ctx: Context, effect: str) -> Candidate:
     the fixture's tilt per hold is a nuisance the slow terms must not take)."""
     # the held-out metric's refit on half a record is a stand-in with a length and an interval only: no holds
     on_record = hasattr(ctx.case, "scenario")
+    raw = ctx.resid
     if on_record:
         ctx = replace(ctx, resid=reference.hold_demeaned(ctx.case, ctx.resid))
     case, model, resid = ctx.case, ctx.model, ctx.resid
@@ -188,8 +199,12 @@ def noise(ctx: Context, effect: str) -> Candidate:
             return cand
     m = noise_tests.block_interval(case.n)
     tb = m * case.dt
-    # the correlation time must lie well inside the record, else the wander is a random walk here
-    taus = np.logspace(np.log10(5 * tb), np.log10((case.n // m) * tb / 20), 8)
+    # the correlation time must lie well inside the record, else the wander is a random walk here; on three or more
+    # still holds up to the record, as the hold means tell a bounded wander from a walk (hold_noise.level_preference)
+    top = (case.n // m) * tb / 20
+    taus = np.logspace(np.log10(5 * tb), np.log10(top), 8)
+    if on_record and hold_noise.still_holds(case):  # the grid within the record kept, four more up to its length
+        taus = np.r_[taus, np.logspace(np.log10(top), np.log10(20 * top), 5)[1:]]
     best = _gauss_markov_kf(case, model, resid, m, taus) if effect == "gauss_markov_bias" else None
     n_grid = 1 if effect == "bias_random_walk" else len(taus)
     if best is not None:
@@ -206,6 +221,7 @@ def noise(ctx: Context, effect: str) -> Candidate:
     cand = Candidate(effect, float(lr_ch.sum()), thr, f"{statistic}; {ROBUST_TEXT}", kind="noise")
     if effect == "gauss_markov_bias" and statistic.startswith("Whittle") and on_record:
         best = _above_hold_scale(ctx.case, model, resid, m, tb, best)
+        best = [_on_hold_means(case, model, raw, c, b) if c < 3 else b for c, b in enumerate(best)]
     cand.channels = [CHANNELS[c] for c in range(6) if lr_ch[c] > cut]
     mdl = effective_model(model)
     phys = {}
