@@ -6,7 +6,7 @@ from dataclasses import replace
 
 import numpy as np
 
-from imu_sim.diagnose import metrics, mounting, reference, regressors
+from imu_sim.diagnose import hold_noise, metrics, mounting, reference, regressors
 from imu_sim.diagnose.candidate import Context, add_effect
 from imu_sim.diagnose.noise_candidates import noise
 from imu_sim.diagnose.spectral import Whitener, gls
@@ -26,8 +26,9 @@ def _conditional_lr(ctx: Context, cand, rival) -> float:
     """Statistic of ``cand`` with ``rival`` already in the model (its fit removed or its noise in the PSD)."""
     case, model, resid, wh, resid_f = ctx.case, ctx.model, ctx.resid, ctx.wh, ctx.resid_f
     if cand.kind == "noise":
-        if rival.kind == "noise":
-            return noise(replace(ctx, model=add_effect(model, rival)), cand.effect).stat
+        if rival.kind == "noise":  # plus the hold means' evidence, which the tests on holds do not see
+            return (noise(replace(ctx, model=add_effect(model, rival)), cand.effect).stat
+                    + hold_noise.level_preference(case, model, resid, cand, rival))
         return noise(replace(ctx, resid=resid - rival.contrib), cand.effect).stat
     design = _low_design(case, model, cand)
     if rival.kind == "noise":
