@@ -82,7 +82,7 @@ def evaluate(case: Case, model: SensorModel, resid: np.ndarray, exclude=(), fact
             cand.identifiable, cand.reason = False, (cand.reason + "; " if cand.reason else "") + note
         _rank_known_constant(cand)
     rank_low_frequency(ctx, out)
-    fixture.rank_given_tilts(case, out, resid)  # the fixture's tilts are a nuisance of every ranking
+    fixture.rank_given_tilts(case, out, resid, model)  # the fixture's tilts are a nuisance of every ranking
     for cand in out:  # a hand-mounted table: each mounting's rotation is a nuisance of every tilt-sensitive fit
         mounting.mounting_fit(ctx, cand)
     collinear.note_collinear(case, out)  # a warm-up and a temperature this record cannot tell apart: said in tested
@@ -270,7 +270,7 @@ def diagnose(case: Case, max_effects: int = 4, seed: int = 0, progress=None, fac
         accepted.add(best.effect)
         clean = reference.clean(case, resid)
         # a hand-mounted table's candidate was fitted with each mounting (mounting.mounting_fit): no second check
-        tilt_note = "" if best.mounting_theta is not None else fixture.check(case, best, clean)
+        tilt_note = "" if best.mounting_theta is not None else fixture.check(case, best, clean, model)
         if tilt_note:  # the fixture's own tilt (a nuisance) can stand for it: not ranked
             not_separable[best.effect] = tilt_note
             continue
