@@ -83,14 +83,16 @@ def test_node_stops_with_a_message_when_out_dir_is_missing(ros_env):
 
 @pytest.mark.slow
 def test_the_fit_runs_in_a_niced_worker_while_the_node_keeps_publishing_diagnostics(tmp_path, ros_env, rclpy_context):
-    # 2 h at 10 Hz: several seconds of fitting, done by a child process at nice +10 (issue 15)
+    # 2 h at 10 Hz: about a second of fitting on a quiet machine (several under load), done by a child process at
+    # nice +10 (issue 15); statuses every 0.05 s, so even the quiet machine's fit is seen answering many times (at
+    # 0.2 s a fresh-clone run saw only 2 before the model was written)
     rec = synthetic.static_recording(sensor_model.SensorModel(
         gyro=sensor_model.TriadModel(white_noise=np.full(3, 3.5e-4), rate_random_walk=np.full(3, 2.2e-6)),
         accel=sensor_model.TriadModel(white_noise=np.full(3, 1e-3)), sample_rate_hz=10.0), 7200.0,
         np.random.default_rng(3))
     csv = write_imu_csv(tmp_path / "rec.csv", rec)
     node = NodeProcess("allan_node", env=ros_env, ros_args={"recording": str(csv), "out_dir": str(tmp_path / "o"),
-                                                            "diagnostics_period_s": 0.2, "worker_nice": 10})
+                                                            "diagnostics_period_s": 0.05, "worker_nice": 10})
     arrivals, niceness = [], []
 
     def on_diag(arr):
@@ -114,7 +116,8 @@ def test_the_fit_runs_in_a_niced_worker_while_the_node_keeps_publishing_diagnost
         node.stop()
     working = [t for t, m in arrivals if m == "characterising"]
     assert len(working) >= 5, arrivals[:3]
-    # the node answered all along: no silence of more than 10 periods while its worker was busy
+    # the node answered all along: no silence of more than 2 s (40 periods, slack for a loaded CI) while its worker
+    # was busy
     assert np.max(np.diff(working)) < 2.0, np.max(np.diff(working))
     # the kernel caps niceness at 19, so under a niced test run (CI at nice 10) the worker is less than +10 apart
     assert niceness and niceness[0] >= min(10, 19 - os.getpriority(os.PRIO_PROCESS, 0)), niceness
