@@ -5,8 +5,8 @@ in the middle either end the read there or make whole chunks vanish without a wo
 This scanner walks the records itself, steps into uncompressed chunks (compressed
 ones are decompressed and scanned the same way), and when a record does not make
 sense (unknown opcode, a length past the end, a message on an unknown channel, or
-outside its chunk's time range and not followed by a plausible record) it notes a damaged region and resynchronises on the
-next record that does, checked by the record after it. The message that ends where
+outside its chunk's time range and not followed by a plausible record) it notes a
+damaged region and resynchronises on the next record that does, checked by the record after it. The message that ends where
 the damage begins is dropped too, since the damage may have started inside it. The
 file's Statistics record, when it is intact, gives how many messages were expected
 per channel, so the loss is counted exactly.

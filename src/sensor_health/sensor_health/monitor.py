@@ -49,13 +49,13 @@ several channels (a knock on the mount) is not one."""
 BIAS_FAST_WINDOWS = 3
 BIAS_CONFIRM_WINDOWS = 2
 BIAS_CONFIRM_BEFORE_S = 20.0
+"""A bias CUSUM that crossed within BIAS_FAST_WINDOWS windows of its start waits this many more: a lasting step
+keeps half its size in them, a pulse (the unit turned and came back: ADIS imu4 at 3957 s, gx and gy for 2 s while
+ax and ay tilt) does not. A slow crossing has already shown that the change lasts."""
 ONSET_NEAR_START_S = 2.0
 """A bias step's change point is sought within this many seconds of where its CUSUM last left zero (the change point
 of the step the CUSUM is tuned to; the samples refine it): over the whole span, one noisy window at its end pulled
 the unknown-step maximum likelihood there (benchmark seed 9504: 27 s late)."""
-"""A bias CUSUM that crossed within BIAS_FAST_WINDOWS windows of its start waits this many more: a lasting step
-keeps half its size in them, a pulse (the unit turned and came back: ADIS imu4 at 3957 s, gx and gy for 2 s while
-ax and ay tilt) does not. A slow crossing has already shown that the change lasts."""
 
 
 class HealthMonitor(VibrationCheck):

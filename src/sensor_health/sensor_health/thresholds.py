@@ -221,8 +221,9 @@ def monte_carlo(model: SensorModel, grid: WindowGrid, window_s: float, budget_pe
                 baseline_s: float, mc_windows: int = 20000, seed: int = 0,
                 gyro_bias_per_10h: float = 0.0, clip_per_10h: float = 0.0, bias_hours: float = 1000.0) -> Thresholds:
     """Thresholds for ``model`` from ``mc_windows`` simulated windows and ``bias_hours`` of simulated window means
-    for the bias CUSUMs (seeded: the same model gives the same thresholds in the CLI and the node). ``gyro_bias_per_10h`` > 0: the gx and gy bias CUSUMs each get that share
-    instead of an equal one of ``budget_per_10h``; ``clip_per_10h`` > 0 likewise each channel's clip count."""
+    for the bias CUSUMs (seeded: the same model gives the same thresholds in the CLI and the node).
+    ``gyro_bias_per_10h`` > 0: the gx and gy bias CUSUMs each get that share instead of an equal one of
+    ``budget_per_10h``; ``clip_per_10h`` > 0 likewise each channel's clip count."""
     rng = np.random.default_rng(seed)
     x = noise_sim.model_noise(model, mc_windows * grid.n, grid.dt, rng).reshape(mc_windows, grid.n, 6)
     ws = window_stats(grid, x)

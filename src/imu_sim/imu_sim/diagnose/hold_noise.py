@@ -15,8 +15,8 @@ INFLATION_BLOCKS_S = (2.0, 5.0, 10.0)
 def inflation(resid: np.ndarray, hold: np.ndarray, dt: float, blocks_s=INFLATION_BLOCKS_S) -> np.ndarray:
     """Per channel (6,) the variance inflation of a mean over the holds' time scales: block length times the variance
     of the block means about their hold's mean over the per-sample variance (its lower 2-sigma bound), the largest
-    over ``blocks_s``, at least 1 (white noise: 1; the residual's autocorrelation shrinks the effective sample size by this factor).
-    ``resid`` is (6, n), ``hold`` the (n,) mask of hold samples."""
+    over ``blocks_s``, at least 1 (white noise: 1; the residual's autocorrelation shrinks the effective sample size
+    by this factor). ``resid`` is (6, n), ``hold`` the (n,) mask of hold samples."""
     spans = mask_spans(hold)
     var = np.array([np.var(resid[c, hold]) for c in range(6)])
     out = np.ones(6)
