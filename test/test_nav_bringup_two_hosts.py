@@ -48,12 +48,15 @@ def test_a_cut_not_over_before_the_drive_ends_is_refused_and_a_missed_cut_says_s
 
 def test_sensor_data_crossing_the_link_is_reliable_and_kept_for_a_cut():
     specs = [NodeSpec("bp3010_driver", {"port": "/tmp/x"}), NodeSpec("wmra_node"), NodeSpec("ins_gps_kf_node"),
-             NodeSpec("allan_node", {"out_dir": "a"}), NodeSpec("scenario_player"), NodeSpec("sensor_health_node")]
+             NodeSpec("allan_node", {"out_dir": "a"}), NodeSpec("scenario_player"), NodeSpec("sensor_health_node"),
+             NodeSpec("bag_play")]
     by_name = {s.executable: s.overrides for s in hosts.link_qos(specs, store_s=30.0)}
     imu = "qos_overrides./imu/data_raw.publisher"
     assert by_name["bp3010_driver"] == {"port": "/tmp/x", f"{imu}.reliability": "reliable",
                                         f"{imu}.history": "keep_last", f"{imu}.depth": 30 * 64 + 10}
     assert by_name["scenario_player"]["qos_overrides./gps/fix.publisher.depth"] == 30 + 10
+    assert by_name["bag_play"][f"{imu}.depth"] == 30 * 64 + 10  # a recording's player: as the driver and player
+    assert by_name["bag_play"]["qos_overrides./gps/fix.publisher.reliability"] == "reliable"
     den = "qos_overrides./imu/data_corrected.publisher"  # the cut's backlog burst, kept for the recorder
     assert by_name["wmra_node"] == {"qos_overrides./imu/data_raw.subscription.reliability": "reliable",
                                     f"{den}.reliability": "reliable", f"{den}.history": "keep_last",

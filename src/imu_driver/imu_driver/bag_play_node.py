@@ -24,7 +24,7 @@ from rosgraph_msgs.msg import Clock
 
 from nav_core import bagio, units
 from nav_core.params import ConfigError, Param, did_you_mean
-from nav_core.ros_node import SENSOR_QOS, declare_parameters, run_node
+from nav_core.ros_node import SENSOR_QOS, declare_parameters, link_publisher, run_node
 
 
 PARAMS = (
@@ -95,7 +95,8 @@ class BagPlayer(Node):
                 continue
             qos = playback_qos(recorded_qos.get(topic)) or (SENSOR_QOS if msgtype in bagio.SENSOR_TYPES
                                                             else QoSProfile(depth=100))
-            pubs[topic] = (cls, self.create_publisher(cls, "/" + topic, qos))
+            # overridable per run (nav-demo makes the sensor data reliable and kept: nav_bringup.hosts.link_qos)
+            pubs[topic] = (cls, link_publisher(self, cls, "/" + topic, qos))
         if not pubs:
             raise ConfigError(f"bag {self.p['bag']}: no playable topics")
         return pubs

@@ -222,7 +222,9 @@ def main(argv=None) -> int:
     run_dir.mkdir(parents=True)
     two = hosts.HostRun(cut, args.rate) if args.hosts == 2 else None
     specs = graph_specs(args, run_dir, sim_dir)
-    graph = Graph(hosts.link_qos(specs) if two else specs, env, args.params, log_dir=run_dir / "logs",
+    # reliable and kept on one host too: best effort, a recorder on a busy CPU lost 325 of the 37406 samples the
+    # filter received in a Katwijk replay at 8x (CI at 180dd93), and the report's replay of its bag cannot match
+    graph = Graph(hosts.link_qos(specs), env, args.params, log_dir=run_dir / "logs",
                   prefix=two.prefix if two else None, progress=lambda text: print(f"[demo] {text}", flush=True))
     player = "bag_play" if args.recording else "scenario_player"
     print(f"[demo] starting the graph (ROS_DOMAIN_ID={env['ROS_DOMAIN_ID']}); output in {run_dir}")

@@ -47,6 +47,7 @@ STORE_S = 60.0
 """s of sensor data the sensor host keeps for a compute host it cannot reach (the link's longest bridged cut)."""
 LINK_TOPICS = {  # node -> its endpoints of the sensor data crossing the link: (topic, side, messages per second)
     "bp3010_driver": [("/imu/data_raw", "publisher", 64.0)],
+    "bag_play": [("/imu/data_raw", "publisher", 64.0), ("/gps/fix", "publisher", 1.0)],
     # imu/data_corrected does not cross the link but carries its burst: when the link returns wmra_node republishes
     # the cut's backlog at once; best effort, a busy recorder lost 772 of a cut's samples that the filter got (live
     # - offline 1.73 m, load 30). Reliable and kept, the recorder (which takes the QoS offered) gets every one
@@ -63,7 +64,8 @@ LINK_TOPICS = {  # node -> its endpoints of the sensor data crossing the link: (
 def link_qos(specs: list, store_s: float = STORE_S, imu_rate_hz: float = 64.0) -> list:
     """``specs`` with reliable QoS on the sensor data crossing the link: the publishers keep the last ``store_s``
     of messages (KEEP_LAST depth), which DDS delivers once the link is back, so the compute host's filter runs
-    through a cut on every sample in stamp order instead of bridging a gap it never saw (docs/two_hosts.md)."""
+    through a cut on every sample in stamp order instead of bridging a gap it never saw (docs/two_hosts.md).
+    nav-demo gives them to a one-host run too, where the same QoS keeps a busy recorder from losing samples."""
     import dataclasses
 
     out = []
