@@ -289,7 +289,7 @@ def bias_tail_section(model, base, hours: float) -> None:
         share = cfg.gyro_bias_per_10h if c < 2 and cfg.gyro_bias_per_10h > 0 else th.budget_per_10h / thr.N_TESTS
         start = time.process_time()
         tail = bias_tail(model, c, th.window_s, th.bias_sd[c], levels[:, c], th.bias_q[c], th.bias_k[c], share,
-                         hours, thr.bias_warmup_windows(th.window_s), seed=1000 + c)
+                         hours, thr.bias_warmup_windows(th.window_s), seed=1000 + c, split=False)
         n = int(np.count_nonzero(tail.maxima > th.bias_h[c]))
         lo, hi = (st.chi2.ppf(0.025, 2 * n) / 2 if n else 0.0), st.chi2.ppf(0.975, 2 * n + 2) / 2
         print(f"bias tail {CHANNELS[c]}: h {th.bias_h[c]:.2f} (k {th.bias_k[c]:.2f}, {th.bias_h_how[c]} from "

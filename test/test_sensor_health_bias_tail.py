@@ -1,7 +1,9 @@
 """The bias CUSUMs' false alarms counted on long simulated window means (sensor_health.bias_tail)."""
 import numpy as np
 
-from sensor_health.bias_tail import _excursion_maxima, threshold_for
+import pytest
+
+from sensor_health.bias_tail import _excursion_maxima, counted_tail, threshold_for
 
 
 def test_the_counted_excursions_of_a_cusum_on_white_innovations_give_its_known_run_length():
@@ -27,3 +29,30 @@ def test_the_threshold_is_read_off_the_counts_where_they_suffice_and_an_exponent
     assert how == "measured" and abs(h - (2.0 + np.log(100.0))) < 0.1
     h, how = threshold_for(maxima, 1000.0, 0.01)  # 1 alarm allowed: extended
     assert how == "extended" and abs(h - (2.0 + np.log(1e5))) < 0.5
+
+
+def _white(n_phi=0):
+    """(white_sd, levels, gm_phi, gm_sd, rw_sd, q): unit white window means, with a slow Gauss-Markov wander the
+    filter's walk does not follow where n_phi."""
+    phi = np.array([np.exp(-1 / 300.0)] * n_phi)
+    return 1.0, np.ones(1), phi, 0.3 * np.sqrt(1 - phi**2), 0.0, 1e-4
+
+
+def test_the_split_tail_reads_the_threshold_a_twenty_times_longer_count_reads():
+    """White innovations, k 0.5: 40 h leave the share 1 alarm (split), 800 h count it at 20 (measured)."""
+    for args in (_white(), _white(1)):
+        share = 10.0 / 40.0
+        long = counted_tail(args, 0.5, share, 800.0, 60, 11)
+        short = counted_tail(args, 0.5, share, 40.0, 60, 12)
+        assert long.how == "measured" and short.how != "measured"
+        assert np.count_nonzero(long.maxima > short.h) == pytest.approx(20, abs=10)
+
+
+def test_a_slow_wander_s_tail_beyond_the_counts_is_heavier_than_their_exponential_tail_and_the_split_carries_it():
+    args = _white(1)
+    share = 10.0 / 40.0
+    long = counted_tail(args, 0.5, share, 800.0, 60, 13)
+    short = counted_tail(args, 0.5, share, 40.0, 60, 14)
+    exp_h, _ = threshold_for(short.maxima, 40.0, share)
+    assert short.how == "split" and short.h > exp_h
+    assert np.count_nonzero(long.maxima > exp_h) > np.count_nonzero(long.maxima > short.h)

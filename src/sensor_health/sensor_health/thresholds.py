@@ -7,8 +7,8 @@ statistics and the same CUSUM recursions as the monitor. Per detector and channe
 * the noise-level CUSUM: run lengths are *measured* on the simulated series at a grid of low thresholds (restart
   after each alarm), log(mean run length) is fitted linear in h (the CUSUM's run length grows exponentially with
   its threshold) and solved for the budget's run length;
-* the bias CUSUMs: alarms *counted* on ``bias_hours`` of simulated window means through the same filter
-  (:mod:`sensor_health.bias_tail`: the slow wander's tail, which 8000 windows do not show);
+* the bias CUSUMs: alarms *counted* on ``bias_hours`` of simulated window means through the same filter, the tail
+  beyond the counts split (:mod:`sensor_health.bias_tail`: the slow wander's tail, which 8000 windows do not show);
 * the line gate (one window, chi-square(2) max over the searched bins): an exponential tail fitted to the
   upper 2 % of the simulated maxima, solved for the budget's per-window probability.
 * the clip test (samples of the last 10 windows exactly at their extreme): two more than the most simulated;
@@ -116,7 +116,7 @@ class Thresholds:
     bias_tail_hours: float
     """Hours of simulated window means the bias thresholds were counted on."""
     bias_h_how: list
-    """(6,) per bias channel 'measured' (the share's rate between two counted points) or 'extended' (beyond them)."""
+    """(6,) per bias channel how h was read (``bias_tail.BiasTail.how``: 'measured', 'split' or 'extended')."""
     clip_per_10h: float
     """False events per 10 h allowed to the flat-top clip count of each channel (beyond ``budget_per_10h``)."""
 
