@@ -132,7 +132,8 @@ def plot_link(run_dir: Path, cuts: list, epoch_s: float, path: Path) -> Path:
         for ax in (ax1, ax2):
             ax.axvspan(cut["at_s"], cut["restored_at_s"], color="0.85", label="link down" if ax is ax1 else None)
     ax1.set_ylabel("odometry spacing (s)")
-    ax1.legend(loc="upper left")
+    if cuts:  # the only labelled artist (matplotlib warns on an empty legend: a run without a cut)
+        ax1.legend(loc="upper left")
     ax2.set_ylabel("fixes fused")
     ax2.set_xlabel("simulated time from the start of the drive (s)")
     ax1.set_title("two hosts: the link cut, the gap and the recovery (compute host's bag)")
