@@ -33,8 +33,10 @@ def build_parser() -> argparse.ArgumentParser:
                    "the course in turns; without it the scale factor is not observable)")
     p.add_argument("--model", required=True, type=Path, help="sensor-model YAML (imu-calib allan writes one)")
     p.add_argument("--out", required=True, type=Path, help="output folder (new or empty; --force replaces it)")
-    p.add_argument("--false-alarms-per-10h", type=number(0, None, low_open=True), default=0.3,
-                   help="budget of statistical false events on the model's noise, all detectors (default 0.3)")
+    p.add_argument("--false-alarms-per-10h", type=number(0, None, low_open=True),
+                   default=HealthConfig.false_alarms_per_10h,
+                   help="budget of statistical false events on the model's noise shared by the tests without a "
+                        f"share of their own (default {HealthConfig.false_alarms_per_10h})")
     p.add_argument("--gyro-range-dps", type=number(0, None, low_open=True), default=300.0,
                    help="gyro range, deg/s (saturation; default 300, the BP3010's)")
     p.add_argument("--accel-range-g", type=number(0, None, low_open=True), default=10.0,

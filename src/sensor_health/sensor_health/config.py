@@ -13,15 +13,17 @@ class HealthConfig:
     window_s: float = 1.0
     f_min_hz: float = 2.0
     """Lines are searched from here to Nyquist (the vehicle's motion lives below)."""
-    false_alarms_per_10h: float = 0.3
-    """Budget of statistical false events on the model's own noise, all detectors and channels together (but the
-    gx and gy bias tests: ``gyro_bias_per_10h``)."""
-    gyro_bias_per_10h: float = 0.0
+    false_alarms_per_10h: float = 0.15
+    """Budget of statistical false events on the model's own noise shared equally by the tests without a share of
+    their own (noise, line and stuck on every channel, az's bias, the gz scale factor: 20 x 0.00625 = 0.125 per
+    10 h). With the shares below, 0.8 per 10 h in all on the model's noise: the issue's 1 per 10 h of healthy
+    driving leaves ~0.2 to what the drives add (the motion models' misfit)."""
+    gyro_bias_per_10h: float = 0.1
     """False events per 10 h allowed to each of the gx and gy bias CUSUMs, on top of ``false_alarms_per_10h``
     (0: an equal share of it). A step of 10x a MEMS gyro's bias sd is ~1.3 sd of a 1-s mean, at its white-noise
-    floor, where a larger share shortens the delay (bench_sensor_health --floor); but the unit's slow bias wander
-    eats it: at 0.1 the benchmark's healthy drives gave 3 false gx events in 4 h (11 gx/gy crossings in 40 h with
-    the filter's walk from the model's K, mostly on straights)."""
+    floor, where a larger share shortens the delay (bench_sensor_health --floor: median max of 20 runs 33 s at the
+    equal share, 28 s at 0.1). Earlier 0.1 gave 3 false gx events in 4 h of the benchmark's healthy drives, at
+    gates then counted at 13-30x their share; the split-tail gates (``bias_tail``) hold it."""
     track_bias_per_10h: float = 0.1
     """False events per 10 h allowed to each of the bias tests against the GNSS track (gz, ax, ay), on top of
     ``false_alarms_per_10h`` (0: an equal share of it): a 10x bias-sd gz step shows against the track no faster than

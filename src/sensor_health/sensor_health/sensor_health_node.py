@@ -46,8 +46,9 @@ PARAMS = (
     Param("sensor_model_path", "", "sensor-model YAML (nav_core.sensor_model): the noise that is never a fault"),
     Param("sample_rate_hz", 0.0, "input sample rate, Hz; 0 = the sensor model's sample_rate_hz", 0.0, 1e5),
     Param("window_s", 1.0, "window of the noise, line and bias statistics, s", 0.1, 60.0),
-    Param("false_alarms_per_10h", 0.3, "budget of statistical false events on the model's noise per 10 h, all "
-          "detectors and channels together (thresholds by Monte Carlo)", 1e-6, 1e3),
+    Param("false_alarms_per_10h", HealthConfig.false_alarms_per_10h, "budget of statistical false events on the "
+          "model's noise per 10 h shared by the tests without a share of their own (thresholds by Monte Carlo)",
+          1e-6, 1e3),
     Param("gyro_range_dps", 300.0, "gyro range, deg/s (saturation)", 1e-3, 1e6),
     Param("accel_range_g", 10.0, "accelerometer range, g (saturation)", 1e-3, 1e6),
     Param("events_topic", "sensor_health/events", "topic of the events (std_msgs/String JSON, transient local)"),
