@@ -173,6 +173,12 @@ CASES = {
     # holds, its wander across holds bounded where a walk's keeps growing); accel in the suite case's ratio
     "fx_gauss_markov_slow": ("fixture", "gauss_markov_bias", {"gyro": 2.8e-4, "accel": 1.4e-3, "tau": 40.0}),
     "fx_earth_rotation_updown": ("updown_fixture", "earth_rotation", {}),
+    # blind seed 7's navigation warm-up (tau ~160 s, mostly on the accelerometers) on a fixture whose logged
+    # temperature follows its own exponential (time constant drawn in temp_tau_s): the two curves correlate at
+    # r ~ -0.96..-0.99 over the record; sizes absolute (not scaled by the grade), the grade fixed
+    "fx_warmup_temp": ("fixture", "warmup_drift", {"gyro": [6e-7, -4e-7, 3e-7], "accel": [2.7e-3, -0.8e-3, 0.8e-3],
+                                                   "tau": 160.0, "absolute": True, "grade": "navigation",
+                                                   "temp_tau_s": (200.0, 350.0)}),
 }
 NULLS = {"null_drive": "drive", "null_table": "table", "null_mtable": "mtable", "null_ltable": "ltable", "null_single_naive": "static_rw",
          "null_tumble": "tumble",
@@ -214,6 +220,9 @@ TRUE = {
     "fx_earth_rotation_updown": {"earth_rate_rad_per_s": gen.OMEGA_E},
     "fx_bias_random_walk": {f"gyro_rad_per_s_per_sqrt_s[{a}]": 3e-6 for a in "xyz"},
     "fx_gauss_markov_slow": {f"gyro_sigma_rad_per_s[{a}]": 2.8e-4 for a in "xyz"},
+    "fx_warmup_temp": {"time_constant_s": 160.0,
+                       **{f"gyro_amplitude_rad_per_s[{a}]": v for a, v in zip("xyz", [6e-7, -4e-7, 3e-7])},
+                       **{f"accel_amplitude_mps2[{a}]": v for a, v in zip("xyz", [2.7e-3, -0.8e-3, 0.8e-3])}},
 }
 for _name in ("earth_rotation", "gravity_model", "gyro_g_sensitivity", "warmup_drift", "vibration", "quantization",
               "temperature_bias", "gauss_markov_bias"):
@@ -252,6 +261,7 @@ def true_values(name: str, grade: str) -> dict:
         return {k: v * GRADES[grade] for k, v in TRUE[name].items()}
     if CASES.get(name, ("",))[0] in ("fixture", "updown_fixture"):  # sensor effects scale with the grade's noise
         k = GRADES[grade] * (TEMP_REALISTIC if name == "fx_temperature_bias" else 1.0)
+        k = 1.0 if CASES[name][2].get("absolute") else k
         out = {p: v * (1.0 if p in SCALE_FREE else k) for p, v in TRUE.get(name, {}).items()}
         if name == "fx_temperature_bias":  # the accelerometers' coefficients too (the blind scored six intervals)
             out.update({f"accel_coeff_mps2_per_degc[{a}]": np.sqrt(GRADES[grade]) * v
@@ -533,8 +543,9 @@ def _fixture(site, rng, real, folder, kind, effect, par, seed):
     """A six-position test (or an up/down) on an imperfect fixture turned by hand: per-hold tilts, moves of unknown
     and varying profile, a grade from navigation to consumer, flicker bias instability, misstated noise, a logged
     temperature that warms 8 degC over the test; the scenario states the holds only."""
-    grade = fixture_grade(kind, effect, seed)
+    grade = par.get("grade") or fixture_grade(kind, effect, seed)
     k = GRADES[grade]
+    k_eff = 1.0 if par.get("absolute") else k  # the concealed effect's size factor
     if kind == "updown_fixture":
         rate, nominal = 64.0, [(0, -90, 0), (0, 90, 0)]
         holds = real.uniform(250.0, 350.0, 2)
@@ -545,14 +556,15 @@ def _fixture(site, rng, real, folder, kind, effect, par, seed):
     dt = 1.0 / rate
     t, gyro, accel = site.true_imu(motion, rate)
     n = len(t)
-    temp = 24.0 + 8.0 * (1.0 - np.exp(-t / 400.0)) + 0.3 * np.sin(2 * np.pi * t / 200.0)
+    temp_tau = np.random.default_rng([seed, 26]).uniform(*par["temp_tau_s"]) if "temp_tau_s" in par else 400.0
+    temp = 24.0 + 8.0 * (1.0 - np.exp(-t / temp_tau)) + 0.3 * np.sin(2 * np.pi * t / 200.0)
     gyro_out, accel_out = gyro.copy(), accel.copy()
     if effect == "gyro_g_sensitivity":
         gyro_out += k * np.asarray(par["g"]) * accel
     elif effect == "warmup_drift":
         decay = np.exp(-(t - dt / 2) / par["tau"])[:, None]
-        gyro_out += k * decay * par["gyro"]
-        accel_out += k * decay * par["accel"]
+        gyro_out += k_eff * decay * par["gyro"]
+        accel_out += k_eff * decay * par["accel"]
     elif effect == "vibration":
         s = gen.interval_mean_sin(t, dt, par["f"], 0.7)
         gyro_out[:, 0] += k * par["gyro_x"] * s

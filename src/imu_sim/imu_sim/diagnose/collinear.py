@@ -1,13 +1,19 @@
-"""Slow deterministic terms a record cannot tell apart: a warm-up's exponential and the recorded temperature.
+"""Slow deterministic terms a record cannot tell apart by their regressors alone: a warm-up's exponential and the
+recorded temperature.
 
 A unit's temperature often rises with its warm-up, so the temperature regressor and the warm-up's exponential are
 nearly the same curve over the record (blind seed 2: a tactical warm-up of time constant 193 s was named
 temperature_bias, its statistic given the warm-up still large). Where they correlate beyond :data:`COLLINEAR` over
-the stated samples, both candidates' ``tested`` notes say so (NumPy only).
+the stated samples, both candidates' ``tested`` notes say so. On a fixture of still holds the two are also fitted
+jointly with the holds' tilts, one weighting for both (:func:`decide_on_holds`): the one the other does not explain
+ranks first (NumPy only).
 """
 from __future__ import annotations
 
 import numpy as np
+
+from imu_sim.diagnose import fixture
+from imu_sim.diagnose.hold_noise import Prior
 
 COLLINEAR = 0.95
 """|correlation| of the two regressors (demeaned: the turn-on bias is free) beyond which the record cannot tell
@@ -24,12 +30,15 @@ def correlation(t: np.ndarray, temp_c: np.ndarray, tau_s: float, keep: np.ndarra
     return float(np.sum(a * b) / den) if den > 0 else 0.0
 
 
-def note_collinear(case, cands: list) -> None:
-    """Add to the significant warm-up and temperature candidates' notes when their regressors are collinear here."""
+def note_collinear(case, cands: list, resid: np.ndarray | None = None, model=None) -> None:
+    """Add to the significant warm-up and temperature candidates' notes when their regressors are collinear here;
+    with ``resid`` (the pass's cleaned residual) on a fixture, rank the two by :func:`decide_on_holds` first."""
     by = {c.effect: c for c in cands}
     warm, temp = by.get("warmup_drift"), by.get("temperature_bias")
     if warm is None or temp is None or not (warm.significant and temp.significant):
         return
+    if resid is not None:
+        decide_on_holds(case, temp, warm, resid, model)
     tau = (warm.params or {}).get("time_constant_s")
     if getattr(case, "temp_c", None) is None or not tau:
         return
@@ -39,6 +48,66 @@ def note_collinear(case, cands: list) -> None:
         return
     text = (f"collinear with {{other}} on this record: the recorded temperature and the warm-up's exponential (time "
             f"constant {float(tau):.3g} s) correlate at r = {r:.3f} over the stated samples, so this record cannot "
-            "tell a warm-up from a temperature coefficient; which one is named rests on the fit's shape alone")
+            "tell a warm-up from a temperature coefficient by the regressors alone")
     for cand, other in ((warm, "temperature_bias"), (temp, "warmup_drift")):
         cand.reason = (cand.reason + "; " if cand.reason else "") + text.format(other=other)
+
+
+def pair_on_holds(case, temp, warm, resid: np.ndarray, model=None) -> dict | None:
+    """Likelihood ratios on a fixture's holds of the temperature and warm-up curves, each given the holds' tilts and
+    bias offsets (``temperature_bias``, ``warmup_drift``) and each given the other too (``temperature_bias|other``,
+    ...), all under one weighting (each channel's noise level and effective sample size after both curves): the
+    fixture's per-candidate weights (:func:`fixture._given`) follow each candidate's own residual, so their
+    statistics are not comparable (blind seed 7, a navigation warm-up of 160 s: the temperature ranked first at 40.5
+    against the warm-up's 43.6 given a walk's wander; on one weighting the warm-up given the temperature is 197, the
+    temperature given it 4). None off a fixture or without both curves' columns."""
+    if not (temp.columns and warm.columns):
+        return None
+    n = case.n
+    kt, kw = (next(iter(c.columns.values())).shape[1] for c in (temp, warm))
+    joint = {c: np.hstack([temp.columns.get(c, np.zeros((n, kt))), warm.columns.get(c, np.zeros((n, kw)))])
+             for c in set(temp.columns) | set(warm.columns)}
+    setup = fixture._setup(case, joint, resid, slow=True, model=model)
+    if setup is None:
+        return None
+    weights, _, tilt, eff, raw, w, prior = setup[:7]
+    rows = case.cache.get("fixture_gyro_offset_rows")
+    if rows is not None:  # a slow curve's gyro offsets stay free, as in its own test (fixture._given)
+        prior = Prior(prior, prior.charged & ~rows)
+    rss = [fixture._fit_tilts(case, weights, tilt, raw, w, prior, x)[0]
+           for x in (None, eff[:, :kt], eff[:, kt:], eff)]
+    return {"temperature_bias": rss[0] - rss[1], "warmup_drift": rss[0] - rss[2],
+            "temperature_bias|other": rss[2] - rss[3], "warmup_drift|other": rss[1] - rss[3]}
+
+
+def decide_on_holds(case, temp, warm, resid: np.ndarray, model=None) -> None:
+    """On a fixture, rank the two slow curves by :func:`pair_on_holds`: one below its threshold given the other (and
+    the tilts) ranks below it; if each is below given the other, the one that explains more of the holds alone
+    ranks first; if both stand given each other, nothing changes. One the fixture's tilts took (not identifiable)
+    is a rival too: the other, below its threshold given it, is not ranked either (the two are treated alike)."""
+    got = pair_on_holds(case, temp, warm, resid, model)
+    if got is None:
+        return
+    pair = {"temperature_bias": (temp, warm), "warmup_drift": (warm, temp)}
+    below = {e: got[e + "|other"] < c.threshold for e, (c, _) in pair.items()}
+    if below["temperature_bias"] == below["warmup_drift"]:
+        if not below["temperature_bias"]:
+            return  # each stands given the other: both may be present
+        loser = min(pair, key=lambda e: got[e] - pair[e][0].threshold)
+    else:
+        loser = next(e for e in pair if below[e])
+    lose, win = pair[loser]
+    said = (f"on the fixture's holds, given {win.effect} and each hold's tilt (one weighting for both), its "
+            f"likelihood ratio is {got[loser + '|other']:.4g} against the threshold {lose.threshold:.3g}; "
+            f"{win.effect} given it: {got[win.effect + '|other']:.4g} against {win.threshold:.3g}")
+    if win.identifiable is False and lose.identifiable is not False:
+        lose.identifiable, lose.reason = False, "; ".join(filter(None, [lose.reason, (
+            f"{fixture.NOT_SEPARABLE}: {said}, and {win.effect} is not separable from the fixture's tilts; not "
+            "ranked")]))
+        return
+    if win.identifiable is False or lose.identifiable is False:
+        return
+    top = win.rank if win.rank is not None else win.stat - win.threshold
+    own = lose.rank if lose.rank is not None else lose.stat - lose.threshold
+    lose.rank = min(own, got[loser + "|other"] - lose.threshold, top - 1.0)
+    lose.reason = "; ".join(filter(None, [lose.reason, f"{said}: ranked below {win.effect}"]))

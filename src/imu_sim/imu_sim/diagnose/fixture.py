@@ -11,17 +11,17 @@ holds with the tilts removed (:func:`without_tilts`).
 """
 from __future__ import annotations
 
-from types import SimpleNamespace
-
 import numpy as np
 from scipy.linalg import block_diag
 
-from imu_sim.diagnose import plausibility
+from imu_sim.diagnose.plausibility import (implausible_on_holds as _implausible_on_holds,
+                                           reported_on_whole as _reported_as_model_error)
 from imu_sim.diagnose.fixture_notes import (NOT_SEPARABLE, floor_note, free_note as _free_note, tilt_note as _note,
                                             wander_note)
 from imu_sim.diagnose.candidate import add_effect
 from imu_sim.diagnose.hold_noise import (INFLATION_BLOCKS_S, WANDER_TERMS, Prior, bias_wander, hold_scale_blocks,
                                          inflation, noise_key as _noise_key, penalised_fit, stated_inflation)
+from imu_sim.diagnose.fixture_holds import STILL_RAD_S, hold_weights as _weights
 from imu_sim.diagnose.unstated import is_rate_table, unreferenced_segments
 
 TILT_EFFECTS = ("axis_misalignment", "scale_factor", "gyro_g_sensitivity", "gravity_model", "earth_rotation",
@@ -30,67 +30,9 @@ TILT_EFFECTS = ("axis_misalignment", "scale_factor", "gyro_g_sensitivity", "grav
 drift sampled by a sequence of holds, each with its own offset)."""
 
 
-def _weights(case) -> np.ndarray | None:
-    """(n, segments) weight of each static segment's tilt at each sample and its time derivative (1/s), or None: 1 on
-    the hold; across a move the tilt passes from one hold's to the next's with the move's own profile (the simulator
-    moves along a smoothstep in rotation-vector space, so its rate magnitude is that profile's slope)."""
-    if getattr(case.scenario, "source", None) != "static_segments":
-        return _truth_hold_weights(case)
-    t = case.sim_t_abs
-    segs = sorted(case.scenario.spec, key=lambda s: float(s["t0"]))
-    n, m = case.n, len(segs)
-    w, wdot = np.zeros((n, m)), np.zeros((n, m))
-    speed = np.linalg.norm(case.gyro_true, axis=1)
-    for s, seg in enumerate(segs):
-        w[(t > float(seg["t0"])) & (t <= float(seg["t1"])), s] = 1.0
-    w[t <= float(segs[0]["t0"]), 0] = 1.0
-    w[t > float(segs[-1]["t1"]), m - 1] = 1.0
-    for s in range(m - 1):
-        rows = (t > float(segs[s]["t1"])) & (t <= float(segs[s + 1]["t0"]))
-        if not rows.any():
-            continue
-        p = speed[rows] if speed[rows].sum() > 0 else np.ones(rows.sum())
-        p = p / (p.sum() * case.dt)
-        cum = np.cumsum(p) * case.dt
-        w[rows, s], w[rows, s + 1] = 1.0 - cum, cum
-        wdot[rows, s], wdot[rows, s + 1] = -p, p
-    # a rate table's spinning segments get no tilt of their own: the unit is mounted once, and its tilt against the
-    # table axis, common to every spinning hold, is the gyro misalignment the table is there to measure
-    spinning = [s for s, seg in enumerate(segs) if float(seg.get("rate_dps", 0.0) or 0.0) != 0.0]
-    w[:, spinning], wdot[:, spinning] = 0.0, 0.0
-    return np.stack([w, wdot])
-
-
 TILT_SLACK = 1.5
 """A fitted tilt up to this many tolerances is within it; beyond, an effect below threshold given them stands, but not
 a slow curve, whose hold-to-hold part any offset pattern makes (own navigation nulls 8000, 8004: tilts of 1.8 deg)."""
-STILL_RAD_S = 1e-3
-"""A truth file's hold turning slower than this (rad/s; the Earth rate is 7.3e-5) is a static fixture pose."""
-
-
-def _truth_hold_weights(case) -> np.ndarray | None:
-    """Weights of :func:`_weights` for a truth file's static holds (:func:`reference.holds` that do not turn: a
-    tumble from a CSV), blended linearly across each move; None with fewer than two. A rate table's spinning holds
-    are left out: its one mounting tilt, common to every hold, is the gyro misalignment it is there to measure."""
-    from imu_sim.diagnose.reference import holds
-    spans = [(a, b) for a, b in holds(case) if np.max(np.abs(case.gyro_true[a:b])) < STILL_RAD_S]
-    if len(spans) < 2:
-        return None
-    n, m = case.n, len(spans)
-    w, wdot = np.zeros((n, m)), np.zeros((n, m))
-    for s, (a, b) in enumerate(spans):
-        w[a:b, s] = 1.0
-    w[:spans[0][0], 0] = 1.0
-    w[spans[-1][1]:, m - 1] = 1.0
-    for s in range(m - 1):
-        a, b = spans[s][1], spans[s + 1][0]
-        if b > a:
-            u = (np.arange(a, b) - a + 1) / (b - a + 1)
-            w[a:b, s], w[a:b, s + 1] = 1.0 - u, u
-            wdot[a:b, s], wdot[a:b, s + 1] = -1.0 / ((b - a + 1) * case.dt), 1.0 / ((b - a + 1) * case.dt)
-    return np.stack([w, wdot])
-
-
 def _tilt_design(case, weights: np.ndarray) -> np.ndarray:
     """Stacked design (6 n, 3 per segment + 6 biases): f_b x d on accel, w_b x d + dd/dt on gyro (first order in the
     tilt d); the second-order term is not a free parameter but follows from d (:func:`_second_order`)."""
@@ -389,6 +331,7 @@ def _warmup_given_tilts(case, cand, resid: np.ndarray, cache: dict):
             fits.append((got[1], tau, cols, got))
     if not fits:
         return None
+    fits = sorted(fits + _refined_tau(case, cand, resid, cache, fits), key=lambda f: f[1])
     i = int(np.argmax([f[0] for f in fits]))
     best = fits[i]
     cand.columns = best[2]
@@ -397,6 +340,37 @@ def _warmup_given_tilts(case, cand, resid: np.ndarray, cache: dict):
                                                          i)
     cand.physics = dict(cand.physics or {}, time_constant_s=float(best[1]))
     return _with_tau_uncertainty(case, cand, resid, cache, best)
+
+
+TAU_XTOL = 0.01
+"""Tolerance (in ln tau) of the warm-up's time constant refined between its grid's neighbours (1 %)."""
+TAU_STEP_MAX = 0.05
+"""Largest relative Gauss-Newton step of the time constant after the search (:func:`_with_tau_uncertainty`)."""
+
+
+def _refined_tau(case, cand, resid: np.ndarray, cache: dict, fits: list) -> list:
+    """More (LR, tau, columns, fit) of :func:`_warmup_given_tilts`, the time constant refined by a bounded search in
+    ln tau between the best grid point's neighbours: the grid's step is a factor 3.2, and a navigation warm-up of
+    160 s fitted at the grid's 185 s took its amplitudes 8 % high with intervals of +-1 %, and the time constant's
+    profile interval [184.74, 184.78] s (own fx_warmup_temp 7000, 7001: 3-4 of 7 covering)."""
+    from scipy.optimize import minimize_scalar
+    from imu_sim.diagnose.regressors import design_warmup
+    i = int(np.argmax([f[0] for f in fits]))
+    lo, hi = fits[max(i - 1, 0)][1], fits[min(i + 1, len(fits) - 1)][1]
+    if hi <= lo:
+        return []
+    more = []
+
+    def neg(u: float) -> float:
+        cols = design_warmup(case, case.model, float(np.exp(u))).columns
+        got = _given(case, cand, resid, cache, columns=cols)
+        if got is None or got is MOVES_ONLY:
+            return np.inf
+        more.append((got[1], float(np.exp(u)), cols, got))
+        return -got[1]
+
+    minimize_scalar(neg, bounds=(np.log(lo), np.log(hi)), method="bounded", options={"xatol": TAU_XTOL})
+    return more
 
 
 def _with_tau_uncertainty(case, cand, resid: np.ndarray, cache: dict, best: tuple) -> tuple:
@@ -408,7 +382,18 @@ def _with_tau_uncertainty(case, cand, resid: np.ndarray, cache: dict, best: tupl
                                                      for c, x in best[2].items()})
     if got is None or got is MOVES_ONLY or not np.all(np.isfinite(got[4])):
         return best[3]
-    return (*best[3][:4], got[4][:k, :k])
+    tau, step, half = float(best[1]), float(got[3][k]), 1.96 * np.sqrt(max(got[4][k, k], 0.0))
+    if abs(step) > TAU_STEP_MAX * tau:  # a Gauss-Newton step beyond the search's last bracket: not taken
+        return best[3]
+    # the step from the Jacobian's fit: the bounded search stops within 1 % of tau, while a navigation warm-up's tau
+    # is determined to 0.1 % (own fx_warmup_temp 7000: 16.7 standard errors off at the search's end)
+    from imu_sim.diagnose.regressors import design_warmup
+    cand.columns = design_warmup(case, case.model, tau + step).columns
+    cand.params["time_constant_s"] = tau + step
+    cand.physics = dict(cand.physics or {}, time_constant_s=tau + step)
+    lo, hi = cand.intervals["time_constant_s"]  # tau's own interval from the same Jacobian, if the profile's is less
+    cand.intervals["time_constant_s"] = [float(min(lo, tau + step - half)), float(max(hi, tau + step + half))]
+    return (*best[3][:3], got[3][:k], got[4][:k, :k])
 
 
 def _from_joint_fit(case, cand, theta: np.ndarray, cov: np.ndarray) -> None:
@@ -434,29 +419,6 @@ def _from_joint_fit(case, cand, theta: np.ndarray, cov: np.ndarray) -> None:
 IMPLAUSIBLE_RANK = -1.0
 """Ranking key of a candidate whose fit on the holds, given the tilts, is outside its grade's bounds."""
 BOUNDED = ("scale_factor", "axis_misalignment", "gyro_g_sensitivity")
-
-
-def _reported_as_model_error(case, cand) -> bool:
-    """Whether the scenario states its moves (``moves_known``) and the candidate's own fit on the whole record breaks
-    its grade's bounds. There the whole record is the reference: such a candidate is picked and reported as
-    ``reference_or_model_error`` as before (a +100 % gyro scale factor on a rate table), not ranked away behind a
-    plausible rival that would use up the rounds. Where the moves are unstated the holds are the only reference,
-    and a fit implausible on them ranks below its rivals (a partly out-of-bound fit would otherwise be refitted
-    without its bad parameters and win: a misalignment on a hand-turned fixture)."""
-    return bool(getattr(case.scenario, "moves_known", False)
-                and plausibility.violations(cand, plausibility.grade_of(case.model)[0], cand.constant_scale))
-
-
-def _implausible_on_holds(case, cand, theta: np.ndarray, cov: np.ndarray) -> bool:
-    """Whether the candidate's fit on the holds given the tilts breaks its grade's bounds
-    (:func:`plausibility.violations`: its whole 95 % interval outside, determined to the bound or far out)."""
-    names = list(cand.params or {})
-    if cand.effect not in BOUNDED or len(names) != len(theta):
-        return False
-    half = 1.96 * np.sqrt(np.clip(np.diag(cov), 0.0, None))
-    fit = SimpleNamespace(effect=cand.effect, params=dict(zip(names, map(float, theta))), constant_scale=None,
-                          intervals={m: (float(v - h), float(v + h)) for m, v, h in zip(names, theta, half)})
-    return bool(plausibility.violations(fit, plausibility.grade_of(case.model)[0]))
 
 
 def without_tilts(case, columns: dict, resid: np.ndarray):

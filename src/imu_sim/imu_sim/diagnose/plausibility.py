@@ -11,6 +11,8 @@ and Tables 4.1-4.2; IEEE Std 952-1997 / 1431-2004 for the terms; see the package
 """
 from __future__ import annotations
 
+from types import SimpleNamespace
+
 import numpy as np
 
 GRADES = ("navigation", "tactical", "industrial", "consumer")
@@ -177,3 +179,26 @@ _KEYS = {"scale_factor": "scale_factor", "axis_misalignment": "axis_misalignment
 def _skipped(effect: str, name: str) -> bool:
     """Parameters of a bounded effect that have no bound (time constants; a Gauss-Markov bias's accelerometers)."""
     return effect == "gauss_markov_bias" and not name.startswith("gyro") or "time" in name or "tau" in name
+
+
+def reported_on_whole(case, cand) -> bool:
+    """Whether the scenario states its moves (``moves_known``) and the candidate's own fit on the whole record breaks
+    its grade's bounds. There the whole record is the reference: such a candidate is picked and reported as
+    ``reference_or_model_error`` as before (a +100 % gyro scale factor on a rate table), not ranked away behind a
+    plausible rival that would use up the rounds. Where the moves are unstated the holds are the only reference,
+    and a fit implausible on them ranks below its rivals (a partly out-of-bound fit would otherwise be refitted
+    without its bad parameters and win: a misalignment on a hand-turned fixture)."""
+    return bool(getattr(case.scenario, "moves_known", False)
+                and violations(cand, grade_of(case.model)[0], cand.constant_scale))
+
+
+def implausible_on_holds(case, cand, theta: np.ndarray, cov: np.ndarray) -> bool:
+    """Whether the candidate's fit on the holds given the tilts breaks its grade's bounds
+    (:func:`violations`: its whole 95 % interval outside, determined to the bound or far out)."""
+    names = list(cand.params or {})
+    if cand.effect not in ("scale_factor", "axis_misalignment", "gyro_g_sensitivity") or len(names) != len(theta):
+        return False
+    half = 1.96 * np.sqrt(np.clip(np.diag(cov), 0.0, None))
+    fit = SimpleNamespace(effect=cand.effect, params=dict(zip(names, map(float, theta))), constant_scale=None,
+                          intervals={m: (float(v - h), float(v + h)) for m, v, h in zip(names, theta, half)})
+    return bool(violations(fit, grade_of(case.model)[0]))
