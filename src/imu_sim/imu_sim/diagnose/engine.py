@@ -85,7 +85,7 @@ def evaluate(case: Case, model: SensorModel, resid: np.ndarray, exclude=(), fact
     fixture.rank_given_tilts(case, out, resid, model)  # the fixture's tilts are a nuisance of every ranking
     for cand in out:  # a hand-mounted table: each mounting's rotation is a nuisance of every tilt-sensitive fit
         mounting.mounting_fit(ctx, cand)
-    collinear.note_collinear(case, out)  # a warm-up and a temperature this record cannot tell apart: said in tested
+    collinear.note_collinear(case, out, resid, model)  # a warm-up and a temperature: ranked on the holds, noted
     return out
 
 
