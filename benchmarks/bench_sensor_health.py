@@ -11,6 +11,8 @@ every false event are printed with what came first. The GNSS fixes have 5-cm hor
 noise. The gz scale-factor section: a +2 % step at 1500 s of 2400-s drives (seeds 9700..), and the scale test alone
 on the healthy drives. ``--floor``: what the gyro's own white noise allows a gyro bias test at best.
 ``--bias-tail HOURS``: the bias CUSUMs' false alarms counted per channel on HOURS of the model's simulated noise.
+``--track-tail HOURS``: the gz and ax track tests' false alarms counted (one per excursion over the gate) on HOURS
+of their own Monte Carlo noise; ``--track-gate-offset AX GZ``: what-if rows with those gates lowered.
 Targets (issue 26): deterministic faults <= 1 s, noise x3 <= 5 s, a 3-sigma line <= 10 s, a 10 x bias-sd step
 <= 30 s; the right effect and channel first in >= 95 %; onset within 2 s for steps; <= 1 false event per 10 h.
 """
@@ -273,6 +275,49 @@ def track_floor_section(share_per_10h: float, runs: int = 2000, speed_m_s: float
               f"of 20-run benchmarks, never within {after} s {np.mean(np.isinf(delays)):.3f}")
 
 
+def excursion_maxima(z: np.ndarray, floor: float) -> np.ndarray:
+    """Maxima of the runs of z (1-D) above ``floor``: one alarm per run at any gate above it (the track tests
+    restart after an event)."""
+    above = np.r_[False, z > floor, False]
+    edges = np.flatnonzero(np.diff(above.astype(int)))
+    return np.maximum.reduceat(z, edges[::2])[: len(edges) // 2] if len(edges) else np.zeros(0)
+
+
+def track_tail_section(hours: float, speed_m_s: float = 15.0, ref_sd_rad_s: float = 2.2e-4) -> None:
+    """The gz and ax track tests' false alarms counted (one per excursion of the statistic over the gate) on
+    ``hours`` of their own Monte Carlo noise in independent 20000-fix drives (seeds other than the gates'): the
+    measured rate at the gate against the share, and the gate the counts give for it."""
+    from sensor_health import along_track as at, cross_track as ct
+    from sensor_health.bias_tail import threshold_for
+    share, chunk = HealthConfig().track_bias_per_10h, 20000
+    rel = speed_m_s / GNSS_SD_M
+    arw, ref_sd = float(f"{hd.SENSOR['gyro']['white'] * rel:.2g}"), float(f"{ref_sd_rad_s * rel:.2g}")
+    tests = {"ax": (at.z_gate(share), lambda rng: at.simulated_z(chunk, rng)),
+             "gz": (ct.glr_gate(share, arw, ref_sd), lambda rng: np.abs(ct.straight_glr_z(
+                 ct.simulated_drifts(chunk, arw, ref_sd, rng), arw, ref_sd)).max(axis=1))}
+    for name, (gate, sim) in tests.items():
+        start, maxima, fixes = time.process_time(), [], 0
+        for i in range(int(np.ceil(hours * 3600.0 / chunk))):
+            z = sim(np.random.default_rng(7000 + i))
+            fixes += len(z)
+            maxima.append(excursion_maxima(z, 3.0))
+        maxima, h_run = np.concatenate(maxima), fixes / 3600.0
+        n = int(np.count_nonzero(maxima > gate))
+        h, how = threshold_for(maxima, h_run, share)
+        print(f"track tail {name}: gate {gate:.2f} (exponential tail of per-fix |z|, 20000 fixes); counted on "
+              f"{h_run:.0f} h: {n} alarms = {10 * n / h_run:.4f} per 10 h (share {share}); the counts' gate for the "
+              f"share {h:.2f} ({how}); {time.process_time() - start:.0f} s CPU", flush=True)
+
+
+def lower_track_gates(ax_sd: float, gz_sd: float) -> None:
+    """What-if: the monitors' ax and gz track gates lowered by ``ax_sd`` and ``gz_sd`` (not the package's gates)."""
+    from sensor_health import along_track as at, cross_track as ct
+    ax_gate, gz_gate = at.z_gate, ct.glr_gate
+    at.z_gate = lambda *a, **k: ax_gate(*a, **k) - ax_sd
+    ct.glr_gate = lambda *a, **k: gz_gate(*a, **k) - gz_sd
+    print(f"what-if: track gates lowered by ax {ax_sd} sd, gz {gz_sd} sd", flush=True)
+
+
 def bias_tail_section(model, base, hours: float) -> None:
     """The bias CUSUMs' false alarms counted on ``hours`` of simulated window means of the model's noise per channel
     (``bias_tail``, seeds other than the monitor's) at the thresholds the monitor set: the measured false rate per
@@ -322,12 +367,21 @@ def main(argv=None) -> int:
     p.add_argument("--floor", action="store_true", help="the information floor of a gyro bias step alone")
     p.add_argument("--bias-tail", type=float, default=0.0, metavar="HOURS",
                    help="the bias CUSUMs' false rate per channel counted on HOURS of simulated model noise, alone")
+    p.add_argument("--track-tail", type=float, default=0.0, metavar="HOURS",
+                   help="the gz and ax track tests' false rate counted on HOURS of their Monte Carlo noise, alone")
+    p.add_argument("--track-gate-offset", type=float, nargs=2, default=None, metavar=("AX", "GZ"),
+                   help="what-if: the ax and gz track gates lowered by these (sd), e.g. to the counted ones")
     p.add_argument("--no-gnss", action="store_true",
                    help="IMU alone (no 1-Hz GNSS fixes) in the fault and healthy runs")
     args = p.parse_args(argv)
     if args.quick:
         args.healthy_hours, args.seeds, args.scale_seeds, args.scale_hours = 1, 2, 1, 1
     start = time.time()
+    if args.track_tail > 0:
+        track_tail_section(args.track_tail)
+        return 0
+    if args.track_gate_offset:
+        lower_track_gates(*args.track_gate_offset)
     if args.floor:
         cfg = HealthConfig()
         for share in sorted({cfg.false_alarms_per_10h / thr.N_TESTS, cfg.gyro_bias_per_10h or 0.1}):

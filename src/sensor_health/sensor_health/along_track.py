@@ -78,12 +78,9 @@ def _running_sd(y, resid_maker, dof_fraction):
     return win, np.array([robust_sd(mad[max(0, k - NOISE_WINDOWS + 1):k + 1], dof_fraction) for k in range(len(mad))])
 
 
-@functools.lru_cache(maxsize=8)
-def z_gate(budget_per_test_10h: float, epochs: int = 20000, seed: int = 0) -> float:
-    """|z| gate for ``budget_per_test_10h`` false events per 10 h at one test per 1-s fix: Monte Carlo on white track
-    and altitude noise (equal shares of the bias' variance) through the same windows, the same learned bias and
-    the same noise estimates (exponential tail)."""
-    rng = np.random.default_rng(seed)
+def simulated_z(epochs: int, rng) -> np.ndarray:
+    """The test's |z| (epochs - WARMUP_EPOCHS + WINDOW_EPOCHS,) on white track and altitude noise (equal shares of
+    the bias' variance) through the same windows, the same learned bias and the same noise estimates."""
     n = WINDOW_EPOCHS
     w2, sd2, r2 = poly_filter(n, 2)
     w1, sd1, r1 = poly_filter(n, 1)
@@ -95,7 +92,14 @@ def z_gate(budget_per_test_10h: float, epochs: int = 20000, seed: int = 0) -> fl
     ref = np.zeros(len(b))
     for k in range(1, len(b)):
         ref[k] = ref[k - 1] + (b[k - 1] - ref[k - 1]) / min(k, REFERENCE_EPOCHS)
-    z = np.abs((b - ref) / sd)[WARMUP_EPOCHS:]
+    return np.abs((b - ref) / sd)[WARMUP_EPOCHS:]
+
+
+@functools.lru_cache(maxsize=8)
+def z_gate(budget_per_test_10h: float, epochs: int = 20000, seed: int = 0) -> float:
+    """|z| gate for ``budget_per_test_10h`` false events per 10 h at one test per 1-s fix: Monte Carlo on white track
+    and altitude noise (:func:`simulated_z`), exponential tail."""
+    z = simulated_z(epochs, np.random.default_rng(seed))
     return thr.exp_tail_threshold(z, budget_per_test_10h / thr.SECONDS_PER_10H)
 
 
