@@ -116,6 +116,19 @@ Whittle LR of 183, which 1.3/1.3/1.9 m over 0.5/0.5/1.0 m white reaches 600-1100
 SHORT_COLORED = ([1.3, 1.3, 1.9], 150.0)
 """--drive short --realistic: the coloured GNSS error (m E N U, tau s) of the blind's short drive: tau half the
 record."""
+TABLE_PHYSICS = False
+"""``--table-physics``: a realistic table unit carries a warm-up, a logged temperature with a bias coefficient and a
+g-sensitivity at its grade (``_table_physics``), and a mounted table's dwells are off their stated rates by up to
+TABLE_RATE_ERR (blind consumer table scale factor: intervals 2-3 times too narrow, with those physics found behind
+it)."""
+TABLE_RATE_ERR = 5e-5
+"""Largest relative error of a dwell's true rate against its stated one (``--table-physics``; a servo table's rate
+accuracy is 1e-5 to 1e-4)."""
+TABLE_PHYS_RATES = [30, -30, 100, -100, 200, -200]
+"""Dwell rates (deg/s) of each mounting's run with ``--table-physics``: a consumer unit's calibration spins to a
+good part of its range, so its scale factors are determined to ~1e-4 and the slow physics' residue matters."""
+TABLE_WARMUP = ([4e-4, -3e-4, 5e-4], [2e-3, -2e-3, 3e-3])
+"""Industrial-grade warm-up amplitudes of a table unit (gyro rad/s, accel m/s^2; the tumble case's)."""
 TABLE_TYPED_S = 0.5
 """The realistic rate table's segments are typed to this (s): t0, t1 from the controller's schedule or a coarse log
 rounded to it, so a stated dwell may begin up to half of it inside the ramp before it (or end inside the next)."""
@@ -290,16 +303,20 @@ def long_table(real):
     return dwell_table(real, LTABLE_DWELL_S, LTABLE_TOLERANCE_DEG, 60.0)
 
 
-def mounted_table(real):
+def mounted_table(real, phys=None):
     """The unit remounted by hand for each spin axis (MTABLE_MOUNTS), each mounting tilted by up to
-    MTABLE_TOLERANCE_DEG per body axis; each run dwells at MTABLE_RATES with its own ramps, 10-s rests."""
+    MTABLE_TOLERANCE_DEG per body axis; each run dwells at MTABLE_RATES with its own ramps, 10-s rests. With
+    ``phys`` (``--table-physics``) each dwell's true rate is off its stated one by up to TABLE_RATE_ERR."""
     runs = []
+    rates = MTABLE_RATES if phys is None else TABLE_PHYS_RATES
     for _ in MTABLE_MOUNTS:
-        dwell = real.uniform(*TABLE_DWELL_S, len(MTABLE_RATES))
-        steps = np.abs(np.diff(np.r_[0.0, MTABLE_RATES, 0.0]))
+        dwell = real.uniform(*TABLE_DWELL_S, len(rates))
+        steps = np.abs(np.diff(np.r_[0.0, rates, 0.0]))
         ramp = np.maximum(steps / real.uniform(*TABLE_ACCEL_DPS2, len(steps)), 0.3)
         shapes = real.choice(["linear", "smooth", "quintic"], len(steps))
-        runs.append(gen.DwellTable(MTABLE_RATES, dwell, ramp, shapes, rest_s=10.0))
+        err = 1.0 + (phys.uniform(-TABLE_RATE_ERR, TABLE_RATE_ERR, len(rates)) if phys is not None else 0.0)
+        runs.append(gen.DwellTable(np.asarray(rates, float) * err, dwell, ramp, shapes, rest_s=10.0))
+        runs[-1].stated_dps = list(rates)
     tilts = np.radians(real.uniform(-MTABLE_TOLERANCE_DEG, MTABLE_TOLERANCE_DEG, (len(MTABLE_MOUNTS), 3)))
     return gen.MountedTable(runs, MTABLE_MOUNTS, tilts, move_s=5.0)
 
@@ -357,8 +374,9 @@ def generate(name: str, seed: int, folder: Path) -> dict:
         motion = gen.Poses(TUMBLE_POSES, real.uniform(*HOLDS_REALISTIC_S, len(TUMBLE_POSES)), motion.move_s)
     if real is not None and kind == "table":
         motion = dwell_table(real)
+    phys = np.random.default_rng([seed, 27]) if TABLE_PHYSICS and real is not None and kind in GRADE_KINDS else None
     if kind == "mtable":
-        motion = mounted_table(real if real is not None else np.random.default_rng([seed, 24]))
+        motion = mounted_table(real if real is not None else np.random.default_rng([seed, 24]), phys)
     if kind == "ltable":
         motion = long_table(real if real is not None else np.random.default_rng([seed, 24]))
     if kind == "updown":
@@ -374,6 +392,8 @@ def generate(name: str, seed: int, folder: Path) -> dict:
     temp = None
     if kind in ("static", "static_rw"):
         temp = 25.0 - 10.0 * np.cos(2 * np.pi * t / 1800.0)
+    if phys is not None and kind in ("table", "mtable"):
+        temp = _table_physics(phys, t, accel, gyro_out, accel_out, kg)
     if kind == "ltable":  # a unit warming with the room, with no temperature coefficient; and its bias walk
         temp = LTABLE_TEMP[0] + LTABLE_TEMP[1] * (1.0 - np.exp(-t / LTABLE_TEMP[2])) + rng.normal(0, 0.01, n)
         gyro_out += np.cumsum(rng.normal(0, kg * LTABLE_WALK[0] * np.sqrt(dt), (n, 3)), axis=0)
@@ -410,11 +430,12 @@ def generate(name: str, seed: int, folder: Path) -> dict:
     if kind == "static_rw":  # the naive-model null: the sensor has a rate random walk the user's model must learn
         gyro_out += np.cumsum(rng.normal(0, 6e-7 * np.sqrt(dt), (n, 3)), axis=0)
         accel_out += np.cumsum(rng.normal(0, 3e-6 * np.sqrt(dt), (n, 3)), axis=0)
-    gyro_out += rng.normal(0, kg * GYRO_WHITE / np.sqrt(dt), (n, 3))
-    accel_out += rng.normal(0, kg * ACCEL_WHITE / np.sqrt(dt), (n, 3))
+    kw, kf = FIXTURE_NOISE.get(grade, (kg, kg)) if phys is not None else (kg, kg)  # a real consumer unit's noise
+    gyro_out += rng.normal(0, kw * GYRO_WHITE / np.sqrt(dt), (n, 3))
+    accel_out += rng.normal(0, kw * ACCEL_WHITE / np.sqrt(dt), (n, 3))
     if real is not None:
-        gyro_out += gen.flicker(real, n, dt, [kg * GYRO_FLICKER] * 3)
-        accel_out += gen.flicker(real, n, dt, [kg * ACCEL_FLICKER] * 3)
+        gyro_out += gen.flicker(real, n, dt, [kf * GYRO_FLICKER] * 3)
+        accel_out += gen.flicker(real, n, dt, [kf * ACCEL_FLICKER] * 3)
     # turn-on biases: present in every real sensor, unknown to the user (a nuisance for the diagnosis)
     gyro_out += rng.normal(0, kg * 1e-3, 3)
     accel_out += rng.normal(0, max(kg, 0.05) * 2e-2, 3)
@@ -449,9 +470,25 @@ def generate(name: str, seed: int, folder: Path) -> dict:
         paths["gnss"] = _gnss(site, motion, rng, folder, effect, par)
     paths["scenario"] = folder / "scenario.yaml"
     paths["scenario"].write_text(yaml.safe_dump(scenario, sort_keys=False))
-    paths["model"] = _model(folder, rate, effect, kind, real, grade)
+    paths["model"] = _model(folder, rate, effect, kind, real, grade, (kw, kf))
     paths["grade"] = grade
     return paths
+
+
+def _table_physics(phys, t, accel, gyro_out, accel_out, kg: float) -> np.ndarray:
+    """A table unit's own slow physics (``--table-physics``, in place): a warm-up (TABLE_WARMUP at the grade's
+    factor, each amplitude drawn 0.3-1 times, tau 60-300 s), a bias temperature coefficient (the fixture's: TEMP_COEF
+    x TEMP_REALISTIC and FIXTURE_TEMP_ACCEL, at the grade's) on a logged temperature warming 3-8 degC at 200-900 s,
+    and a gyro g-sensitivity (the tumble case's at the grade's factor). Returns the logged temperature (degC)."""
+    tau_w, tau_t = phys.uniform(60.0, 300.0), phys.uniform(200.0, 900.0)
+    temp = 24.0 + phys.uniform(3.0, 8.0) * (1.0 - np.exp(-t / tau_t)) + phys.normal(0, 0.01, len(t))
+    decay = np.exp(-t / tau_w)[:, None]
+    gyro_out += kg * decay * np.asarray(TABLE_WARMUP[0]) * phys.uniform(0.3, 1.0, 3)
+    accel_out += kg * decay * np.asarray(TABLE_WARMUP[1]) * phys.uniform(0.3, 1.0, 3)
+    gyro_out += kg * TEMP_REALISTIC * (temp - 25.0)[:, None] * TEMP_COEF
+    accel_out += np.sqrt(kg) * (temp - 25.0)[:, None] * FIXTURE_TEMP_ACCEL
+    gyro_out += kg * np.asarray(CASES["gyro_g_sensitivity"][2]["g"]) * accel
+    return temp
 
 
 def _off_nominal(motion, real):
@@ -469,7 +506,10 @@ def _table_holds(table) -> list:
     segs = [{"t0": 0.0, "t1": float(table.rest_s), "roll_deg": 0.0, "pitch_deg": 0.0, "yaw_deg": 0.0,
              "rate_dps": 0.0}]
     typed = TABLE_TYPED_S if REALISTIC else 0.0
-    for t0, t1, r in spans:
+    stated = getattr(table, "stated_dps", None)  # the commanded rates (--table-physics: the true ones are off)
+    stated = np.radians(np.r_[stated, 0.0]) if stated is not None else None
+    for j, (t0, t1, r) in enumerate(spans):
+        r = stated[j] if stated is not None else r
         (_, _, yaw), _ = table.attitude(np.array([t0]))
         if typed:
             t0, t1 = typed * round(t0 / typed), typed * round(t1 / typed)
@@ -644,8 +684,9 @@ def _triad(white, flicker, real):
     return TriadModel(white_noise=white * err[0], bias_instability=flicker * err[1])
 
 
-def _model(folder, rate, effect, kind, real=None, grade="industrial"):
-    """The user's model: white noise and the full Earth model, less the concealed Earth-model term."""
+def _model(folder, rate, effect, kind, real=None, grade="industrial", noise=None):
+    """The user's model: white noise and the full Earth model, less the concealed Earth-model term; ``noise`` the
+    (white, flicker) factors of the unit's noise when they are not the grade's."""
     from nav_core.sensor_model import SensorModel, save
     if kind == "static_rw":
         from imu_calib.cli import main as calib_main
@@ -654,8 +695,9 @@ def _model(folder, rate, effect, kind, real=None, grade="industrial"):
     physics = {"earth_rotation": {}, "gravity_model": {}, "coriolis": {}}
     physics.pop(effect, None)
     kg = GRADES[grade]
-    model = SensorModel(gyro=_triad(kg * GYRO_WHITE, kg * GYRO_FLICKER, real),
-                        accel=_triad(kg * ACCEL_WHITE, kg * ACCEL_FLICKER, real),
+    kw, kf = noise or (kg, kg)
+    model = SensorModel(gyro=_triad(kw * GYRO_WHITE, kf * GYRO_FLICKER, real),
+                        accel=_triad(kw * ACCEL_WHITE, kf * ACCEL_FLICKER, real),
                         sample_rate_hz=rate, physics=physics)
     if kind == "ltable":  # the unit's bias walk, stated to +-NOISE_MISSTATED
         rw = real.uniform(1 - NOISE_MISSTATED, 1 + NOISE_MISSTATED, 2) if real is not None else np.ones(2)
@@ -753,9 +795,13 @@ def main(argv=None) -> int:
                              "slow error, the rate table typed as its holds (module docstring)")
     parser.add_argument("--truth-positions", action="store_true",
                         help="a realistic drive's truth.csv without velocity rows (positions and attitude only)")
+    parser.add_argument("--table-physics", action="store_true",
+                        help="a realistic table unit's warm-up, temperature coefficient, g-sensitivity and table rate "
+                             "errors (TABLE_PHYSICS)")
     args = parser.parse_args(argv)
-    global TRUTH_VELOCITY
+    global TRUTH_VELOCITY, TABLE_PHYSICS
     TRUTH_VELOCITY = not args.truth_positions
+    TABLE_PHYSICS = args.table_physics
     global REALISTIC
     REALISTIC = args.realistic
     global DRIVE
