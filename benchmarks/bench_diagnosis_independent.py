@@ -122,8 +122,10 @@ g-sensitivity at its grade (``_table_physics``), and a mounted table's dwells ar
 TABLE_RATE_ERR (blind consumer table scale factor: intervals 2-3 times too narrow, with those physics found behind
 it)."""
 TABLE_RATE_ERR = 5e-5
-"""Largest relative error of a dwell's true rate against its stated one (``--table-physics``; a servo table's rate
-accuracy is 1e-5 to 1e-4)."""
+"""Largest relative error of a dwell's true rate against its stated one on a consumer unit's table
+(``--table-physics``; a servo table's rate accuracy is 1e-5 to 1e-4), in proportion to the grade's factor for the
+others (a navigation unit's table: 1e-7): the scenario states no rate accuracy, so a table worse than the unit's
+scale-factor interval (5e-5 against a navigation unit's +-4e-7) is a reference error no diagnosis could know."""
 TABLE_PHYS_RATES = [30, -30, 100, -100, 200, -200]
 """Dwell rates (deg/s) of each mounting's run with ``--table-physics``: a consumer unit's calibration spins to a
 good part of its range, so its scale factors are determined to ~1e-4 and the slow physics' residue matters."""
@@ -303,10 +305,10 @@ def long_table(real):
     return dwell_table(real, LTABLE_DWELL_S, LTABLE_TOLERANCE_DEG, 60.0)
 
 
-def mounted_table(real, phys=None):
+def mounted_table(real, phys=None, rate_err: float = 0.0):
     """The unit remounted by hand for each spin axis (MTABLE_MOUNTS), each mounting tilted by up to
     MTABLE_TOLERANCE_DEG per body axis; each run dwells at MTABLE_RATES with its own ramps, 10-s rests. With
-    ``phys`` (``--table-physics``) each dwell's true rate is off its stated one by up to TABLE_RATE_ERR."""
+    ``phys`` (``--table-physics``) each dwell's true rate is off its stated one by up to ``rate_err`` (relative)."""
     runs = []
     rates = MTABLE_RATES if phys is None else TABLE_PHYS_RATES
     for _ in MTABLE_MOUNTS:
@@ -314,7 +316,7 @@ def mounted_table(real, phys=None):
         steps = np.abs(np.diff(np.r_[0.0, rates, 0.0]))
         ramp = np.maximum(steps / real.uniform(*TABLE_ACCEL_DPS2, len(steps)), 0.3)
         shapes = real.choice(["linear", "smooth", "quintic"], len(steps))
-        err = 1.0 + (phys.uniform(-TABLE_RATE_ERR, TABLE_RATE_ERR, len(rates)) if phys is not None else 0.0)
+        err = 1.0 + (phys.uniform(-rate_err, rate_err, len(rates)) if phys is not None else 0.0)
         runs.append(gen.DwellTable(np.asarray(rates, float) * err, dwell, ramp, shapes, rest_s=10.0))
         runs[-1].stated_dps = list(rates)
     tilts = np.radians(real.uniform(-MTABLE_TOLERANCE_DEG, MTABLE_TOLERANCE_DEG, (len(MTABLE_MOUNTS), 3)))
@@ -376,7 +378,8 @@ def generate(name: str, seed: int, folder: Path) -> dict:
         motion = dwell_table(real)
     phys = np.random.default_rng([seed, 27]) if TABLE_PHYSICS and real is not None and kind in GRADE_KINDS else None
     if kind == "mtable":
-        motion = mounted_table(real if real is not None else np.random.default_rng([seed, 24]), phys)
+        motion = mounted_table(real if real is not None else np.random.default_rng([seed, 24]), phys,
+                               TABLE_RATE_ERR * kg / GRADES["consumer"])
     if kind == "ltable":
         motion = long_table(real if real is not None else np.random.default_rng([seed, 24]))
     if kind == "updown":
