@@ -103,3 +103,28 @@ def test_a_g_sensitivity_below_the_threshold_states_the_records_floor():
     none = SimpleNamespace(threshold=15.9, reason="kept")
     fixture_notes.floor_note(none, None)
     assert none.reason == "kept"
+
+
+
+def test_holds_without_samples_give_the_wander_a_prior_not_a_linalg_error():
+    """A mounted table's spinning dwells are weight columns with no still sample: their middles all fall at t = 0,
+    so a short-tau Gauss-Markov wander gives them identical covariance rows (inverted, then Cholesky-factored, it
+    raised LinAlgError on the own generator's realistic mounted-table null 8001, as it does here for some of these
+    sizes: whether it did was a matter of rounding)."""
+    case = _case()
+    for empty in (10, 18, 30):
+        w = np.zeros((case.n, HOLDS + empty))
+        for k, (a, b) in enumerate(case.cache["holds"]):
+            w[a:b, k] = 1.0
+        for sigma in (3.6e-4, 4.0e-4, 4.14e-4, 4.22e-4):
+            model = SensorModel(gyro=TriadModel(white_noise=np.full(3, 2e-4), bias_instability=np.full(3, sigma),
+                                                bias_correlation_time=np.full(3, 0.3)),
+                                accel=TriadModel(white_noise=np.full(3, 1e-3), bias_instability=np.full(3, 1e-5)),
+                                sample_rate_hz=1.0 / DT)
+            cols, prior, _ = hold_noise.bias_wander(case, w, model)
+            precision = prior.T @ prior
+            assert cols.shape[1] == prior.shape[0] == 6 * (HOLDS + empty) and np.all(np.isfinite(prior))
+            # each held hold's gyro offset keeps the prior 1 / sigma^2 (tau 0.3 s: the holds are independent)
+            held = [k * 6 + c for k in range(HOLDS) for c in range(3)]
+            assert np.allclose(np.diag(precision)[held], 1 / sigma ** 2, rtol=1e-6), (empty, sigma)
+            assert np.all(np.linalg.eigvalsh(precision) > 0), (empty, sigma)  # the empty holds pinned, not free

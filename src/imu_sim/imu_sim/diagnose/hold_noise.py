@@ -104,15 +104,23 @@ def bias_wander(case, w: np.ndarray, model=None):
             col[c] = w[:, s]
             cols.append(col.ravel())
     nc = len(chans)
-    prec = np.zeros((m * nc, m * nc))
+    prior = np.zeros((m * nc, m * nc))
     for j, c in enumerate(chans):
         # a Gauss-Markov bias (a correlation time stated or found) stays correlated from one hold to the next
         corr = np.exp(-np.abs(np.subtract.outer(t_mid, t_mid)) / tc[c]) if tc[c] > 0 else np.eye(m)
         cov = b[c] ** 2 * corr + k[c] ** 2 * np.minimum.outer(t_mid, t_mid)
-        cov += 1e-9 * max(float(np.max(np.diag(cov))), 1e-300) * np.eye(m)  # tau past the record: rank one
         idx = np.arange(m) * nc + j
-        prec[np.ix_(idx, idx)] = np.linalg.inv(cov)
-    return np.column_stack(cols), np.linalg.cholesky(prec).T, np.tile(chans, m)
+        prior[np.ix_(idx, idx)] = _precision_factor(cov)
+    return np.column_stack(cols), prior, np.tile(chans, m)
+
+
+def _precision_factor(cov: np.ndarray) -> np.ndarray:
+    """F with F.T @ F the inverse of ``cov`` (symmetric), its eigenvalues floored at 1e-9 of the largest variance.
+    A correlation time past the record makes ``cov`` rank one: inverted, then Cholesky-factored, it was not
+    positive definite in floating point (LinAlgError on the own generator's mounted-table null 8001)."""
+    lam, vec = np.linalg.eigh(cov)
+    lam = np.maximum(lam, 1e-9 * max(float(np.max(np.diag(cov))), 1e-300))
+    return vec.T / np.sqrt(lam)[:, None]
 
 
 def noise_key(model) -> tuple:
