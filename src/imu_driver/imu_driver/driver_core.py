@@ -34,6 +34,11 @@ def hull_slope(u, y) -> float:
     return (hull[-1][1] - hull[-2][1]) / (hull[-1][0] - hull[-2][0])
 
 
+FORWARD_SLEW = 0.25
+"""Within an anchor a stamp is at most this many periods later than one period after the last, while a rising offset
+is caught up: 1.25 periods stay under WMRA's ``gap_factor`` (1.5) and round to one period in the report's count."""
+
+
 @dataclass
 class FrameClock:
     """Counter -> host time for frames whose reads can only be late, never early; stamps never go back.
@@ -51,7 +56,9 @@ class FrameClock:
 
     Stamps are ``u + offset``, strictly increasing: when a prompter read lowers the offset by
     more than the next period, stamps advance by ``(1 - slew)`` periods per frame until they
-    meet the model again, instead of stepping back. A counter gap keeps the offset when its
+    meet the model again, instead of stepping back; when the offset rises (an early read leaves the window), they
+    advance at most ``(1 + FORWARD_SLEW)`` periods per frame, so no gap appears where no frame was lost. A counter
+    gap keeps the offset when its
     length (modulo the counter's wrap) can be told from host time; otherwise, and after a
     reconnect, the clock re-anchors on host time, forward only.
 
@@ -199,17 +206,23 @@ class FrameClock:
             self._best = (u, y)
 
     def _forward_only(self, model: np.ndarray, x: np.ndarray) -> np.ndarray:
-        """The model stamps, held strictly increasing: at least ``(1 - slew)`` periods per frame."""
+        """The model stamps, held strictly increasing: at least ``(1 - slew)`` periods per frame, and within an
+        anchor at most ``(1 + FORWARD_SLEW)`` periods, so that a rising offset catches up without a gap."""
         out = model.copy()
         prev = self._last_stamp
         prev_x = None if prev is None else self._prev_x
         for i in range(len(out)):
             if prev is not None:
-                frames = (x[i] - prev_x) if prev_x is not None and x[i] > prev_x else 1
+                same_anchor = prev_x is not None and x[i] > prev_x
+                frames = (x[i] - prev_x) if same_anchor else 1
                 floor = prev + frames * self.period_s * (1.0 - self.slew)
-                if out[i] < floor:
+                # an early read leaving the window raises the offset: as a step it looked like lost frames (a
+                # two-host run at 6x on a busy CPU: steps of 8-17 ms at 10, 18 and 27 s, counted as 3 samples
+                # missing in the report and a restart of WMRA's window; the counter had lost none)
+                ceiling = prev + frames * self.period_s * (1.0 + FORWARD_SLEW) if same_anchor else np.inf
+                if out[i] < floor or out[i] > ceiling:
                     self.slewed_frames += 1
-                    out[i] = floor
+                    out[i] = min(max(out[i], floor), ceiling)
             prev, prev_x = out[i], x[i]
         self._last_stamp, self._prev_x = prev, prev_x
         self.ahead_s = out[-1] - model[-1]
