@@ -87,7 +87,8 @@ class FrameClock:
         self._released = np.zeros(0)  # stamps of held frames a reset gave out; the next stamp() returns them first
         self.reset()
         self.ahead_s = 0.0
-        """How far the last stamp is ahead of the model (still slewing back), s."""
+        """How far the last stamp is ahead of the model (still slewing back), s; negative while a rising offset is
+        caught up (:data:`FORWARD_SLEW`)."""
 
     def reset(self) -> None:
         """Forget counter and offsets (a reconnect or a rate change); stamps still only go forward.

@@ -101,10 +101,8 @@ def gyro_drift_columns(case, groups: list) -> np.ndarray:
     table with those physics, 7 seeds: 15 of 21 covering, misses of 1.04-2.66 half-widths; 20 of 21 with it, the
     one miss 1.77; the blind's consumer table: 1 of 3, errors of 1.5-3.3 half-widths). The intervals are barely
     wider (4.1-5.7e-5 both): the drift moved the estimate, it did not add scatter the white weights missed."""
-    from imu_sim.diagnose.reference import SLOW_REFERENCE_KNOT_S
-    t, knot = case.t, SLOW_REFERENCE_KNOT_S
-    hats = [np.clip(1.0 - np.abs(t - c) / knot, 0.0, None) for c in np.arange(t[0], t[-1] + knot, knot)][1:]
-    return np.column_stack(hats + [g.astype(float) for g in groups[1:]])
+    from imu_sim.diagnose.reference import slow_hats
+    return np.column_stack([slow_hats(case.t)[:, 1:]] + [g.astype(float) for g in groups[1:]])
 
 
 def table_tilt_columns(case) -> dict:

@@ -271,6 +271,14 @@ SHAPED_EFFECTS = ("scale_factor", "axis_misalignment", "gyro_g_sensitivity")
 their shape (known constants, whose value is fixed, are not tested against it)."""
 
 
+def slow_hats(t: np.ndarray) -> np.ndarray:
+    """(n, k) piecewise-linear hats at knots every :data:`SLOW_REFERENCE_KNOT_S` from ``t[0]`` (s); they sum to 1, so
+    a fit that has a constant of its own drops the first."""
+    knot = SLOW_REFERENCE_KNOT_S
+    return np.column_stack([np.clip(1.0 - np.abs(t - k) / knot, 0.0, None)
+                            for k in np.arange(t[0], t[-1] + knot, knot)])
+
+
 def _slow_reference_spectra(case, bias: bool = True) -> dict:
     """Per channel the rfft (nf, m) of the slow reference error's columns on a moving truth file: a rotation d(t) of
     the truth's attitude (d x the true rate / specific force, shared by all six channels) and, with ``bias``, a bias
@@ -278,9 +286,7 @@ def _slow_reference_spectra(case, bias: bool = True) -> dict:
     dropped: the hats sum to the turn-on bias, already free)."""
     key = ("slow_reference_spectra", bias)
     if key not in case.cache:
-        t, knot = case.t, SLOW_REFERENCE_KNOT_S
-        hats = np.column_stack([np.clip(1.0 - np.abs(t - k) / knot, 0.0, None)
-                                for k in np.arange(t[0], t[-1] + knot, knot)])
+        hats = slow_hats(case.t)
         m = hats.shape[1] - 1
         rot = rotation_columns(case)
         out = {}
