@@ -89,16 +89,23 @@ def slow_terms(model: SensorModel, c: int, window_s: float):
 
 
 @numba.njit(cache=True)
-def _window(st, white_sd, levels, gm_phi, gm_sd, rw_sd, q):
-    """One simulated window mean through the scalar random-walk Kalman filter (walk variance q per window,
-    measurement variance white_sd^2 times max(1, a level drawn from ``levels``)); st = [walk, filter bias, its
-    variance, Gauss-Markov terms...] is updated in place. Returns the standardised innovation."""
+def _draw(st, white_sd, levels, gm_phi, gm_sd, rw_sd):
+    """One simulated window mean and its measurement variance (white_sd^2 times max(1, a level drawn from
+    ``levels``)); the walk and the Gauss-Markov terms in st = [walk, filter bias, its variance, Gauss-Markov
+    terms...] step in place."""
     y = white_sd * np.random.normal() + st[0]
     for j in range(len(gm_phi)):
         st[3 + j] = gm_phi[j] * st[3 + j] + gm_sd[j] * np.random.normal()
         y += st[3 + j]
     st[0] += rw_sd * np.random.normal()
-    r = white_sd**2 * max(1.0, levels[np.random.randint(len(levels))])
+    return y, white_sd**2 * max(1.0, levels[np.random.randint(len(levels))])
+
+
+@numba.njit(cache=True)
+def _window(st, white_sd, levels, gm_phi, gm_sd, rw_sd, q):
+    """One simulated window mean (:func:`_draw`) through the scalar random-walk Kalman filter (walk variance q per
+    window); st is updated in place. Returns the standardised innovation."""
+    y, r = _draw(st, white_sd, levels, gm_phi, gm_sd, rw_sd)
     st[2] += q
     s = st[2] + r
     e = y - st[1]
@@ -122,12 +129,7 @@ def _count(n, seed, white_sd, levels, gm_phi, gm_sd, rw_sd, q, k, floor, warm, e
     st = np.zeros(3 + m)
     for j in range(m):
         st[3 + j] = np.random.normal() * gm_sd[j] / np.sqrt(1.0 - gm_phi[j] ** 2)
-    y = white_sd * np.random.normal()  # the first window sets the filter's bias outright
-    for j in range(m):
-        st[3 + j] = gm_phi[j] * st[3 + j] + gm_sd[j] * np.random.normal()
-        y += st[3 + j]
-    st[0] += rw_sd * np.random.normal()
-    st[1], st[2] = y, white_sd**2 * max(1.0, levels[np.random.randint(len(levels))])
+    st[1], st[2] = _draw(st, white_sd, levels, gm_phi, gm_sd, rw_sd)  # the first window sets the bias outright
     out = np.zeros(n // 16 + 16)
     count = 0
     ne = len(entries)
