@@ -50,10 +50,12 @@ build_tf2_msgs() {
 }
 
 # Numba kernels (cache=True) are cached in __pycache__ beside their source: compile them here, once per change of
-# the kernels' sources or the pinned packages, so a new user's first replay does not spend a minute compiling.
+# the kernels' sources, the warm-up or the pinned packages, so a new user's first replay does not spend a minute
+# compiling.
 warm_numba() {
   local want_nb stamp_nb="$VENV/.numba-stamp"
-  want_nb=$(cat requirements.lock $(grep -rl --include='*.py' numba src) | sha256sum | cut -d' ' -f1)
+  want_nb=$(cat requirements.lock scripts/warm_numba.py $(grep -rl --include='*.py' numba src) \
+            | sha256sum | cut -d' ' -f1)
   if [ -f "$stamp_nb" ] && [ "$(cat "$stamp_nb")" = "$want_nb" ] \
      && ls src/ins_gps_kf/ins_gps_kf/__pycache__/*.nbi >/dev/null 2>&1; then return 0; fi
   echo "setup: compiling the numba kernels into their cache (a minute on 2 cores, once)"

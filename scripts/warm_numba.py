@@ -1,9 +1,9 @@
 """Compile every numba kernel of the workspace into its on-disk cache (``cache=True``: __pycache__ beside the source).
 
 Run by ``scripts/setup_env.sh`` after the install, so a new user's first command (``ins-gps-kf replay``, the
-node, ``imu-calib allan``) loads compiled kernels instead of compiling them: a minute on a busy 2-core machine
-for the filter alone (41 s against 8.6 s for a 15-minute drive's first and second replay). Each package's
-kernels are run once on small inputs with the types real input has.
+node, ``imu-calib allan``, ``sensor_health_node``) loads compiled kernels instead of compiling them: a minute on a
+busy 2-core machine for the filter alone (41 s against 8.6 s for a 15-minute drive's first and second replay).
+Each package's kernels are run once on small inputs with the types real input has.
 """
 from __future__ import annotations
 
@@ -44,10 +44,23 @@ def warm_diagnosis() -> None:
     local_level.loglik(np.random.default_rng(0).normal(size=200), local_level.ratio_grid(), 0.1, 0.5)
 
 
+def warm_health() -> None:
+    """sensor_health: the bias CUSUMs' counted false alarms and their split tail, run as the node's start-up runs
+    them (a monitor of the shipped BP3010-grade model)."""
+    from imu_sim.models import bp3010_grade_model
+    from sensor_health.monitor import HealthMonitor
+
+    HealthMonitor(bp3010_grade_model(), keep_trace=False)
+
+
+WARMERS = (("ins_gps_kf", warm_filter), ("imu_calib", warm_calibration), ("imu_sim", warm_diagnosis),
+           ("sensor_health", warm_health))
+"""(package, its warmer): every package whose source compiles a numba kernel (test/test_workspace_numba_warm.py)."""
+
+
 def main() -> int:
     """Warm each package's kernels; print what took how long."""
-    for name, warm in (("ins_gps_kf", warm_filter), ("imu_calib", warm_calibration),
-                       ("imu_sim", warm_diagnosis)):
+    for name, warm in WARMERS:
         t0 = time.monotonic()
         warm()
         print(f"setup: numba kernels of {name} compiled and cached ({time.monotonic() - t0:.1f} s)", flush=True)
