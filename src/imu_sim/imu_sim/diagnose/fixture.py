@@ -14,7 +14,7 @@ from __future__ import annotations
 import numpy as np
 from scipy.linalg import block_diag
 
-from imu_sim.diagnose.plausibility import (implausible_on_holds as _implausible_on_holds,
+from imu_sim.diagnose.plausibility import (BOUNDED, implausible_on_holds as _implausible_on_holds,
                                            reported_on_whole as _reported_as_model_error)
 from imu_sim.diagnose.fixture_notes import (NOT_SEPARABLE, floor_note, free_note as _free_note, tilt_note as _note,
                                             wander_note)
@@ -418,7 +418,6 @@ def _from_joint_fit(case, cand, theta: np.ndarray, cov: np.ndarray) -> None:
 
 IMPLAUSIBLE_RANK = -1.0
 """Ranking key of a candidate whose fit on the holds, given the tilts, is outside its grade's bounds."""
-BOUNDED = ("scale_factor", "axis_misalignment", "gyro_g_sensitivity")
 
 
 def without_tilts(case, columns: dict, resid: np.ndarray):

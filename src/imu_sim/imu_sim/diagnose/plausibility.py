@@ -192,11 +192,16 @@ def reported_on_whole(case, cand) -> bool:
                 and violations(cand, grade_of(case.model)[0], cand.constant_scale))
 
 
+BOUNDED = ("scale_factor", "axis_misalignment", "gyro_g_sensitivity")
+"""Effects whose fit on a fixture's holds is checked against the grade's bounds (and whose holds' wander a noise term
+may explain: :mod:`fixture`)."""
+
+
 def implausible_on_holds(case, cand, theta: np.ndarray, cov: np.ndarray) -> bool:
     """Whether the candidate's fit on the holds given the tilts breaks its grade's bounds
     (:func:`violations`: its whole 95 % interval outside, determined to the bound or far out)."""
     names = list(cand.params or {})
-    if cand.effect not in ("scale_factor", "axis_misalignment", "gyro_g_sensitivity") or len(names) != len(theta):
+    if cand.effect not in BOUNDED or len(names) != len(theta):
         return False
     half = 1.96 * np.sqrt(np.clip(np.diag(cov), 0.0, None))
     fit = SimpleNamespace(effect=cand.effect, params=dict(zip(names, map(float, theta))), constant_scale=None,
