@@ -94,3 +94,30 @@ def test_a_steady_circle_through_the_gz_track_window_is_not_a_crash_and_not_an_e
     mon = CrossTrackMonitor(1.5e-3, BUDGET, 2e-4)
     assert mon.push_gnss(*gnss) + mon.push_imu(t, x[:, 2]) == []
     assert mon.windows > 0
+
+
+def test_the_ax_track_windows_variance_carries_ax_white_noise_twice_integrated_and_the_walk_behind_the_average():
+    """The window's bias less the learned bias, on ax's own noise alone (no fixes' noise): its variance is the
+    analytic imu_variance (white noise through the fit, a walk behind the slow average), so the drives' IMU noise is
+    in z's scale rather than in its tail."""
+    from sensor_health import along_track as at
+    w2, _, _ = at.poly_filter(at.WINDOW_EPOCHS, 2)
+    tau = np.arange(at.WINDOW_EPOCHS, dtype=float)
+    for noise in [(2e-3, 0.0, 0.0, 0.0), (0.0, 0.0, 0.0, 2e-4)]:  # white m/s/sqrt(s); walk m/s^2/sqrt(s)
+        s = at.simulated_excess(60000, np.random.default_rng(3), noise)
+        b = np.lib.stride_tricks.sliding_window_view(s, at.WINDOW_EPOCHS) @ w2
+        ref = np.zeros_like(b)
+        ref[0] = b[0]
+        for k in range(1, len(b)):
+            ref[k] = ref[k - 1] + (b[k - 1] - ref[k - 1]) / min(k, at.REFERENCE_EPOCHS)
+        measured = np.var((b - ref)[1000:])
+        assert 0.75 < measured / at.imu_variance(w2, tau, noise) < 1.3
+
+
+def test_the_ax_track_gate_counts_excursions_and_the_model_noise_raises_no_event_on_a_straight():
+    from sensor_health import along_track as at
+    noise = (2e-3, 4.8e-4, 0.0, 1.9e-4)
+    gate = at.z_gate(BUDGET, noise, hours=20.0)
+    z = at.simulated_z(40 * 3600, np.random.default_rng(11), noise)  # 40 h other than the gate's
+    assert 4.0 < gate < 6.5 and np.sqrt(np.mean(z**2)) < 1.15
+    assert len(at.thr.excursion_maxima(z, gate)) <= 2  # the share allows 0.05 in 40 h

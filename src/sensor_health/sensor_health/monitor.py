@@ -105,7 +105,9 @@ class HealthMonitor(VibrationCheck):
         """channel -> a fast crossing waiting for BIAS_CONFIRM_WINDOWS more windows."""
         self.yaw_scale = YawScaleMonitor(model, self.thr.budget_per_10h / thr.N_TESTS)
         track = cfg.track_bias_per_10h or self.thr.budget_per_10h / thr.N_TESTS
-        self.along_track = AlongTrackMonitor(track, float(model.accel.bias_instability[0]))
+        acc = model.accel
+        self.along_track = AlongTrackMonitor(track, float(acc.bias_instability[0]), float(acc.white_noise[0]),
+                                             float(acc.rate_random_walk[0]), float(acc.bias_correlation_time[0]))
         self.cross_track = CrossTrackMonitor(float(model.gyro.white_noise[2]), track,
                                              float(model.gyro.bias_instability[2]))
         self.lateral_track = LateralTrackMonitor(float(model.accel.white_noise[1]), float(model.gyro.white_noise[2]),

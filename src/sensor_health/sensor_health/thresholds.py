@@ -156,6 +156,14 @@ def cusum_threshold(y: np.ndarray, k: float, target_windows: float) -> float:
     return float((np.log(target_windows) - icpt) / slope)
 
 
+def excursion_maxima(z: np.ndarray, floor: float) -> np.ndarray:
+    """Maxima of the runs of z (1-D) above ``floor``: one alarm per run at any gate above it (for tests that restart
+    after an event)."""
+    above = np.r_[False, z > floor, False]
+    edges = np.flatnonzero(np.diff(above.astype(int)))
+    return np.maximum.reduceat(z, edges[::2])[: len(edges) // 2] if len(edges) else np.zeros(0)
+
+
 def exp_tail_threshold(x: np.ndarray, p: float, top: float = 0.02) -> float:
     """x's quantile 1 - p from an exponential tail fitted to its upper ``top`` fraction."""
     u = np.quantile(x, 1 - top)
