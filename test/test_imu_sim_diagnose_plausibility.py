@@ -119,7 +119,33 @@ def test_a_value_no_sensor_of_the_grade_has_with_an_interval_wider_than_the_boun
     mis = _cand("axis_misalignment", {"gyro[xy]": 1.4, "accel[xy]": 1e-3})
     mis.intervals = {"gyro[xy]": [-0.4, 3.2], "accel[xy]": [0.0, 2e-3]}
     assert [v["parameter"] for v in plausibility.unidentified(mis, "tactical")] == ["gyro[xy]"]
-    assert plausibility.unidentified(_cand("warmup_drift", {"accel_amplitude_mps2[x]": 0.1}), "navigation") == []
+    loose = _cand("warmup_drift", {"accel_amplitude_mps2[x]": 0.1, "time_constant_s": 5e4})
+    loose.intervals = {"accel_amplitude_mps2[x]": [-0.05, 0.25], "time_constant_s": [10.0, 1e9]}
+    assert [v["parameter"] for v in plausibility.unidentified(loose, "navigation")] == ["accel_amplitude_mps2[x]"]
+
+
+def test_a_warm_up_no_unit_of_the_grade_has_breaks_its_bound_whatever_the_record():
+    """Blind seed 8's industrial rate-table null: a warm-up of 7.5e-4 rad/s and 0.2 m/s^2 (20 mg) at tau 72 s was
+    reported as sensor physics: warmup_drift had no bound. Its accelerometer part breaks the industrial one; blind
+    seed 7's navigation warm-up (2.7e-3 m/s^2, gyros 6e-7 rad/s) and the own consumer one break none."""
+    def warm(gyro, accel, half=0.02):
+        names = [f"{tri}_amplitude_{u}[{a}]" for tri, u, v in (("gyro", "rad_per_s", gyro), ("accel", "mps2", accel))
+                 for a in "xyz"]
+        values = list(gyro) + list(accel)
+        cand = _cand("warmup_drift", {**dict(zip(names, values)), "time_constant_s": 72.0})
+        cand.intervals = {m: [v - half * abs(v), v + half * abs(v)] for m, v in zip(names, values)}
+        cand.intervals["time_constant_s"] = [60.0, 90.0]
+        return cand
+    table_null = warm([3.7e-4, 7.5e-4, -5e-4], [0.10, 0.20, -0.13])
+    broken = plausibility.violations(table_null, "industrial")
+    # 0.10 +- 2 % reaches inside 10 mg: only y and z are determined outside
+    assert [b["parameter"] for b in broken] == ["accel_amplitude_mps2[y]", "accel_amplitude_mps2[z]"]
+    assert plausibility.violations(table_null, "consumer") == []
+    assert plausibility.violations(warm([6e-7, -4e-7, 3e-7], [2.7e-3, -0.8e-3, 0.8e-3]), "navigation") == []
+    assert plausibility.violations(warm([2e-3, -1.5e-3, 2.5e-3], [1e-2, -1e-2, 1.5e-2]), "consumer") == []
+    # a navigation gyro warm-up of 10 deg/h is no navigation unit's
+    assert [b["parameter"] for b in plausibility.violations(warm([4.8e-5, 0, 0], [0, 0, 0]), "navigation")] == [
+        "gyro_amplitude_rad_per_s[x]"]
 
 
 def test_a_fit_not_identifiable_on_the_record_is_never_a_finding_and_tested_says_why(monkeypatch):
@@ -346,3 +372,17 @@ def test_heldout_fit_uses_only_the_blocks_it_is_told_to_keep():
     before_all, after_all = heldout_rms(resid, cols, 0.01, 0.1)
     before, after = heldout_rms(resid, cols, 0.01, 0.1, keep)
     assert after < before and (before - after) / before > 5 * (before_all - after_all) / before_all
+
+
+@pytest.mark.slow
+def test_a_warm_up_beyond_the_grade_on_a_table_record_is_a_model_error_not_physics():
+    """A 20-mg accelerometer warm-up on an industrial unit turned on a rate table (the suite's motorised sequence):
+    reported under reference_or_model_error with the parameter that broke the bound, never as warmup_drift."""
+    warm = {"gyro_amplitude_rad_per_s": [4e-4, 7.5e-4, 0.0], "accel_amplitude_mps2": [0.2, -0.15, 0.0],
+            "time_constant_s": 60.0}  # its gyro part within the bound: the one curve is not refitted without the rest
+    out = _diagnose_with("warmup_drift", warm, suite_model())
+    assert "warmup_drift" not in [f["effect"] for f in out["findings"]]
+    errors = [e for e in out["reference_or_model_error"] if e["effect_tested"] == "warmup_drift"]
+    assert errors and errors[0]["parameter"].startswith("accel_amplitude_mps2")
+    note = next(t["note"] for t in out["tested"] if t["effect"] == "warmup_drift")
+    assert "reference_or_model_error" in note
