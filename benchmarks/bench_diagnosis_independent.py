@@ -149,6 +149,8 @@ LTABLE_TEMP = (25.0, 8.0, 900.0)
 the sensor has no temperature coefficient: the record's temperature is collinear with its slow bias wander)."""
 """Each realistic ramp between two rates has its own angular acceleration (deg/s^2, drawn from this range) and its
 own shape (linear, cubic or quintic); the scenario states only the dwells."""
+UPDOWN_TACTICAL = {"grade": "tactical", "noise": (0.1, 3.0)}
+"""The tactical up/down's unit (``*_updown_tactical``): white noise 2e-5 rad/s/sqrt(s), flicker B 6e-5 rad/s."""
 CASES = {
     # name: (motion, effect, concealed parameters)
     "earth_rotation": ("tumble", "earth_rotation", {}),
@@ -188,6 +190,11 @@ CASES = {
     # holds, its wander across holds bounded where a walk's keeps growing); accel in the suite case's ratio
     "fx_gauss_markov_slow": ("fixture", "gauss_markov_bias", {"gyro": 2.8e-4, "accel": 1.4e-3, "tau": 40.0}),
     "fx_earth_rotation_updown": ("updown_fixture", "earth_rotation", {}),
+    # blind seed 8's tactical up/down (Earth rate at GLS LR 6.2 against 8.7): a tactical unit whose gyro bias
+    # instability (6e-5 rad/s, 12 deg/h: noise factors (white, flicker) against the industrial unit's) makes the
+    # Earth rate's step between x up and x down (1.1e-4 rad/s on x, 0.9e-4 on z at Calgary) two of the flicker's
+    # hold-to-hold steps (sd 0.96 B over 300-s holds)
+    "fx_earth_rotation_updown_tactical": ("updown_fixture", "earth_rotation", UPDOWN_TACTICAL),
     # blind seed 7's navigation warm-up (tau ~160 s, mostly on the accelerometers) on a fixture whose logged
     # temperature follows its own exponential (time constant drawn in temp_tau_s): the two curves correlate at
     # r ~ -0.96..-0.99 over the record; sizes absolute (not scaled by the grade), the grade fixed
@@ -195,9 +202,12 @@ CASES = {
                                                    "tau": 160.0, "absolute": True, "grade": "navigation",
                                                    "temp_tau_s": (200.0, 350.0)}),
 }
+NULL_PARAMS = {"null_updown_fixture_tactical": UPDOWN_TACTICAL}
+"""A null's unit where it is not its kind's default (grade and noise factors; no concealed effect)."""
 NULLS = {"null_drive": "drive", "null_table": "table", "null_mtable": "mtable", "null_ltable": "ltable", "null_single_naive": "static_rw",
          "null_tumble": "tumble",
-         "null_fixture": "fixture", "null_updown_fixture": "updown_fixture"}
+         "null_fixture": "fixture", "null_updown_fixture": "updown_fixture",
+         "null_updown_fixture_tactical": "updown_fixture"}
 GRADES = {"navigation": 0.01, "tactical": 0.1, "industrial": 1.0, "consumer": 5.0}
 FIXTURE_NOISE = {"consumer": (1.5, 7.5)}
 """(white, flicker) factors of a fixture case's noise where they differ from GRADES': a consumer MEMS gyro's angle
@@ -233,6 +243,7 @@ TRUE = {
     "colored_gps_noise": {"sigma_m[e]": 0.3, "sigma_m[n]": 0.3, "sigma_m[u]": 0.5},
     "coriolis": {"coriolis_scale": 1.0},
     "fx_earth_rotation_updown": {"earth_rate_rad_per_s": gen.OMEGA_E},
+    "fx_earth_rotation_updown_tactical": {"earth_rate_rad_per_s": gen.OMEGA_E},
     "fx_bias_random_walk": {f"gyro_rad_per_s_per_sqrt_s[{a}]": 3e-6 for a in "xyz"},
     "fx_gauss_markov_slow": {f"gyro_sigma_rad_per_s[{a}]": 2.8e-4 for a in "xyz"},
     "fx_warmup_temp": {"time_constant_s": 160.0,
@@ -367,7 +378,7 @@ def generate(name: str, seed: int, folder: Path) -> dict:
     kind = NULLS[name] if null else CASES[name][0]
     grade = grade_of(kind, seed)
     kg = GRADES[grade]
-    effect, par = (None, {}) if null else (CASES[name][1], effect_params(name, grade))
+    effect, par = (None, dict(NULL_PARAMS.get(name, {}))) if null else (CASES[name][1], effect_params(name, grade))
     rng = np.random.default_rng(seed)
     site = gen.Site(*SITE)
     motion, rate, truth_rate = motion_of(kind)
@@ -621,7 +632,7 @@ def _fixture(site, rng, real, folder, kind, effect, par, seed):
     elif effect == "bias_random_walk":
         gyro_out += np.cumsum(rng.normal(0, k * par["gyro"] * np.sqrt(dt), (n, 3)), axis=0)
         accel_out += np.cumsum(rng.normal(0, k * par["accel"] * np.sqrt(dt), (n, 3)), axis=0)
-    kw, kf = FIXTURE_NOISE.get(grade, (k, k))
+    kw, kf = par.get("noise") or FIXTURE_NOISE.get(grade, (k, k))
     gyro_out += rng.normal(0, kw * GYRO_WHITE / np.sqrt(dt), (n, 3)) + gen.flicker(real, n, dt,
                                                                                      [kf * GYRO_FLICKER] * 3)
     accel_out += rng.normal(0, kw * ACCEL_WHITE / np.sqrt(dt), (n, 3)) + gen.flicker(real, n, dt,
