@@ -241,15 +241,23 @@ def holds(case) -> list:
 
 
 def hold_demeaned(case, resid: np.ndarray) -> np.ndarray:
-    """The residual with each hold's own mean removed and 0 between holds, on a record of two or more holds (else
-    unchanged): a fixture's tilt (and a truth's attitude error) is constant on each hold, so what remains is what a
-    stochastic term may take; the moves, whose profile the simulator only guesses, carry nothing."""
+    """The residual with each hold's own mean (over its stated samples) removed, 0 between holds and at unstated
+    samples, on a record of two or more holds (else unchanged): a fixture's tilt (and a truth's attitude error) is
+    constant on each hold, so what remains is what a stochastic term may take; the moves, whose profile the
+    simulator only guesses, and a table's unsettled dwell edges carry nothing."""
     spans = holds(case)
     if len(spans) < 2:
         return resid
     out = np.zeros_like(resid)
+    stated = ~case.unstated if getattr(case, "unstated", None) is not None else np.ones(len(resid), bool)
     for a, b in spans:
-        out[a:b] = resid[a:b] - resid[a:b].mean(axis=0)
+        # a rate table's cut dwell edges (dwell_edges) lie inside its stated segments; their fill passes linearly
+        # from the dwell before to this one, whose levels differ by the mounting's tilt times the rate step, so
+        # once demeaned it left a ramp at every edge: a Gauss-Markov bias at tau 0.3 s, 2-3e-4 rad/s on the cross
+        # axes of a tactical table (own hand-mounted table, 100 Hz, 3-8 s dwells; blind seed 8's at 0.25 s)
+        keep = stated[a:b]
+        if keep.any():
+            out[a:b][keep] = resid[a:b][keep] - resid[a:b][keep].mean(axis=0)
     return out
 
 
