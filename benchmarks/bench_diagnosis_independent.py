@@ -126,9 +126,20 @@ TABLE_RATE_ERR = 5e-5
 (``--table-physics``; a servo table's rate accuracy is 1e-5 to 1e-4), in proportion to the grade's factor for the
 others (a navigation unit's table: 1e-7): the scenario states no rate accuracy, so a table worse than the unit's
 scale-factor interval (5e-5 against a navigation unit's +-4e-7) is a reference error no diagnosis could know."""
+TABLE_RATE_ERR_ALL = 0.0
+"""``--table-rate-err E``: every grade's table dwells off their stated rates by up to E (relative), not in proportion
+to the grade (a tactical unit on a 5e-5 table: blind seed 8's tactical scale factors 1.5-2.3e-5 off, 1 of 3 covered)."""
 TABLE_PHYS_RATES = [30, -30, 100, -100, 200, -200]
 """Dwell rates (deg/s) of each mounting's run with ``--table-physics``: a consumer unit's calibration spins to a
 good part of its range, so its scale factors are determined to ~1e-4 and the slow physics' residue matters."""
+TABLE_SHORT = False
+"""``--table-short`` (with ``--table-physics``): the blind seed-8 tables - the unit sampled at TABLE_SHORT_HZ, dwells of
+TABLE_SHORT_DWELL_S at TABLE_SHORT_RATES (up to ~110 deg/s)."""
+TABLE_SHORT_HZ, TABLE_SHORT_DWELL_S, TABLE_SHORT_RATES = 100.0, (3.0, 8.0), [30, -30, 60, -60, 110, -110]
+TABLE_OFFAXIS_M = 0.0
+"""``--table-offaxis M``: the unit's sensing centre sits up to this far (m, per body axis) from the table's axis,
+drawn per mounting (a hand-mounted unit on a table top), so its accelerometers sense the centripetal and tangential
+acceleration w x (w x r) + dw/dt x r, which the scenario does not state."""
 TABLE_WARMUP = ([4e-4, -3e-4, 5e-4], [2e-3, -2e-3, 3e-3])
 """Industrial-grade warm-up amplitudes of a table unit (gyro rad/s, accel m/s^2; the tumble case's)."""
 TABLE_TYPED_S = 0.5
@@ -321,9 +332,10 @@ def mounted_table(real, phys=None, rate_err: float = 0.0):
     MTABLE_TOLERANCE_DEG per body axis; each run dwells at MTABLE_RATES with its own ramps, 10-s rests. With
     ``phys`` (``--table-physics``) each dwell's true rate is off its stated one by up to ``rate_err`` (relative)."""
     runs = []
-    rates = MTABLE_RATES if phys is None else TABLE_PHYS_RATES
+    rates = MTABLE_RATES if phys is None else TABLE_SHORT_RATES if TABLE_SHORT else TABLE_PHYS_RATES
     for _ in MTABLE_MOUNTS:
-        dwell = real.uniform(*TABLE_DWELL_S, len(rates))
+        dwell = real.uniform(*(TABLE_SHORT_DWELL_S if TABLE_SHORT and phys is not None else TABLE_DWELL_S),
+                             len(rates))
         steps = np.abs(np.diff(np.r_[0.0, rates, 0.0]))
         ramp = np.maximum(steps / real.uniform(*TABLE_ACCEL_DPS2, len(steps)), 0.3)
         shapes = real.choice(["linear", "smooth", "quintic"], len(steps))
@@ -360,7 +372,7 @@ def motion_of(kind: str):
     if kind == "ltable":
         return None, 50.0, 100.0
     if kind == "mtable":
-        return None, 50.0, None
+        return None, TABLE_SHORT_HZ if TABLE_SHORT and TABLE_PHYSICS and REALISTIC else 50.0, None
     if kind == "drive":
         if DRIVE == "slow":
             return gen.StopAndGo(240.0, legs=SLOW_LEGS), 50.0, 100.0
@@ -390,7 +402,7 @@ def generate(name: str, seed: int, folder: Path) -> dict:
     phys = np.random.default_rng([seed, 27]) if TABLE_PHYSICS and real is not None and kind in GRADE_KINDS else None
     if kind == "mtable":
         motion = mounted_table(real if real is not None else np.random.default_rng([seed, 24]), phys,
-                               TABLE_RATE_ERR * kg / GRADES["consumer"])
+                               TABLE_RATE_ERR_ALL or TABLE_RATE_ERR * kg / GRADES["consumer"])
     if kind == "ltable":
         motion = long_table(real if real is not None else np.random.default_rng([seed, 24]))
     if kind == "updown":
@@ -407,7 +419,9 @@ def generate(name: str, seed: int, folder: Path) -> dict:
     if kind in ("static", "static_rw"):
         temp = 25.0 - 10.0 * np.cos(2 * np.pi * t / 1800.0)
     if phys is not None and kind in ("table", "mtable"):
-        temp = _table_physics(phys, t, accel, gyro_out, accel_out, kg)
+        temp = _table_physics(phys, t, accel, gyro_out, accel_out, kg * (not null))
+    if TABLE_OFFAXIS_M and kind == "mtable":
+        _off_axis(np.random.default_rng([seed, 28]), motion, t, gyro, accel_out)
     if kind == "ltable":  # a unit warming with the room, with no temperature coefficient; and its bias walk
         temp = LTABLE_TEMP[0] + LTABLE_TEMP[1] * (1.0 - np.exp(-t / LTABLE_TEMP[2])) + rng.normal(0, 0.01, n)
         gyro_out += np.cumsum(rng.normal(0, kg * LTABLE_WALK[0] * np.sqrt(dt), (n, 3)), axis=0)
@@ -493,7 +507,8 @@ def _table_physics(phys, t, accel, gyro_out, accel_out, kg: float) -> np.ndarray
     """A table unit's own slow physics (``--table-physics``, in place): a warm-up (TABLE_WARMUP at the grade's
     factor, each amplitude drawn 0.3-1 times, tau 60-300 s), a bias temperature coefficient (the fixture's: TEMP_COEF
     x TEMP_REALISTIC and FIXTURE_TEMP_ACCEL, at the grade's) on a logged temperature warming 3-8 degC at 200-900 s,
-    and a gyro g-sensitivity (the tumble case's at the grade's factor). Returns the logged temperature (degC)."""
+    and a gyro g-sensitivity (the tumble case's at the grade's factor). Returns the logged temperature (degC). A
+    null's unit (``kg`` 0) has none of them: its temperature is logged, its table's rates are still off."""
     tau_w, tau_t = phys.uniform(60.0, 300.0), phys.uniform(200.0, 900.0)
     temp = 24.0 + phys.uniform(3.0, 8.0) * (1.0 - np.exp(-t / tau_t)) + phys.normal(0, 0.01, len(t))
     decay = np.exp(-t / tau_w)[:, None]
@@ -503,6 +518,17 @@ def _table_physics(phys, t, accel, gyro_out, accel_out, kg: float) -> np.ndarray
     accel_out += np.sqrt(kg) * (temp - 25.0)[:, None] * FIXTURE_TEMP_ACCEL
     gyro_out += kg * np.asarray(CASES["gyro_g_sensitivity"][2]["g"]) * accel
     return temp
+
+
+def _off_axis(rng, table, t, gyro, accel_out) -> None:
+    """The accelerometers of a unit mounted off the table's axis (in place): each mounting's sensing centre at r
+    (body m, up to TABLE_OFFAXIS_M per axis) adds dw/dt x r + w x (w x r), with w the true body rate (rad/s)."""
+    dw = np.gradient(gyro, t, axis=0)
+    ends = np.r_[table.starts[1:], np.inf]
+    for k, (t0, t1) in enumerate(zip(table.starts, ends)):
+        r = rng.uniform(-TABLE_OFFAXIS_M, TABLE_OFFAXIS_M, 3)
+        m = (t > t0 if k else t >= 0) & (t <= t1)
+        accel_out[m] += np.cross(dw[m], r) + np.cross(gyro[m], np.cross(gyro[m], r))
 
 
 def _off_nominal(motion, real):
@@ -812,8 +838,15 @@ def main(argv=None) -> int:
     parser.add_argument("--table-physics", action="store_true",
                         help="a realistic table unit's warm-up, temperature coefficient, g-sensitivity and table rate "
                              "errors (TABLE_PHYSICS)")
+    parser.add_argument("--table-short", action="store_true",
+                        help="with --table-physics: 100-Hz tables, dwells of 3-8 s at up to 110 deg/s (TABLE_SHORT)")
+    parser.add_argument("--table-offaxis", type=float, default=0.0, metavar="M",
+                        help="a mounted table's unit up to M metres off the table's axis per body axis (TABLE_OFFAXIS_M)")
+    parser.add_argument("--table-rate-err", type=float, default=0.0, metavar="E",
+                        help="with --table-physics: every grade's dwells off their stated rates by up to E (relative)")
     args = parser.parse_args(argv)
-    global TRUTH_VELOCITY, TABLE_PHYSICS
+    global TRUTH_VELOCITY, TABLE_PHYSICS, TABLE_SHORT, TABLE_OFFAXIS_M, TABLE_RATE_ERR_ALL
+    TABLE_SHORT, TABLE_OFFAXIS_M, TABLE_RATE_ERR_ALL = args.table_short, args.table_offaxis, args.table_rate_err
     TRUTH_VELOCITY = not args.truth_positions
     TABLE_PHYSICS = args.table_physics
     global REALISTIC
