@@ -67,20 +67,8 @@ def _mounting_system(ctx, cand, keep: list, resid_f: np.ndarray | None = None, d
     size = k + m + nt + nw + nd + 6
     a, b = np.zeros((size, size)), np.zeros(size)
     for ch in range(6):
-        xc = cand.columns[ch][:, keep] if ch in cand.columns else np.zeros((case.n, k))
-        bias = np.zeros((case.n, 6))
-        bias[:, ch] = 1.0  # the turn-on bias as a parameter: under coloured weights a demeaned column is not
-        # orthogonal to a constant (a navigation-grade mounting fit was 0.06 deg off without it)
-        offsets = np.zeros((case.n, nw))
-        if nw and ch >= 3:
-            for g, mask in enumerate(groups):
-                offsets[:, 3 * g + ch - 3] = mask
-        drifts = np.zeros((case.n, nd))
-        if nd and ch < 3:
-            drifts[:, ch * slow.shape[1]:(ch + 1) * slow.shape[1]] = slow
-        x = np.hstack([xc] + [rot[ch] * g[:, None] for g in groups] + [tilt[ch], offsets, drifts, bias])
-        demean = np.arange(x.shape[1]) < k + m + nt
-        xf = wh.spectrum(np.where(stated[:, None], x - x[stated].mean(axis=0) * demean, 0.0))
+        x = _design(case, cand, keep, ch, (groups, rot, tilt, nw, slow), stated)
+        xf = wh.spectrum(x)
         a += wh.gram(ch, xf, xf)
         b += wh.gram(ch, xf, (ctx.resid_f if resid_f is None else resid_f)[:, ch])
     # the tolerance as a prior (sd = tolerance): a rotation about the table axis, which only the Earth rate's
@@ -89,6 +77,74 @@ def _mounting_system(ctx, cand, keep: list, resid_f: np.ndarray | None = None, d
     if nw:
         a[k + m + nt:k + m + nt + nw, k + m + nt:k + m + nt + nw] += np.diag(1.0 / wander**2)
     return a, b, k, tol
+
+
+def _design(case, cand, keep: list, ch: int, parts: tuple, stated: np.ndarray) -> np.ndarray:
+    """(n, size) channel ``ch``'s columns of :func:`_mounting_system` in the time domain, 0 at unstated samples."""
+    groups, rot, tilt, nw, slow = parts
+    k, m, nt, nd = len(keep), 3 * len(groups), tilt[0].shape[1], 3 * slow.shape[1]
+    xc = cand.columns[ch][:, keep] if ch in cand.columns else np.zeros((case.n, k))
+    bias = np.zeros((case.n, 6))
+    bias[:, ch] = 1.0  # the turn-on bias as a parameter: under coloured weights a demeaned column is not
+    # orthogonal to a constant (a navigation-grade mounting fit was 0.06 deg off without it)
+    offsets = np.zeros((case.n, nw))
+    if nw and ch >= 3:
+        for g, mask in enumerate(groups):
+            offsets[:, 3 * g + ch - 3] = mask
+    drifts = np.zeros((case.n, nd))
+    if nd and ch < 3:
+        drifts[:, ch * slow.shape[1]:(ch + 1) * slow.shape[1]] = slow
+    x = np.hstack([xc] + [rot[ch] * g[:, None] for g in groups] + [tilt[ch], offsets, drifts, bias])
+    demean = np.arange(x.shape[1]) < k + m + nt
+    return np.where(stated[:, None], x - x[stated].mean(axis=0) * demean, 0.0)
+
+
+def dwell_dispersion(ctx, cand, keep: list, theta_all: np.ndarray, cov: np.ndarray, rest: np.ndarray) -> np.ndarray:
+    """(3,) per gyro the factor (>= 1) its scale factor's sd is widened by: the scatter of the joint fit's residual
+    means over the spinning dwells that turn about each gyro, over their white-noise sd, as a chi-square per degree
+    of freedom left (the dwells' count less one and their leverage under the fit's covariance ``cov``), pooled.
+    A table whose dwells are each off their stated rate by 1e-5..1e-4 (a servo's accuracy, which the scenario does
+    not state) puts that error times the rate into each dwell: the fit's white-noise interval does not carry it."""
+    case = ctx.case
+    stated = ~case.unstated if getattr(case, "unstated", None) is not None else np.ones(case.n, bool)
+    groups = mounting_groups(case)
+    parts = (groups, rotation_columns(case), table_tilt_columns(case),
+             len(accel_wander_sd(case, groups)) if len(groups) > 1 else 0, gyro_drift_columns(case, groups))
+    t = getattr(case, "sim_t_abs", case.t)
+    chi2_all = dof_all = 0.0
+    from imu_sim.diagnose.unstated import diff_noise_sd
+    for ch in range(3):
+        x = _design(case, cand, keep, ch, parts, stated)
+        e = ctx.resid[:, ch] - rest[:, ch] - x @ theta_all
+        e = e - e[stated].mean()  # the whitener leaves the mean out: the turn-on bias is not determined by the fit
+        sd = float(diff_noise_sd(e[stated]))
+        if not sd > 0.0:  # a noise-free record (a simulator's own output): no scatter to weigh
+            continue
+        means, rows, counts = [], [], []
+        for seg in case.scenario.spec or []:
+            idx = np.flatnonzero((t > float(seg["t0"])) & (t <= float(seg["t1"])) & stated)
+            if len(idx) < 10 or not float(seg.get("rate_dps", 0.0) or 0.0):
+                continue
+            if abs(case.gyro_true[idx, ch].mean()) < 0.5 * np.radians(abs(float(seg["rate_dps"]))):
+                continue
+            means.append(e[idx].mean())
+            rows.append(x[idx].mean(axis=0))
+            counts.append(len(idx))
+        if len(means) < 3:
+            continue
+        # relative to their weighted mean (the turn-on bias, which the fit leaves undetermined, drops out), in units
+        # of each dwell mean's white-noise sd; each one's leverage under the fit's covariance within [0, 1]
+        w = np.array(counts, float) / np.sum(counts)
+        z = np.sqrt(counts) / sd
+        dev = (np.array(means) - w @ np.array(means)) * z
+        rows = (np.array(rows) - w @ np.array(rows)) * z[:, None]
+        lev = np.clip(np.nan_to_num(np.einsum("ij,jk,ik->i", rows, cov, rows), nan=1.0), 0.0, 1.0)
+        dof, chi2 = len(means) - 1.0 - float(lev.sum()), float(np.sum(dev**2))
+        if dof >= 1.0:
+            chi2_all, dof_all = chi2_all + chi2, dof_all + dof
+    # one table turns under every mounting: its dwells' errors pooled over the gyros (a few dof each), the
+    # dispersion's estimate never below white noise's
+    return np.full(3, max(1.0, float(np.sqrt(chi2_all / dof_all))) if dof_all >= 1.0 else 1.0)
 
 
 def gyro_drift_columns(case, groups: list) -> np.ndarray:
@@ -287,6 +343,10 @@ def mounting_fit(ctx, cand, drop=()) -> None:
             cand.rank = min(cand.rank, cand.stat - cand.threshold)
         return
     theta, sd = theta_all[:kr], np.sqrt(np.clip(np.diag(inv)[:kr], 0.0, None))
+    if cand.effect == "scale_factor":  # each dwell's own rate error: the dwells' scatter widens the interval
+        widen = dwell_dispersion(ctx, cand, keep, theta_all, inv, rest)
+        sd = sd * np.array([widen["xyz".index(names[j][5])] if names[j].startswith("gyro[") else 1.0
+                            for j in keep[:kr]])
     cand.threshold = threshold(kr, ctx.m_tests, 1, ctx.factor(cand.effect))
     keep = keep[:kr]
     full = np.zeros(len(names))
