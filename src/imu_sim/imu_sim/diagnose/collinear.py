@@ -6,14 +6,17 @@ nearly the same curve over the record (blind seed 2: a tactical warm-up of time 
 temperature_bias, its statistic given the warm-up still large). Where they correlate beyond :data:`COLLINEAR` over
 the stated samples, both candidates' ``tested`` notes say so. On a fixture of still holds the two are also fitted
 jointly with the holds' tilts, one weighting for both (:func:`decide_on_holds`): the one the other does not explain
-ranks first (NumPy only).
+ranks first; a temperature curve is weighed against a found bias random walk on the holds' means
+(:func:`walk_or_temperature`).
 """
 from __future__ import annotations
 
 import numpy as np
 
+from scipy.stats import chi2
+
 from imu_sim.diagnose import fixture
-from imu_sim.diagnose.hold_noise import Prior
+from imu_sim.diagnose.hold_noise import Prior, walk_and_temperature
 
 COLLINEAR = 0.95
 """|correlation| of the two regressors (demeaned: the turn-on bias is free) beyond which the record cannot tell
@@ -34,6 +37,8 @@ def note_collinear(case, cands: list, resid: np.ndarray | None = None, model=Non
     """Add to the significant warm-up and temperature candidates' notes when their regressors are collinear here;
     with ``resid`` (the pass's cleaned residual) on a fixture, rank the two by :func:`decide_on_holds` first."""
     by = {c.effect: c for c in cands}
+    if walk_or_temperature(case, by, resid, model):
+        return  # the temperature is no rival of the warm-up then
     warm, temp = by.get("warmup_drift"), by.get("temperature_bias")
     if warm is None or temp is None or not (warm.significant and temp.significant):
         return
@@ -111,3 +116,51 @@ def decide_on_holds(case, temp, warm, resid: np.ndarray, model=None) -> None:
     own = lose.rank if lose.rank is not None else lose.stat - lose.threshold
     lose.rank = min(own, got[loser + "|other"] - lose.threshold, top - 1.0)
     lose.reason = "; ".join(filter(None, [lose.reason, f"{said}: ranked below {win.effect}"]))
+
+
+def _found_walk_k2(case, by: dict, model) -> np.ndarray:
+    """Each gyro's found walk K^2 ((rad/s)^2/s): this pass's significant ``bias_random_walk`` candidate's, or the one
+    an earlier pass put in ``model`` beyond the user's stated walk; zeros if none."""
+    from imu_sim.diagnose.case import effective_model
+    walk = by.get("bias_random_walk")
+    if walk is not None and walk.significant and walk.params:
+        return np.array([float(walk.params.get(f"gyro_rad_per_s_per_sqrt_s[{a}]", 0.0)) ** 2 for a in "xyz"])
+    if model is None:
+        return np.zeros(3)
+    k = np.asarray(effective_model(model).gyro.rate_random_walk, float) * np.ones(3)
+    k0 = np.asarray(effective_model(case.model).gyro.rate_random_walk, float) * np.ones(3)
+    return np.where(k > k0, k * k - k0 * k0, 0.0)
+
+
+def _on_axes(threshold: float, k: int, axes: int) -> float:
+    """A threshold of ``k`` parameters moved to ``axes`` of them at the same false-alarm rate."""
+    return float(chi2.isf(chi2.sf(threshold, k), axes))
+
+
+def walk_or_temperature(case, by: dict, resid: np.ndarray | None, model=None) -> bool:
+    """A significant temperature curve on a fixture's holds that a found bias random walk explains: both explain the
+    holds' slow level changes, so they are weighed on the gyros' hold means on one weighting
+    (:func:`hold_noise.walk_and_temperature`); where the temperature given the walk is below its threshold and the
+    walk given the temperature above its own, the temperature is not significant on the holds and not ranked
+    (own consumer fixture walk at 1.5 times its floor: ``temperature_bias`` first on 6 of 10 seeds, its
+    coefficients 0.2-0.8 mrad/s/degC on a unit with none). True when it took the temperature out."""
+    temp = by.get("temperature_bias")
+    if resid is None or temp is None or not temp.significant or temp.identifiable is False:
+        return False
+    k2 = _found_walk_k2(case, by, model)
+    got = walk_and_temperature(case, model if model is not None else case.model, resid, k2)
+    if got is None:
+        return False
+    thr_t = _on_axes(temp.threshold, 6, got["axes"])  # six coefficients, one a channel
+    walk = by.get("bias_random_walk")
+    thr_w = _on_axes(walk.threshold if walk is not None else temp.threshold, 6, got["axes"])
+    if got["temperature|walk"] >= thr_t or got["walk|temperature"] < thr_w:
+        return False
+    temp.given_rivals["bias_random_walk"] = min(temp.given_rivals.get("bias_random_walk", np.inf),
+                                                got["temperature|walk"])
+    temp.identifiable, temp.reason = False, "; ".join(filter(None, [temp.reason, (
+        f"not significant on the holds given bias_random_walk: on the gyros' hold means (one weighting for both) its "
+        f"likelihood ratio given the walk is {got['temperature|walk']:.3g} against {thr_t:.3g} "
+        f"({got['axes']} axes), the walk's given it {got['walk|temperature']:.3g} against {thr_w:.3g}; a slow wander "
+        "explains the same levels; not ranked")]))
+    return True

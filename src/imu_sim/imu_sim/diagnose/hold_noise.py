@@ -209,11 +209,13 @@ def still_holds(case) -> list:
     return spans
 
 
-def hold_means_ll(case, model, resid: np.ndarray, i: int, kernels: list, spans: list) -> np.ndarray:
+def hold_means_ll(case, model, resid: np.ndarray, i: int, kernels: list, spans: list,
+                  x: np.ndarray | None = None) -> np.ndarray:
     """Restricted log-likelihood of gyro axis ``i``'s hold means under each wander kernel: each hold's mean is the
     process' mean over the hold (1-s grid), with the model's white noise (N^2 / hold), stated bias instability (B^2
     a hold) and a tilt's Earth-rate change within the tolerance on the diagonal; the turn-on bias (a constant)
-    profiled out. Accelerometers are left out: their hold means are the tilts'."""
+    profiled out, and a regressor's hold means ``x`` (m,) too when given (its coefficient by GLS under each kernel).
+    Accelerometers are left out: their hold means are the tilts'."""
     from imu_sim.diagnose.case import effective_model
     t = case.t - case.t[0]
     nodes = [np.arange(t[a], t[b - 1] + 1e-9, LEVEL_GRID_S) + LEVEL_GRID_S / 2 for a, b in spans]
@@ -229,7 +231,12 @@ def hold_means_ll(case, model, resid: np.ndarray, i: int, kernels: list, spans: 
     for kernel in kernels:
         cov = basis.T @ (_hold_mean_cov(nodes, kernel) + np.diag(diag)) @ basis
         sign, logdet = np.linalg.slogdet(cov)
-        out.append(-0.5 * (logdet + float(r @ np.linalg.solve(cov, r))) if sign > 0 else -np.inf)
+        e = r
+        if x is not None:
+            xr = basis.T @ x
+            cx = np.linalg.solve(cov, xr)
+            e = r - xr * float(cx @ r) / max(float(cx @ xr), 1e-300)
+        out.append(-0.5 * (logdet + float(e @ np.linalg.solve(cov, e))) if sign > 0 else -np.inf)
     return np.array(out)
 
 
@@ -267,3 +274,35 @@ def gm_on_hold_means(case, model, resid: np.ndarray, i: int, lev: float, tc: flo
     inside = taus[ll >= ll.max() - 1.92]
     best = float(taus[int(np.argmax(ll))])
     return lev * best / tc, (lev * inside.min() / tc, lev * inside.max() / tc), best, (inside.min(), inside.max())
+
+
+WALK_GRID = (0.01, 0.03, 0.1, 0.3, 1.0, 3.0)
+"""Factors of a walk's fitted K^2 over which :func:`walk_and_temperature` profiles it on the hold means."""
+
+
+def walk_and_temperature(case, model, resid: np.ndarray, k2: np.ndarray) -> dict | None:
+    """Twice the log-likelihood ratios on the gyros' hold means (:func:`hold_means_ll`) of the recorded temperature's
+    curve and a bias random walk (K^2 ``k2`` (3,) (rad/s)^2/s as fitted, profiled over :data:`WALK_GRID`), each alone
+    and each given the other, on one weighting: ``temperature|walk``, ``walk|temperature``, ``temperature``,
+    ``walk``, summed over the gyro axes with a walk. Both explain the holds' slow level changes (a slow wander and a
+    slow curve); the hold means tell a walk's spreading scatter from a curve in the logged temperature. None off
+    three or more still holds, without a temperature log or a walk."""
+    spans = still_holds(case)
+    if not spans or getattr(case, "temp_c", None) is None or not np.any(np.asarray(k2) > 0):
+        return None
+    temp = np.asarray(case.temp_c, float)
+    x = np.array([np.mean(temp[a:b]) for a, b in spans])
+    zero = [lambda s, u: 0.0 * np.minimum(s, u)]
+    out = dict.fromkeys(("temperature|walk", "walk|temperature", "temperature", "walk"), 0.0)
+    for i in np.flatnonzero(np.asarray(k2) > 0):
+        walks = [lambda s, u, q=f * float(k2[i]): q * np.minimum(s, u) for f in WALK_GRID]
+        ll = {(w, t): float(np.max(hold_means_ll(case, model, resid, int(i), zero if w == 0 else walks, spans,
+                                                  x if t else None))) for w in (0, 1) for t in (0, 1)}
+        if not all(np.isfinite(v) for v in ll.values()):
+            return None
+        out["temperature|walk"] += 2.0 * (ll[1, 1] - ll[1, 0])
+        out["walk|temperature"] += 2.0 * (ll[1, 1] - ll[0, 1])
+        out["temperature"] += 2.0 * (ll[0, 1] - ll[0, 0])
+        out["walk"] += 2.0 * (ll[1, 0] - ll[0, 0])
+    out["axes"] = int(np.sum(np.asarray(k2) > 0))
+    return out
