@@ -1,14 +1,7 @@
 """A hand-mounted rate table's scale factor fitted with each gyro's slow bias drift (warm-up, remount steps)."""
-from types import SimpleNamespace
-
 import numpy as np
 from scipy.spatial.transform import Rotation
-
-from nav_core.sensor_model import SensorModel, TriadModel
-
-from imu_sim.diagnose import mounting
-from imu_sim.diagnose.candidate import Candidate
-from imu_sim.diagnose.spectral import Whitener
+from table_case import scale_errors_in_half_widths, scale_factor_case
 
 DT, PER = 0.02, 3000
 SCALE = np.array([2e-2, -1.5e-2, 2.5e-2])
@@ -39,35 +32,18 @@ def _table(seed: int, drift: bool):
     accel = np.einsum("nji,j->ni", nominal, 9.81 * up)
     spec = [{"t0": 60.0 * j, "t1": 60.0 * (j + 1), "roll_deg": r, "pitch_deg": p, "rate_dps": 100.0}
             for j, (r, p) in enumerate([(0.0, 0.0), (0.0, -90.0), (90.0, 0.0)])]
-    model = SimpleNamespace(accel=SimpleNamespace(bias_instability=0.0, rate_random_walk=0.0))
-    case = SimpleNamespace(t=t, n=n, dt=DT, gyro_true=gyro, accel_true=accel, cache={"body_to_enu": nominal},
-                           unstated=None, model=model,
-                           scenario=SimpleNamespace(source="static_segments", spec=spec, attitude_tolerance_deg=0.01))
     sd = np.array([3e-4, 3e-4, 3e-4, 1e-3, 1e-3, 1e-3]) / np.sqrt(DT)
     resid = rng.standard_normal((n, 6)) * sd
     resid[:, :3] += gyro * SCALE
     if drift:
         resid[:, :3] += WARMUP[0] * np.exp(-t / WARMUP[1])[:, None] * rng.uniform(0.3, 1.0, 3)
         resid[:, :3] += np.repeat(rng.normal(0.0, 2e-3, (3, 3)), PER, axis=0)
-    psd = np.repeat((sd**2 * DT)[:, None], n // 2 + 1, axis=1)
-    smodel = SensorModel(gyro=TriadModel(white_noise=sd[:3] * np.sqrt(DT)),
-                         accel=TriadModel(white_noise=sd[3:] * np.sqrt(DT)), sample_rate_hz=1.0 / DT)
-    ctx = SimpleNamespace(case=case, model=smodel, resid=resid, wh=Whitener.from_psd(psd, resid, DT),
-                          resid_f=np.fft.rfft(resid, axis=0), m_tests=14, factor=lambda e: 1.0)
-    true = np.column_stack([gyro, accel])
-    names = [f"{tri}[{a}]" for tri in ("gyro", "accel") for a in "xyz"]
-    cand = Candidate("scale_factor", 1e6, 40.0, "GLS likelihood ratio", params=dict.fromkeys(names, 0.0),
-                     columns={c: np.column_stack([true[:, c] if j == c else np.zeros(n) for j in range(6)])
-                              for c in range(6)})
-    return ctx, cand
+    return scale_factor_case(t, DT, gyro, accel, nominal, spec, resid, sd, 0.01)
 
 
 def _z(seed: int, drift: bool) -> np.ndarray:
     """The fitted gyro scale factors' errors in half-widths of their 95 % intervals."""
-    ctx, cand = _table(seed, drift)
-    mounting.mounting_fit(ctx, cand)
-    iv = np.array([cand.intervals[f"gyro[{a}]"] for a in "xyz"])
-    return (iv.mean(axis=1) - SCALE) / (0.5 * np.diff(iv, axis=1)[:, 0])
+    return scale_errors_in_half_widths(*_table(seed, drift), SCALE)
 
 
 def test_a_tables_scale_factor_intervals_cover_it_under_the_units_slow_bias_drift():
