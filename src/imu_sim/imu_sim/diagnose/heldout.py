@@ -83,7 +83,7 @@ def line_metric(case: Case, cand: Candidate, resid: np.ndarray):
     freq = float(cand.params["frequency_hz"])
     t = case.sim_t_abs
     x = np.column_stack([_mean_sin(t, case.dt, freq), _mean_cos(t, case.dt, freq)])
-    keep = np.ones(case.n, bool) if getattr(case, "unstated", None) is None else ~case.unstated
+    keep = reference.stated_samples(case)
     half = case.n // 2
     first, second = slice(0, half), slice(half, 2 * half)
     chans = [CHANNELS.index(c) for c in cand.channels] or list(range(6))

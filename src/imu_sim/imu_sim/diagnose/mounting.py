@@ -15,7 +15,7 @@ from scipy.spatial.transform import Rotation
 
 from nav_core import noise_stats
 
-from imu_sim.diagnose.reference import _lr, rotation_columns
+from imu_sim.diagnose.reference import _lr, rotation_columns, stated_samples
 from imu_sim.diagnose.unstated import is_rate_table
 
 
@@ -47,28 +47,34 @@ def mounting_groups(case) -> list:
     return groups
 
 
-def _mounting_system(ctx, cand, keep: list, resid_f: np.ndarray | None = None, drift: bool = False):
+def _nuisance(case, drift: bool) -> tuple:
+    """(mounting groups, rotation columns, table tilt columns, accelerometer wander sd per offset, gyro drift columns)
+    of :func:`_mounting_system`'s nuisance; the drift columns empty without ``drift``."""
+    groups = mounting_groups(case)
+    wander = accel_wander_sd(case, groups) if len(groups) > 1 else np.zeros(0)
+    slow = gyro_drift_columns(case, groups) if drift else np.zeros((case.n, 0))
+    return groups, rotation_columns(case), table_tilt_columns(case), wander, slow
+
+
+def _mounting_system(ctx, cand, keep: list, resid_f: np.ndarray | None = None, nuisance: tuple | None = None):
     """(A, b, k, tol) of ``cand``'s parameters ``keep`` followed by a rotation of each mounting
     (:func:`mounting_groups`: w x d on the gyros, f x d on the accelerometers, one d per mounting shared by both
     triads), the tolerance as a Gaussian prior on each d, then the table axis's tilt from the vertical
     (:func:`table_tilt_columns`, the tolerance its prior too), each mounting's own accelerometer bias offset
     (:func:`accel_wander_sd` its prior; none when the model states no wander), then a turn-on bias per channel (a
     mounting tilt's f x d is constant on a level table, the bias's own shape: only the mountings' differences tell
-    them apart). With ``drift``, each gyro's slow bias drift (:func:`gyro_drift_columns`, free) before the turn-on
-    biases."""
+    them apart). ``nuisance`` is :func:`_nuisance`'s (default: without drift); with drift, each gyro's slow bias
+    drift (:func:`gyro_drift_columns`, free) comes before the turn-on biases."""
     case, wh = ctx.case, _white(ctx)
     tol = np.radians(float(getattr(case.scenario, "attitude_tolerance_deg", 1.0)))
-    groups, rot, tilt = mounting_groups(case), rotation_columns(case), table_tilt_columns(case)
-    wander = accel_wander_sd(case, groups) if len(groups) > 1 else np.zeros(0)
-    stated = ~case.unstated if getattr(case, "unstated", None) is not None else np.ones(case.n, bool)
-    k, m, nt, nw = len(keep), 3 * len(groups), tilt[0].shape[1], len(wander)
-    slow = gyro_drift_columns(case, groups) if drift else np.zeros((case.n, 0))
-    nd = 3 * slow.shape[1]
+    nuisance = _nuisance(case, False) if nuisance is None else nuisance
+    groups, _, tilt, wander, slow = nuisance
+    stated = stated_samples(case)
+    k, m, nt, nw, nd = len(keep), 3 * len(groups), tilt[0].shape[1], len(wander), 3 * slow.shape[1]
     size = k + m + nt + nw + nd + 6
     a, b = np.zeros((size, size)), np.zeros(size)
     for ch in range(6):
-        x = _design(case, cand, keep, ch, (groups, rot, tilt, nw, slow), stated)
-        xf = wh.spectrum(x)
+        xf = wh.spectrum(_design(case, cand, keep, ch, nuisance, stated))
         a += wh.gram(ch, xf, xf)
         b += wh.gram(ch, xf, (ctx.resid_f if resid_f is None else resid_f)[:, ch])
     # the tolerance as a prior (sd = tolerance): a rotation about the table axis, which only the Earth rate's
@@ -79,10 +85,11 @@ def _mounting_system(ctx, cand, keep: list, resid_f: np.ndarray | None = None, d
     return a, b, k, tol
 
 
-def _design(case, cand, keep: list, ch: int, parts: tuple, stated: np.ndarray) -> np.ndarray:
-    """(n, size) channel ``ch``'s columns of :func:`_mounting_system` in the time domain, 0 at unstated samples."""
-    groups, rot, tilt, nw, slow = parts
-    k, m, nt, nd = len(keep), 3 * len(groups), tilt[0].shape[1], 3 * slow.shape[1]
+def _design(case, cand, keep: list, ch: int, nuisance: tuple, stated: np.ndarray) -> np.ndarray:
+    """(n, size) channel ``ch``'s columns of :func:`_mounting_system` (``nuisance``: :func:`_nuisance`'s) in the time
+    domain, 0 at unstated samples."""
+    groups, rot, tilt, wander, slow = nuisance
+    k, m, nt, nw, nd = len(keep), 3 * len(groups), tilt[0].shape[1], len(wander), 3 * slow.shape[1]
     xc = cand.columns[ch][:, keep] if ch in cand.columns else np.zeros((case.n, k))
     bias = np.zeros((case.n, 6))
     bias[:, ch] = 1.0  # the turn-on bias as a parameter: under coloured weights a demeaned column is not
@@ -99,22 +106,21 @@ def _design(case, cand, keep: list, ch: int, parts: tuple, stated: np.ndarray) -
     return np.where(stated[:, None], x - x[stated].mean(axis=0) * demean, 0.0)
 
 
-def dwell_dispersion(ctx, cand, keep: list, theta_all: np.ndarray, cov: np.ndarray, rest: np.ndarray) -> np.ndarray:
-    """(3,) per gyro the factor (>= 1) its scale factor's sd is widened by: the scatter of the joint fit's residual
-    means over the spinning dwells that turn about each gyro, over their white-noise sd, as a chi-square per degree
-    of freedom left (the dwells' count less one and their leverage under the fit's covariance ``cov``), pooled.
+def dwell_dispersion(ctx, cand, keep: list, nuisance: tuple, theta_all: np.ndarray, cov: np.ndarray,
+                     rest: np.ndarray) -> float:
+    """The factor (>= 1) the gyros' scale factors' sd are widened by: the scatter of the joint fit's residual means
+    over the spinning dwells that turn about each gyro, over their white-noise sd, as a chi-square per degree of
+    freedom left (the dwells' count less one and their leverage under the fit's covariance ``cov``), pooled over the
+    gyros (``nuisance``: the fit's :func:`_nuisance`).
     A table whose dwells are each off their stated rate by 1e-5..1e-4 (a servo's accuracy, which the scenario does
     not state) puts that error times the rate into each dwell: the fit's white-noise interval does not carry it."""
     case = ctx.case
-    stated = ~case.unstated if getattr(case, "unstated", None) is not None else np.ones(case.n, bool)
-    groups = mounting_groups(case)
-    parts = (groups, rotation_columns(case), table_tilt_columns(case),
-             len(accel_wander_sd(case, groups)) if len(groups) > 1 else 0, gyro_drift_columns(case, groups))
+    stated = stated_samples(case)
     t = getattr(case, "sim_t_abs", case.t)
     chi2_all = dof_all = 0.0
     from imu_sim.diagnose.unstated import diff_noise_sd
     for ch in range(3):
-        x = _design(case, cand, keep, ch, parts, stated)
+        x = _design(case, cand, keep, ch, nuisance, stated)
         e = ctx.resid[:, ch] - rest[:, ch] - x @ theta_all
         e = e - e[stated].mean()  # the whitener leaves the mean out: the turn-on bias is not determined by the fit
         sd = float(diff_noise_sd(e[stated]))
@@ -144,7 +150,7 @@ def dwell_dispersion(ctx, cand, keep: list, theta_all: np.ndarray, cov: np.ndarr
             chi2_all, dof_all = chi2_all + chi2, dof_all + dof
     # one table turns under every mounting: its dwells' errors pooled over the gyros (a few dof each), the
     # dispersion's estimate never below white noise's
-    return np.full(3, max(1.0, float(np.sqrt(chi2_all / dof_all))) if dof_all >= 1.0 else 1.0)
+    return max(1.0, float(np.sqrt(chi2_all / dof_all))) if dof_all >= 1.0 else 1.0
 
 
 def gyro_drift_columns(case, groups: list) -> np.ndarray:
@@ -320,11 +326,12 @@ def mounting_fit(ctx, cand, drop=()) -> None:
     kr = len(keep) - sum(names[j] in drop for j in keep)
     if not kr:
         return
-    a, b, k, tol = _mounting_system(ctx, cand, keep, drift=own)
+    nuisance = _nuisance(ctx.case, own)
+    a, b, k, tol = _mounting_system(ctx, cand, keep, nuisance=nuisance)
     theta_all, inv = _solve(a, b)
     for _ in range(MOUNTING_STEPS):  # Gauss-Newton on the rotations' second-order term (see _second_order)
         rest = _second_order(ctx.case, cand, keep, theta_all)
-        b = _mounting_system(ctx, cand, keep, ctx.resid_f - np.fft.rfft(rest, axis=0), drift=own)[1]
+        b = _mounting_system(ctx, cand, keep, ctx.resid_f - np.fft.rfft(rest, axis=0), nuisance)[1]
         theta_all = inv @ b
     before = cand.stat_alone = cand.stat
     cand.stat = float(_lr(a, b) - _lr(a[kr:, kr:], b[kr:]))
@@ -344,9 +351,8 @@ def mounting_fit(ctx, cand, drop=()) -> None:
         return
     theta, sd = theta_all[:kr], np.sqrt(np.clip(np.diag(inv)[:kr], 0.0, None))
     if cand.effect == "scale_factor":  # each dwell's own rate error: the dwells' scatter widens the interval
-        widen = dwell_dispersion(ctx, cand, keep, theta_all, inv, rest)
-        sd = sd * np.array([widen["xyz".index(names[j][5])] if names[j].startswith("gyro[") else 1.0
-                            for j in keep[:kr]])
+        widen = dwell_dispersion(ctx, cand, keep, nuisance, theta_all, inv, rest)
+        sd = sd * np.array([widen if names[j].startswith("gyro[") else 1.0 for j in keep[:kr]])
     cand.threshold = threshold(kr, ctx.m_tests, 1, ctx.factor(cand.effect))
     keep = keep[:kr]
     full = np.zeros(len(names))

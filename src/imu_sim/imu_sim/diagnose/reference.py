@@ -114,7 +114,7 @@ def dwell_yaw_columns(case) -> list:
     lat = float(traj.geodetic(np.array([case.sim_t_abs[0]]))[0][0])
     w_ie = np.einsum("nji,j->ni", rot, EARTH_RATE * np.array([0.0, np.cos(lat), np.sin(lat)]))
     col = np.cross(rot[:, 2, :], w_ie)  # the ENU up axis in body coordinates is row 2 of body-to-ENU
-    stated = ~case.unstated if getattr(case, "unstated", None) is not None else np.ones(case.n, bool)
+    stated = stated_samples(case)
     for seg in segs:
         if not float(seg.get("rate_dps", 0.0) or 0.0):
             continue
@@ -240,6 +240,13 @@ def holds(case) -> list:
     return out
 
 
+def stated_samples(case) -> np.ndarray:
+    """(n,) bool: the samples the scenario gives a reference for (all but ``case.unstated``: moves between a
+    table's dwells and their cut edges)."""
+    unstated = getattr(case, "unstated", None)
+    return np.ones(case.n, bool) if unstated is None else ~unstated
+
+
 def hold_demeaned(case, resid: np.ndarray) -> np.ndarray:
     """The residual with each hold's own mean (over its stated samples) removed, 0 between holds and at unstated
     samples, on a record of two or more holds (else unchanged): a fixture's tilt (and a truth's attitude error) is
@@ -249,7 +256,7 @@ def hold_demeaned(case, resid: np.ndarray) -> np.ndarray:
     if len(spans) < 2:
         return resid
     out = np.zeros_like(resid)
-    stated = ~case.unstated if getattr(case, "unstated", None) is not None else np.ones(len(resid), bool)
+    stated = stated_samples(case)
     for a, b in spans:
         # a rate table's cut dwell edges (dwell_edges) lie inside its stated segments; their fill passes linearly
         # from the dwell before to this one, whose levels differ by the mounting's tilt times the rate step, so
