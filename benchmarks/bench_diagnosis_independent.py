@@ -841,7 +841,8 @@ def main(argv=None) -> int:
     parser.add_argument("--table-short", action="store_true",
                         help="with --table-physics: 100-Hz tables, dwells of 3-8 s at up to 110 deg/s (TABLE_SHORT)")
     parser.add_argument("--table-offaxis", type=float, default=0.0, metavar="M",
-                        help="a mounted table's unit up to M metres off the table's axis per body axis (TABLE_OFFAXIS_M)")
+                        help="a mounted table's unit up to M metres off the table's axis per body axis "
+                             "(TABLE_OFFAXIS_M)")
     parser.add_argument("--table-rate-err", type=float, default=0.0, metavar="E",
                         help="with --table-physics: every grade's dwells off their stated rates by up to E (relative)")
     args = parser.parse_args(argv)

@@ -11,9 +11,9 @@ from imu_sim.diagnose.spectral import Whitener
 
 
 def scale_factor_case(t, dt, gyro, accel, nominal, spec, resid, sd, tolerance_deg, **case):
-    """(ctx, scale-factor candidate) of a table record sampled every ``dt`` s at ``t``: ``gyro``/``accel`` (n, 3) true rad/s and m/s^2 in the body,
-    ``nominal`` (n, 3, 3) body to ENU, ``spec`` the stated segments, ``resid`` (n, 6) the residual, ``sd`` (6,) its
-    white per-sample sd; ``case`` adds attributes to the case."""
+    """(ctx, scale-factor candidate) of a table record sampled every ``dt`` s at ``t``: ``gyro``/``accel`` (n, 3)
+    true rad/s and m/s^2 in the body, ``nominal`` (n, 3, 3) body to ENU, ``spec`` the stated segments, ``resid``
+    (n, 6) the residual, ``sd`` (6,) its white per-sample sd; ``case`` adds attributes to the case."""
     n = len(t)
     model = SimpleNamespace(accel=SimpleNamespace(bias_instability=0.0, rate_random_walk=0.0))
     rec = SimpleNamespace(t=t, n=n, dt=dt, gyro_true=gyro, accel_true=accel, cache={"body_to_enu": nominal},

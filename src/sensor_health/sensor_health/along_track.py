@@ -54,8 +54,9 @@ G = 9.80665
 NOT_OBSERVABLE = "not observable on this record"
 MC_SPEED_M_S, MC_FIX_SD_M, MC_HEIGHT_SD_M, MC_DT_S = 15.0, 0.05, 0.10, 0.125
 MC_HOURS, EXCURSION_FLOOR = 60.0, 2.5
-"""The Monte Carlo's drive: hours, and the level above which its excursions are counted; its speed, white horizontal and vertical fix noise, and the IMU noise's step (s). The
-statistic is standardised for any of them; they set only the shares of its terms."""
+"""The Monte Carlo's drive: hours, and the level above which its excursions are counted; its speed, white horizontal
+and vertical fix noise, and the IMU noise's step (s). The statistic is standardised for any of them; they set only
+the shares of its terms."""
 
 
 def chord_en(lat0, lon0, lat1, lon1) -> np.ndarray:
