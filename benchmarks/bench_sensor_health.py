@@ -275,18 +275,17 @@ def track_floor_section(share_per_10h: float, runs: int = 2000, speed_m_s: float
               f"of 20-run benchmarks, never within {after} s {np.mean(np.isinf(delays)):.3f}")
 
 
-def track_tail_section(model, hours: float, speed_m_s: float = 15.0, ref_sd_rad_s: float = 2.2e-4) -> None:
+def track_tail_section(along, hours: float, speed_m_s: float = 15.0, ref_sd_rad_s: float = 2.2e-4) -> None:
     """The gz and ax track tests' false alarms counted (one per excursion of the statistic over the gate) on
-    ``hours`` of their own Monte Carlo noise in independent 20000-fix drives (seeds other than the gates'; ax: with
-    the fitted ``model``'s ax noise, as the monitor's): the measured rate at the gate against the share, and the
-    gate the counts give for it."""
+    ``hours`` of their own Monte Carlo noise in independent 20000-fix drives (seeds other than the gates'; ax: the
+    gate and ax noise of ``along``, the fitted model's monitor's AlongTrackMonitor): the measured rate at the gate
+    against the share, and the gate the counts give for it."""
     from sensor_health import along_track as at, cross_track as ct
     from sensor_health.bias_tail import threshold_for
     share, chunk = HealthConfig().track_bias_per_10h, 20000
     rel = speed_m_s / GNSS_SD_M
     arw, ref_sd = float(f"{hd.SENSOR['gyro']['white'] * rel:.2g}"), float(f"{ref_sd_rad_s * rel:.2g}")
-    mon = HealthMonitor(model).along_track
-    tests = {"ax": (mon.gate, lambda rng: at.simulated_z(chunk, rng, mon.ax_noise)),
+    tests = {"ax": (along.gate, lambda rng: at.simulated_z(chunk, rng, along.ax_noise)),
              "gz": (ct.glr_gate(share, arw, ref_sd), lambda rng: np.abs(ct.straight_glr_z(
                  ct.simulated_drifts(chunk, arw, ref_sd, rng), arw, ref_sd)).max(axis=1))}
     for name, (gate, sim) in tests.items():
@@ -381,7 +380,7 @@ def main(argv=None) -> int:
         model = fitted_model(Path(tmp))
     base = HealthMonitor(model)
     if args.track_tail > 0:
-        track_tail_section(model, args.track_tail)
+        track_tail_section(base.along_track, args.track_tail)
         return 0
     if args.floor:
         filter_floor_section(model, base)
