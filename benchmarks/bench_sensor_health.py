@@ -19,6 +19,7 @@ Targets (issue 26): deterministic faults <= 1 s, noise x3 <= 5 s, a 3-sigma line
 from __future__ import annotations
 
 import argparse
+import os
 import subprocess
 import sys
 import tempfile
@@ -35,7 +36,7 @@ from nav_core import sensor_model  # noqa: E402
 from nav_core.recording import ImuRecording, write_imu_csv  # noqa: E402
 from sensor_health.events import CHANNELS  # noqa: E402
 from nav_core.earth import radii  # noqa: E402
-from sensor_health import thresholds as thr  # noqa: E402
+from sensor_health import threshold_cache, thresholds as thr  # noqa: E402
 from sensor_health.config import HealthConfig  # noqa: E402
 from sensor_health.monitor import HealthMonitor  # noqa: E402
 from sensor_health.yaw_scale import YawScaleMonitor  # noqa: E402
@@ -305,6 +306,7 @@ def track_tail_section(along, hours: float, speed_m_s: float = 15.0, ref_sd_rad_
 def lower_track_gates(ax_sd: float, gz_sd: float) -> None:
     """What-if: the monitors' ax and gz track gates lowered by ``ax_sd`` and ``gz_sd`` (not the package's gates)."""
     from sensor_health import along_track as at, cross_track as ct
+    os.environ[threshold_cache.ENV] = threshold_cache.OFF  # a lowered gate must neither come from nor go to the cache
     ax_gate, gz_gate = at.z_gate, ct.glr_gate
     at.z_gate = lambda *a, **k: ax_gate(*a, **k) - ax_sd
     ct.glr_gate = lambda *a, **k: gz_gate(*a, **k) - gz_sd

@@ -34,6 +34,7 @@ from sensor_health import thresholds as thr
 from sensor_health.bias_tail import threshold_for
 from sensor_health.events import Event, bias_shift_event
 from sensor_health.noise_sim import channel_noise
+from sensor_health.threshold_cache import cached
 
 WINDOW_EPOCHS = 25
 """Fixes per window (1 Hz: 25 s). The grade comes from the altitude's slope over the window, whose noise falls as
@@ -165,7 +166,8 @@ class AlongTrackMonitor:
         fault) and enter the gate's Monte Carlo."""
         self.ax_noise = (float(white_m_s_sqrt_s), float(bias_sd_m_s2), float(correlation_time_s),
                          float(walk_m_s2_sqrt_s))
-        self.gate = z_gate(budget_per_test_10h, self.ax_noise)
+        self.gate = cached("ax_gate", (budget_per_test_10h, self.ax_noise),
+                           lambda: z_gate(budget_per_test_10h, self.ax_noise))
         n = WINDOW_EPOCHS
         self.w2, self.sd2, self.r2 = poly_filter(n, 2)
         self.w1, self.sd1, self.r1 = poly_filter(n, 1)

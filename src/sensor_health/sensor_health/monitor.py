@@ -39,7 +39,8 @@ from sensor_health.events import CHANNELS, Z95, Event, bias_shift_event
 from sensor_health.line_track import LineTrack
 from sensor_health.vibration_check import LINE_WARMUP_S, VibrationCheck
 from sensor_health.sample_checks import SampleChecks
-from sensor_health.startup import StartupCheck, startup_thresholds
+from sensor_health.startup import StartupCheck, StartupThresholds, startup_thresholds
+from sensor_health.threshold_cache import cached
 from sensor_health.yaw_scale import YawScaleMonitor
 from sensor_health.window_stats import WindowGrid, window_stats
 
@@ -70,9 +71,9 @@ class HealthMonitor(VibrationCheck):
         self.dt = 1.0 / fs
         n = max(16, int(round(cfg.window_s * fs)))
         self.grid = WindowGrid.for_model(model, n, self.dt, cfg.f_min_hz)
-        self.thr = thresholds or thr.monte_carlo(model, self.grid, n * self.dt, cfg.false_alarms_per_10h,
-                                                 cfg.baseline_s, cfg.mc_windows, cfg.seed,
-                                                 cfg.gyro_bias_per_10h, cfg.clip_per_10h, cfg.bias_mc_hours)
+        mc = (model, self.grid, n * self.dt, cfg.false_alarms_per_10h, cfg.baseline_s, cfg.mc_windows, cfg.seed,
+              cfg.gyro_bias_per_10h, cfg.clip_per_10h, cfg.bias_mc_hours)
+        self.thr = thresholds or cached("thresholds", mc, lambda: thr.monte_carlo(*mc), thr.Thresholds)
         ranges = np.r_[[cfg.gyro_range_rad_s] * 3, [cfg.accel_range_m_s2] * 3]
         self.samples = SampleChecks(self.dt, ranges, self.thr.stuck_run, cfg.gap_factor, cfg.rate_tolerance,
                                     cfg.clear_s, self.thr.clip_ties)
@@ -112,8 +113,9 @@ class HealthMonitor(VibrationCheck):
                                              float(model.gyro.bias_instability[2]))
         self.lateral_track = LateralTrackMonitor(float(model.accel.white_noise[1]), float(model.gyro.white_noise[2]),
                                                  float(model.accel.bias_instability[1]), track)
-        self.startup = StartupCheck(self, startup_thresholds(model, self.grid, self.thr.noise_mu, self.thr.noise_sd,
-                                                             self.thr.bias_sd, self.thr.window_s, seed=cfg.seed))
+        start = (model, self.grid, self.thr.noise_mu, self.thr.noise_sd, self.thr.bias_sd, self.thr.window_s)
+        self.startup = StartupCheck(self, cached("startup", start + (cfg.seed,),
+                                                 lambda: startup_thresholds(*start, seed=cfg.seed), StartupThresholds))
         self.checked_s = [None, None]
         self.windows = 0
         self.active = {}
