@@ -108,6 +108,12 @@ SHORT_LEGS = [("stand", 5, 0), ("speed", 10, 3.1), ("cruise", 45, 0), ("turn", 2
               ("cruise", 30, 0), ("speed", 5, 0)]
 """--drive short: a 6-knot (3.1 m/s) boat or slow vehicle, four 90-deg turns, ~900 m in 300 s (~300 fixes), the
 blind's short consumer drive."""
+CRUISE_LEGS = [("stand", 5, 0), ("speed", 10, 13.3), ("cruise", 30, 0), ("turn", 15, 90), ("cruise", 25, 0),
+               ("turn", 20, -120), ("cruise", 30, 0), ("turn", 10, 60), ("cruise", 35, 0), ("turn", 15, -90),
+               ("cruise", 30, 0), ("speed", 10, 0), ("stand", 5, 0)]
+"""--drive cruise: 240 s at a steady 13.3 m/s between one start and one stop, four turns: the antenna's forward
+offset rotates with the heading as the velocity does, so a lever arm's x and a latency differ only in the start,
+the stop and the arm's lateral and vertical parts (blind seed 9's tactical lever arm, taken for a 57-ms latency)."""
 GNSS_WHITE_M = [0.5, 0.5, 1.0]
 """White fix noise of the drives (m, E N U), stated in the scenario and in the fixes' std columns."""
 SHORT_WHITE_M = [1.5, 1.5, 3.0]
@@ -183,8 +189,13 @@ CASES = {
     "gps_latency": ("drive", "gps_latency", {"latency": 0.03}),
     "gps_lever_arm": ("drive", "gps_lever_arm", {"arm": [0.35, -0.25, 0.4]}),
     "gps_lever_arm_z": ("drive", "gps_lever_arm", {"arm": [0.0, 0.0, 1.68]}),  # a roof antenna over the IMU
+    # blind seed 9's tactical drive: an antenna behind and above the IMU (its x on the velocity, as a latency of
+    # 57 ms at 13 m/s is), and the latency of that size alone
+    "gps_lever_arm_tactical": ("drive", "gps_lever_arm", {"arm": [-0.76, 0.12, 0.92], "grade": "tactical"}),
+    "gps_latency_tactical": ("drive", "gps_latency", {"latency": 0.057, "grade": "tactical"}),
     "colored_gps_noise": ("drive", "colored_gps_noise", {"sigma": [0.3, 0.3, 0.5], "tau": 30.0}),
     "coriolis": ("drive", "coriolis", {}),  # the user's model leaves out 2 Omega x v (and the transport rate)
+    "coriolis_tactical": ("drive", "coriolis", {"grade": "tactical"}),  # blind seeds 5-9's class
     # a six-position test on an imperfect fixture, moved by hand (FIXTURE_* below); parameters at industrial grade,
     # scaled by the drawn grade's noise (GRADES)
     "fx_earth_rotation": ("fixture", "earth_rotation", {}),
@@ -251,8 +262,11 @@ TRUE = {
     "gps_latency": {"latency_s": 0.03},
     "gps_lever_arm": {"lever_arm_m[x]": 0.35, "lever_arm_m[y]": -0.25},
     "gps_lever_arm_z": {"lever_arm_m[z]": 1.68},
+    "gps_lever_arm_tactical": {"lever_arm_m[x]": -0.76, "lever_arm_m[y]": 0.12},
+    "gps_latency_tactical": {"latency_s": 0.057},
     "colored_gps_noise": {"sigma_m[e]": 0.3, "sigma_m[n]": 0.3, "sigma_m[u]": 0.5},
     "coriolis": {"coriolis_scale": 1.0},
+    "coriolis_tactical": {"coriolis_scale": 1.0},
     "fx_earth_rotation_updown": {"earth_rate_rad_per_s": gen.OMEGA_E},
     "fx_earth_rotation_updown_tactical": {"earth_rate_rad_per_s": gen.OMEGA_E},
     "fx_bias_random_walk": {f"gyro_rad_per_s_per_sqrt_s[{a}]": 3e-6 for a in "xyz"},
@@ -378,6 +392,8 @@ def motion_of(kind: str):
             return gen.StopAndGo(240.0, legs=SLOW_LEGS), 50.0, 100.0
         if DRIVE == "short":
             return gen.StopAndGo(300.0, legs=SHORT_LEGS), 50.0, 100.0
+        if DRIVE == "cruise":
+            return gen.StopAndGo(240.0, legs=CRUISE_LEGS), 50.0, 100.0
         return (gen.StopAndGo(240.0) if DRIVE == "town" else gen.FigureEight(1200.0)), 50.0, 100.0
     if kind == "updown":
         return None, 64.0, None
@@ -388,7 +404,7 @@ def generate(name: str, seed: int, folder: Path) -> dict:
     """Write one case's files; returns their paths."""
     null = name in NULLS
     kind = NULLS[name] if null else CASES[name][0]
-    grade = grade_of(kind, seed)
+    grade = (None if null else CASES[name][2].get("grade")) or grade_of(kind, seed)
     kg = GRADES[grade]
     effect, par = (None, dict(NULL_PARAMS.get(name, {}))) if null else (CASES[name][1], effect_params(name, grade))
     rng = np.random.default_rng(seed)
@@ -827,7 +843,7 @@ def main(argv=None) -> int:
     parser.add_argument("--out", default="/tmp/diag_independent")
     parser.add_argument("--resume", default=None, help="rows.json of an earlier run of the same code to reuse")
     parser.add_argument("--quick", action="store_true", help="1 seed of one effect and one null (a smoke run)")
-    parser.add_argument("--drive", choices=("figure8", "town", "slow", "short"), default="figure8",
+    parser.add_argument("--drive", choices=("figure8", "town", "slow", "short", "cruise"), default="figure8",
                         help="drive of the GNSS, coriolis and null_drive cases (town: 240 s with stops, see DRIVE; "
                              "short: 300 s at 6 knots, SHORT_LEGS)")
     parser.add_argument("--realistic", action="store_true",

@@ -188,8 +188,9 @@ def _weights(psd: np.ndarray, n: int, dt: float) -> np.ndarray:
     return mult[None, :] * dt / (n * psd)
 
 
-def gls(r: np.ndarray, design: np.ndarray, psd: np.ndarray, dt: float) -> GnssGls:
-    """GLS of r (n, 3) on design (n, 3, k) under the per-axis PSD (3, nf); level per axis robustly rescaled."""
+def gls(r: np.ndarray, design: np.ndarray, psd: np.ndarray, dt: float, groups=None) -> GnssGls:
+    """GLS of r (n, 3) on design (n, 3, k) under the per-axis PSD (3, nf); level per axis robustly rescaled;
+    ``groups`` as in :func:`_solve_weak_dropped`."""
     n, _, k = design.shape
     rf = np.fft.rfft(r, axis=0)
     xf = np.fft.rfft(design, axis=0)
@@ -199,7 +200,7 @@ def gls(r: np.ndarray, design: np.ndarray, psd: np.ndarray, dt: float) -> GnssGl
     w = w / np.maximum(scale, 1e-300)[:, None]
     a_mat = np.einsum("fa,fai,faj->ij", w.T, np.conj(xf), xf).real
     b = np.einsum("fa,fai,fa->i", w.T, np.conj(xf), rf).real
-    return _solve_used(a_mat, b, k)
+    return _solve_used(a_mat, b, k, groups)
 
 
 EXACT_MAX_FIXES = 600
@@ -225,7 +226,7 @@ def noise_cov(gr: GnssResidual, extra=None) -> np.ndarray:
     return out
 
 
-def gls_exact(r: np.ndarray, design: np.ndarray, cov: np.ndarray) -> GnssGls:
+def gls_exact(r: np.ndarray, design: np.ndarray, cov: np.ndarray, groups=None) -> GnssGls:
     """GLS of r (n, 3) on design (n, 3, k) under each axis's exact noise covariance (3, n, n), a datum offset per axis
     a nuisance, the level per axis robustly rescaled (the median square of the whitened residual). The DFT bins'
     weights treat the record as periodic: a Gauss-Markov error whose correlation time is half a 240-s run (1.4 m,
@@ -244,7 +245,7 @@ def gls_exact(r: np.ndarray, design: np.ndarray, cov: np.ndarray) -> GnssGls:
         scale = max(float(np.median(wy ** 2)) / stats.chi2.ppf(0.5, 1), 1e-300)
         a_mat += wd.T @ wd / scale
         b += wd.T @ wy / scale
-    return _solve_used(a_mat, b, k)
+    return _solve_used(a_mat, b, k, groups)
 
 
 def joint_sd(a_mat: np.ndarray) -> np.ndarray:
@@ -262,15 +263,18 @@ def joint_sd(a_mat: np.ndarray) -> np.ndarray:
     return out
 
 
-def _solve_used(a_mat: np.ndarray, b: np.ndarray, k: int) -> GnssGls:
+def _solve_used(a_mat: np.ndarray, b: np.ndarray, k: int, groups=None) -> GnssGls:
     """Estimates of the normal equations on the columns the data determine (see :data:`WEAK_SD_RATIO`)."""
-    fit = _solve_weak_dropped(a_mat, b, k)
+    fit = _solve_weak_dropped(a_mat, b, k, groups)
     fit.sd_joint = joint_sd(a_mat)
     return fit
 
 
-def _solve_weak_dropped(a_mat: np.ndarray, b: np.ndarray, k: int) -> GnssGls:
-    """:func:`_solve_used` without the joint standard errors."""
+def _solve_weak_dropped(a_mat: np.ndarray, b: np.ndarray, k: int, groups=None) -> GnssGls:
+    """:func:`_solve_used` without the joint standard errors. ``groups`` (k,) labels the columns of one effect:
+    standard errors are compared within an effect only (a latency's in s against a lever arm's in m is a ratio of
+    units: on own tactical figure-eights the joint fit of both dropped the whole arm, its LR given the latency 0)."""
+    groups = np.zeros(k, int) if groups is None else np.asarray(groups)
     info = np.diag(a_mat)
     used = np.flatnonzero(info > 1e-9 * max(info.max(), 1e-300))
     theta, cov = np.zeros(k), np.full((k, k), np.nan)
@@ -281,9 +285,10 @@ def _solve_weak_dropped(a_mat: np.ndarray, b: np.ndarray, k: int) -> GnssGls:
             break
         cov_u = np.linalg.inv(sub)
         sd = np.sqrt(np.diag(cov_u))
-        # a parameter known 10x worse than the best one is left to the scenario's limits, not fitted
-        if len(used) > 1 and sd.max() > WEAK_SD_RATIO * sd.min():
-            used = np.delete(used, int(np.argmax(sd)))
+        # a parameter known 10x worse than the best one of its effect is left to the scenario's limits, not fitted
+        ratio = sd / np.array([sd[groups[used] == groups[u]].min() for u in used])
+        if ratio.max() > WEAK_SD_RATIO:
+            used = np.delete(used, int(np.argmax(ratio)))
             continue
         theta[used] = cov_u @ b[used]
         cov[np.ix_(used, used)] = cov_u
@@ -291,30 +296,30 @@ def _solve_weak_dropped(a_mat: np.ndarray, b: np.ndarray, k: int) -> GnssGls:
     return GnssGls(theta, cov, 0.0, np.array([], int), "model PSD")
 
 
-def _regress(gr: GnssResidual, design: np.ndarray, extra=None) -> GnssGls:
+def _regress(gr: GnssResidual, design: np.ndarray, extra=None, groups=None) -> GnssGls:
     """GLS of the fix residual on ``design`` under the model's noise plus ``extra`` ((3,) variance m^2, tau s, or
     None): under its exact covariance up to :data:`EXACT_MAX_FIXES` fixes, on DFT bins beyond."""
     if len(gr.r) <= EXACT_MAX_FIXES:
-        fit = gls_exact(gr.r, design, noise_cov(gr, extra))
+        fit = gls_exact(gr.r, design, noise_cov(gr, extra), groups)
         fit.whitened_by = "model noise (exact covariance)"
     else:
         freqs = _freqs(len(gr.r), gr.dt)
         psd = model_psd(gr, freqs)
         if extra is not None:
             psd = psd + np.array([extra[0][a] * ar1_psd(freqs, gr.dt, 1.0, extra[1]) for a in range(3)])
-        fit = gls(gr.r, design, psd, gr.dt)
+        fit = gls(gr.r, design, psd, gr.dt, groups)
     fit.noise_extra = extra
     return fit
 
 
-def gls_whiteness_first(gr: GnssResidual, design: np.ndarray, level: float = 0.01) -> tuple:
+def gls_whiteness_first(gr: GnssResidual, design: np.ndarray, level: float = 0.01, groups=None) -> tuple:
     """GLS under the model's noise; if its residual is coloured beyond the model, redo it with the extra GM. On a
     moving truth file the extra GM is always added: the truth's own slow position error is in the fix residual
     whether or not it reaches significance (a 240-s drive's few turns let a lever arm take it).
 
     Returns (GnssGls, ColoredFit of the fit's residual, whether the noise was found coloured).
     """
-    fit = _regress(gr, design)
+    fit = _regress(gr, design, groups=groups)
     left = gr.r - np.einsum("nak,k->na", design, fit.theta)
     col = colored_fit(left, gr, whitening_taus(gr))  # once: the test's own grid is its first len(tau_grid) points
     grid = len(tau_grid(gr))
@@ -324,7 +329,7 @@ def gls_whiteness_first(gr: GnssResidual, design: np.ndarray, level: float = 0.0
         # 95 % set of its profile, its variance fitted there, the grid continued to the run's length): under the
         # best one alone a slow error the regressor half follows was whitened at too short a time constant (blind
         # consumer drive: lever arm LR 29 under tau 32 s for a 130-s error)
-        fit = min((_regress(gr, design, (var, tau)) for tau, var in col.by_tau), key=lambda f: f.lr)
+        fit = min((_regress(gr, design, (var, tau), groups) for tau, var in col.by_tau), key=lambda f: f.lr)
         var, tau = fit.noise_extra
         fit.whitened_by = (f"model noise + fitted Gauss-Markov (tau {tau:.3g} s, sigma "
                            f"{', '.join(f'{v:.2g}' for v in np.sqrt(var))} m; the least favourable of the "
@@ -341,7 +346,7 @@ def conditional_lrs(gr: GnssResidual) -> dict:
     two regressors are correlated; the conditional LR says which one the data need.
     """
     lat, arm = design_latency(gr), design_lever_arm(gr)
-    joint, _, _ = gls_whiteness_first(gr, np.concatenate([lat, arm], axis=2))
+    joint, _, _ = gls_whiteness_first(gr, np.concatenate([lat, arm], axis=2), groups=[0, 1, 1, 1])
     return {"gps_latency": joint.lr - _regress(gr, arm, joint.noise_extra).lr,
             "gps_lever_arm": joint.lr - _regress(gr, lat, joint.noise_extra).lr}
 
