@@ -256,3 +256,18 @@ def noise(ctx: Context, effect: str) -> Candidate:
     if effect == "bias_random_walk":
         _undetectable_note(ctx, cand)
     return cand
+
+
+def line_residual(case, resid: np.ndarray) -> np.ndarray:
+    """The residual (n, 6) a line search sees: on a fixture of still holds whose moves are not stated, less each
+    hold's own level and refilled across the moves (:func:`reference.hold_demeaned`, :func:`unstated.fill_unstated`);
+    else ``resid``. The fill across a move passes from one hold's level to the next's, which differ by the holds'
+    tilts (0.2 m/s^2 on an up/down's level axes): that ramp of a few seconds puts its 1/f^2 power at the search band's
+    lower edge, a false line at 1.00-1.02 Hz (own navigation up/downs: nulls 8000, 8002 and the Earth rate's 7001 on
+    the y-z diagonal, LR 307 against 37 there, 19 without the ramp; own tactical null 8004; blind seed 9's navigation
+    null)."""
+    from imu_sim.diagnose.unstated import fill_unstated, is_rate_table, unreferenced_segments
+    segs = unreferenced_segments(getattr(case, "scenario", None))
+    if getattr(case, "unstated", None) is None or segs is None or is_rate_table(segs) or len(segs) < 2:
+        return resid
+    return fill_unstated(reference.hold_demeaned(case, resid), case.unstated)
