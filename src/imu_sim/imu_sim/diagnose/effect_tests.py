@@ -207,6 +207,8 @@ def _carry_tau_uncertainty(ctx: Context, design, cand, tau) -> None:
 def vibration(ctx: Context) -> Candidate:
     """Largest whitened periodogram line; when significant, its frequency refined and amplitudes fitted."""
     case, model, wh, resid, resid_f = ctx.case, ctx.model, ctx.wh, ctx.resid, ctx.resid_f
+    if (held := noise_candidates.line_residual(case, resid)) is not resid:  # a fixture: no hold-to-hold ramp
+        resid, resid_f = held, np.fft.rfft(held, axis=0)
     f_min = max(10.0 / (case.n * case.dt), reference.F_MECH_HZ)
     harmonics = reference.harmonic_bins(case)
     if f_min >= 0.5 / case.dt:
