@@ -206,10 +206,11 @@ class AlongTrackMonitor:
         self._last = (t[-1], x[-1], v[-1], s[-1])
         self.imu_t = np.r_[self.imu_t, t]
         self.imu_v, self.imu_s = np.vstack([self.imu_v, v]), np.vstack([self.imu_s, s])
+        events = self._process()  # before the trim: a long push must not drop the samples its queued fixes need
         keep = self.imu_t >= self.imu_t[-1] - 30.0
         if (~keep).sum() > len(t):
             self.imu_t, self.imu_v, self.imu_s = self.imu_t[keep], self.imu_v[keep], self.imu_s[keep]
-        return self._process()
+        return events
 
     def push_gnss(self, t, lat_rad, lon_rad, h_m=None) -> list:
         """Fixes t (m,) s, lat, lon (m,) rad, ellipsoidal height h (m,) m (None: unknown, the test does not run)."""

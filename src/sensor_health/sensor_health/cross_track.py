@@ -100,10 +100,11 @@ class CrossTrackMonitor:
         psi = p0 + np.cumsum(0.5 * (gg[1:] + gg[:-1]) * np.diff(tt))
         self._last = (t[-1], gz[-1], psi[-1])
         self.imu_t, self.imu_psi = np.r_[self.imu_t, t], np.r_[self.imu_psi, psi]
+        events = self._process()  # before the trim: a long push must not drop the samples its queued fixes need
         keep = self.imu_t >= self.imu_t[-1] - 30.0
         if (~keep).sum() > len(t):
             self.imu_t, self.imu_psi = self.imu_t[keep], self.imu_psi[keep]
-        return self._process()
+        return events
 
     def push_gnss(self, t, lat_rad, lon_rad) -> list:
         """Fixes t (m,) s, lat, lon (m,) rad -> events completed."""

@@ -116,10 +116,11 @@ class YawScaleMonitor:
         cum = base + np.cumsum(inc)
         self.imu_t, self.imu_cum = np.r_[self.imu_t, t], np.r_[self.imu_cum, cum]
         self._last_gz = gz[-1]
+        events = self._process()  # before the trim: a long push must not drop the samples its queued fixes need
         keep = self.imu_t >= self.imu_t[-1] - 6 * SEGMENT_S - 60.0
         if (~keep).sum() > len(t):
             self.imu_t, self.imu_cum = self.imu_t[keep], self.imu_cum[keep]
-        return self._process()
+        return events
 
     def _fix(self, t, lat, lon):
         self.fixes += 1
