@@ -33,6 +33,22 @@ def test_an_ax_bias_step_is_named_against_the_gnss_track_and_a_climb_is_not_one(
 
 
 
+def test_a_step_on_its_way_is_not_learned_into_the_ax_reference():
+    from sensor_health.along_track import HOLD_Z
+    t, x, gnss = _drive(11, duration_s=300.0)
+    h = 100.0 + np.random.default_rng(12).normal(0, 0.1, len(gnss[0]))
+    x[t >= 200.0, 3] += 0.05
+    mon = AlongTrackMonitor(BUDGET)
+    mon.gate = np.inf  # watch the reference, no event
+    mon.push_gnss(*gnss, h)
+    before = t < 200.0
+    mon.push_imu(t[before], *x[before][:, [3, 2, 4]].T)
+    ref = mon.ref
+    mon.push_imu(t[~before], *x[~before][:, [3, 2, 4]].T)
+    assert abs(mon.trace_z[-1]) > HOLD_Z  # the step stands out by the end ...
+    assert abs(mon.ref - ref) < 0.01 * 0.05  # ... and its reference did not take it in (5 % of it without the hold)
+
+
 def test_the_track_tests_give_the_same_events_whatever_pieces_the_samples_come_in():
     """The CLI pushes every fix first and the samples in 60-s pieces, the node both as they come: a piece longer
     than the tests' 30-s look-back once dropped the samples its queued fixes needed (half the windows lost)."""

@@ -8,7 +8,8 @@ the heading change the gyro saw) and the altitude (the grade term, g Δh / v int
 linear terms, the bias the quadratic one. A bias step of 0.02 m/s^2 moves the quadratic term by 14 sd of it on 5-cm
 fixes in 15 s, where a 1-s mean of ax (the vehicle's own accelerations in it) shows nothing.
 
-The test: the window's bias estimate against the bias learned over the drive (its slow average), standardised by
+The test: the window's bias estimate against the bias learned over the drive (its slow average, held while the
+window's |z| is over HOLD_Z), standardised by
 the fit's own sd (the fixes' noise from the median absolute residual of the recent windows), ax's own white noise
 twice integrated through the window's fit, and the bias wander the slow average lags behind (the model's bias
 instability, and its rate random walk over the average's time constant: without the walk the drives' |z| had an
@@ -43,6 +44,11 @@ WARMUP_EPOCHS = 45
 """Fixes at speed before the test starts: the learned bias needs a few windows."""
 REFERENCE_EPOCHS = 120.0
 """Time constant of the learned bias, in fixes (the accelerometer's bias drifts slowly)."""
+HOLD_Z = 3.0
+"""The learned bias is held while the window's |z| is over this: a step on its way is not learned into its own
+reference, which took it in at 1/120 per fix as the window filled (benchmark seed 9505 at 9.4 m/s: |z| 3-4.9 from
+316 to 342 s, named at 342 s; held, at 326 s). The Monte Carlo holds it alike, so the gate carries it (4.85 -> 5.00
+on the benchmark's model)."""
 V_MIN_M_S = 3.0
 LATERAL_DEAD_ZONE = 0.3
 """|ay| below this (m/s^2) is a straight: the lateral leak regressors stay exactly 0 there (no cost)."""
@@ -141,7 +147,8 @@ def simulated_z(epochs: int, rng, ax_noise: tuple = (0.0, 0.0, 0.0, 0.0)) -> np.
     ref = np.zeros(len(b))
     ref[0] = b[0]
     for k in range(1, len(b)):
-        ref[k] = ref[k - 1] + (b[k - 1] - ref[k - 1]) / min(k, REFERENCE_EPOCHS)
+        held = abs(b[k - 1] - ref[k - 1]) > HOLD_Z * sd[k - 1]
+        ref[k] = ref[k - 1] + (0.0 if held else (b[k - 1] - ref[k - 1]) / min(k, REFERENCE_EPOCHS))
     return np.abs((b - ref) / sd)[WARMUP_EPOCHS:]
 
 
@@ -308,7 +315,8 @@ class AlongTrackMonitor:
         self.trace_z.append(z)
         if self.n_ref > WARMUP_EPOCHS - WINDOW_EPOCHS and abs(z) > self.gate:
             return [self._event(tk, z, sigma)]
-        self.ref += (b - self.ref) / min(self.n_ref, REFERENCE_EPOCHS)
+        if abs(z) <= HOLD_Z:  # a step on its way is not learned into its own reference
+            self.ref += (b - self.ref) / min(self.n_ref, REFERENCE_EPOCHS)
         return []
 
     def _event(self, tk, z, sigma) -> Event:
