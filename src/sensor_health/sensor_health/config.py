@@ -28,7 +28,8 @@ class HealthConfig:
     """False events per 10 h allowed to each of the bias tests against the GNSS track (gz, ax, ay), on top of
     ``false_alarms_per_10h`` (0: an equal share of it): a 10x bias-sd gz step shows against the track no faster than
     the gyro's white noise allows (the gx/gy floor), and the gz test's GLR gates its max |z| over the span's onsets
-    (5.2-5.5 sd at 0.1); the ax test's 25-fix window holding all of a step reaches ~6 sd, gated at 5.5."""
+    (5.2-5.5 sd at 0.1); the ax test's 25-fix window holding all of a step reaches ~6 sd at 9 m/s, gated at 5.0
+    (counted per excursion, its learned bias held while a step is suspected)."""
     clip_per_10h: float = 0.03
     """False events per 10 h allowed to each channel's flat-top clip count, on top of ``false_alarms_per_10h`` (0: an
     equal share of it): a clip that a peak only touches shows a handful of samples at one value, and on a gyro's
