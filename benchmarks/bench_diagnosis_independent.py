@@ -166,6 +166,23 @@ LTABLE_TEMP = (25.0, 8.0, 900.0)
 the sensor has no temperature coefficient: the record's temperature is collinear with its slow bias wander)."""
 """Each realistic ramp between two rates has its own angular acceleration (deg/s^2, drawn from this range) and its
 own shape (linear, cubic or quintic); the scenario states only the dwells."""
+UPDOWN_ROLL = [(45, 0, 0), (-135, 0, 0)]
+"""An up/down turned about body x (east at yaw 0, DESIGN.md's ENU convention): the y-z diagonal up, then down. The
+Earth rate's parts that flip with the turn, its vertical and north ones, both lie in the y-z plane, which a gyro
+g-sensitivity on y and z (two coefficients) reproduces wholly."""
+UPDOWN_NORTH = [(45, 0, 90), (-135, 0, 90)]
+"""The same up/down turned about north (body x north): only the Earth rate's vertical part flips, along gravity, so
+a g-sensitivity k = Omega sin(lat) / g, equal on y and z, mimics it exactly (blind seed 9's navigation up/down:
+y and z coefficients equal, -1.77e-6 rad/s per m/s^2, named before the Earth rate)."""
+UPDOWN_HEADING_OFF_DEG = (10.0, 30.0)
+"""An up/down's stated heading off its true one by this much (deg, either way; ``*_updown_heading``): an up/down
+needs only its up axis, and its heading is rarely measured."""
+UPDOWN_HEADING = {"poses": UPDOWN_NORTH, "heading_off_deg": UPDOWN_HEADING_OFF_DEG, "latitude_deg": 14.0}
+"""Blind seed 9's navigation up/down (Earth rate LR 2.7e4, a g-sensitivity's 6.8e4, at latitude ~14 deg): there the
+Earth rate's vertical part (1.8e-5 rad/s) is a quarter of its horizontal one, so a stated heading 10-30 deg off puts
+a horizontal flip of 1.2-3.5e-5 rad/s into the Earth rate's regressor that the record does not hold, while a
+g-sensitivity on y and z fits the vertical flip exactly (measured on 5800ee1's diagnosis, 7000-7007: the
+g-sensitivity first 8/8, y and z 1.6-2.0e-6 for Omega sin(14 deg) / g = 1.80e-6; the Earth rate's scale 0.35)."""
 UPDOWN_TACTICAL = {"grade": "tactical", "noise": (0.1, 3.0)}
 """The tactical up/down's unit (``*_updown_tactical``): white noise 2e-5 rad/s/sqrt(s), flicker B 6e-5 rad/s."""
 CASES = {
@@ -217,6 +234,15 @@ CASES = {
     # Earth rate's step between x up and x down (1.1e-4 rad/s on x, 0.9e-4 on z at Calgary) two of the flicker's
     # hold-to-hold steps (sd 0.96 B over 300-s holds)
     "fx_earth_rotation_updown_tactical": ("updown_fixture", "earth_rotation", UPDOWN_TACTICAL),
+    "fx_earth_rotation_updown_roll": ("updown_fixture", "earth_rotation", {"poses": UPDOWN_ROLL}),
+    "fx_earth_rotation_updown_roll_tactical": ("updown_fixture", "earth_rotation",
+                                               {"poses": UPDOWN_ROLL, "grade": "tactical"}),
+    "fx_earth_rotation_updown_heading": ("updown_fixture", "earth_rotation", UPDOWN_HEADING),
+    "fx_earth_rotation_updown_heading_tactical": ("updown_fixture", "earth_rotation",
+                                                  {**UPDOWN_HEADING, "grade": "tactical"}),
+    # a real g-sensitivity on that up/down, the Earth rate in the user's model (it must stay named there)
+    "fx_gyro_g_sensitivity_updown_roll": ("updown_fixture", "gyro_g_sensitivity",
+                                          {"g": [3e-5, -2e-5, 2.5e-5], "poses": UPDOWN_ROLL}),
     # blind seed 7's navigation warm-up (tau ~160 s, mostly on the accelerometers) on a fixture whose logged
     # temperature follows its own exponential (time constant drawn in temp_tau_s): the two curves correlate at
     # r ~ -0.96..-0.99 over the record; sizes absolute (not scaled by the grade), the grade fixed
@@ -224,12 +250,15 @@ CASES = {
                                                    "tau": 160.0, "absolute": True, "grade": "navigation",
                                                    "temp_tau_s": (200.0, 350.0)}),
 }
-NULL_PARAMS = {"null_updown_fixture_tactical": UPDOWN_TACTICAL}
+NULL_PARAMS = {"null_updown_fixture_tactical": UPDOWN_TACTICAL, "null_updown_fixture_roll": {"poses": UPDOWN_ROLL},
+               "null_updown_fixture_roll_tactical": {"poses": UPDOWN_ROLL, "grade": "tactical"},
+               "null_updown_fixture_heading": UPDOWN_HEADING}
 """A null's unit where it is not its kind's default (grade and noise factors; no concealed effect)."""
 NULLS = {"null_drive": "drive", "null_table": "table", "null_mtable": "mtable", "null_ltable": "ltable", "null_single_naive": "static_rw",
          "null_tumble": "tumble",
          "null_fixture": "fixture", "null_updown_fixture": "updown_fixture",
-         "null_updown_fixture_tactical": "updown_fixture"}
+         "null_updown_fixture_tactical": "updown_fixture", "null_updown_fixture_roll": "updown_fixture",
+         "null_updown_fixture_roll_tactical": "updown_fixture", "null_updown_fixture_heading": "updown_fixture"}
 GRADES = {"navigation": 0.01, "tactical": 0.1, "industrial": 1.0, "consumer": 5.0}
 FIXTURE_NOISE = {"consumer": (1.5, 7.5)}
 """(white, flicker) factors of a fixture case's noise where they differ from GRADES': a consumer MEMS gyro's angle
@@ -269,6 +298,12 @@ TRUE = {
     "coriolis_tactical": {"coriolis_scale": 1.0},
     "fx_earth_rotation_updown": {"earth_rate_rad_per_s": gen.OMEGA_E},
     "fx_earth_rotation_updown_tactical": {"earth_rate_rad_per_s": gen.OMEGA_E},
+    "fx_earth_rotation_updown_roll": {"earth_rate_rad_per_s": gen.OMEGA_E},
+    "fx_earth_rotation_updown_roll_tactical": {"earth_rate_rad_per_s": gen.OMEGA_E},
+    "fx_earth_rotation_updown_heading_tactical": {"earth_rate_rad_per_s": gen.OMEGA_E},
+    "fx_earth_rotation_updown_heading": {"earth_rate_rad_per_s": gen.OMEGA_E},
+    "fx_gyro_g_sensitivity_updown_roll": {f"gyro_coeff_rad_per_s_per_mps2[{a}]": v
+                                          for a, v in zip("yz", [-2e-5, 2.5e-5])},
     "fx_bias_random_walk": {f"gyro_rad_per_s_per_sqrt_s[{a}]": 3e-6 for a in "xyz"},
     "fx_gauss_markov_slow": {f"gyro_sigma_rad_per_s[{a}]": 2.8e-4 for a in "xyz"},
     "fx_warmup_temp": {"time_constant_s": 160.0,
@@ -408,7 +443,7 @@ def generate(name: str, seed: int, folder: Path) -> dict:
     kg = GRADES[grade]
     effect, par = (None, dict(NULL_PARAMS.get(name, {}))) if null else (CASES[name][1], effect_params(name, grade))
     rng = np.random.default_rng(seed)
-    site = gen.Site(*SITE)
+    site = gen.Site(par.get("latitude_deg", SITE[0]), *SITE[1:])
     motion, rate, truth_rate = motion_of(kind)
     real = np.random.default_rng([seed, 24]) if REALISTIC else None
     if real is not None and kind == "tumble":
@@ -643,7 +678,7 @@ def _fixture(site, rng, real, folder, kind, effect, par, seed):
     k = GRADES[grade]
     k_eff = 1.0 if par.get("absolute") else k  # the concealed effect's size factor
     if kind == "updown_fixture":
-        rate, nominal = 64.0, [(0, -90, 0), (0, 90, 0)]
+        rate, nominal = 64.0, par.get("poses") or [(0, -90, 0), (0, 90, 0)]
         holds = real.uniform(250.0, 350.0, 2)
     else:
         rate, nominal = 50.0, FIXTURE_POSES
@@ -687,9 +722,14 @@ def _fixture(site, rng, real, folder, kind, effect, par, seed):
     cols = {"t": t, "gx": gyro_out[:, 0], "gy": gyro_out[:, 1], "gz": gyro_out[:, 2],
             "ax": accel_out[:, 0], "ay": accel_out[:, 1], "az": accel_out[:, 2], "temp_c": temp}
     paths = {"recording": gen.write_csv(folder / "imu.csv", cols)}
-    segs = [{"t0": round(a, 2), "t1": round(b, 2), "roll_deg": float(r), "pitch_deg": float(p), "yaw_deg": float(y)}
-            for (a, b), (r, p, y) in zip(motion.hold_spans(), nominal)]
-    scenario = {"rate_hz": rate, "latitude_deg": SITE[0], "longitude_deg": SITE[1], "height_m": SITE[2],
+    yaw_off = 0.0  # an up/down's heading as stated: off by a drawn angle where the case says so (never measured)
+    if "heading_off_deg" in par:
+        yaw_off = float(np.random.default_rng([seed, 29]).choice([-1.0, 1.0]) *
+                        np.random.default_rng([seed, 30]).uniform(*par["heading_off_deg"]))
+    segs = [{"t0": round(a, 2), "t1": round(b, 2), "roll_deg": float(r), "pitch_deg": float(p),
+             "yaw_deg": float(y) + yaw_off} for (a, b), (r, p, y) in zip(motion.hold_spans(), nominal)]
+    scenario = {"rate_hz": rate, "latitude_deg": par.get("latitude_deg", SITE[0]), "longitude_deg": SITE[1],
+                "height_m": SITE[2],
                 "gps": False, "static_segments": segs}
     paths["scenario"] = folder / "scenario.yaml"
     paths["scenario"].write_text(yaml.safe_dump(scenario, sort_keys=False))

@@ -37,6 +37,7 @@ def note_collinear(case, cands: list, resid: np.ndarray | None = None, model=Non
     """Add to the significant warm-up and temperature candidates' notes when their regressors are collinear here;
     with ``resid`` (the pass's cleaned residual) on a fixture, rank the two by :func:`decide_on_holds` first."""
     by = {c.effect: c for c in cands}
+    constant_before_mimic(case, by, getattr(case, "model", None) if model is None else model)
     if walk_or_temperature(case, by, resid, model):
         return  # the temperature is no rival of the warm-up then
     warm, temp = by.get("warmup_drift"), by.get("temperature_bias")
@@ -164,3 +165,82 @@ def walk_or_temperature(case, by: dict, resid: np.ndarray | None, model=None) ->
         f"({got['axes']} axes), the walk's given it {got['walk|temperature']:.3g} against {thr_w:.3g}; a slow wander "
         "explains the same levels; not ranked")]))
     return True
+
+
+MIMICS = {"earth_rotation": ("gyro_g_sensitivity",)}
+"""Effects whose free parameters can reproduce a known constant's pattern on some records: on an up/down, the Earth
+rate's vertical part flips with gravity, which a g-sensitivity k = Omega sin(lat) / g makes on every axis."""
+MIMIC_FRACTION = 0.5
+"""Share of a known constant's hold-to-hold pattern (each channel's level free) a rival's columns can reproduce
+beyond which the rival mimics it on this record."""
+
+
+def mimicked_fraction(case, constant, rival) -> float:
+    """The share (0..1) of ``constant``'s pattern over the stated samples (each channel demeaned: the turn-on bias is
+    free) that a least-squares fit of ``rival``'s columns reproduces; 0 without columns."""
+    if not (constant.columns and rival.columns):
+        return 0.0
+    keep = np.ones(case.n, bool) if getattr(case, "unstated", None) is None else ~case.unstated
+    k = next(iter(rival.columns.values())).shape[1]
+    chans = sorted(constant.columns)
+    r = np.concatenate([constant.columns[c][keep, 0] - constant.columns[c][keep, 0].mean() for c in chans])
+    x = np.vstack([rival.columns[c][keep] - rival.columns[c][keep].mean(axis=0) if c in rival.columns
+                   else np.zeros((int(keep.sum()), k)) for c in chans])
+    den = float(r @ r)
+    if den <= 0 or not np.any(x):
+        return 0.0
+    fit = x @ np.linalg.lstsq(x, r, rcond=None)[0]
+    return float(fit @ fit / den)
+
+
+def constant_before_mimic(case, by: dict, model=None) -> None:
+    """A significant known constant (zero free parameters) is fitted before a significant rival that mimics its
+    pattern here (:data:`MIMICS`, :func:`mimicked_fraction`), which is then tested given it in the next pass: its
+    free parameters can always take what the constant explains (blind seed 9's navigation up/down: the left-out
+    Earth rate LR 2.7e4, a g-sensitivity with equal y and z coefficients, Omega sin(lat) / g, LR 6.8e4, named first).
+    The constant's own ranking (and its interval) is unchanged; only the rival ranks below it. A g-sensitivity that
+    is the left-out Earth rate's vertical part by value (:func:`earth_rate_vertical`; ``model`` the pass's, without
+    the Earth rate) is not ranked at all, whether the constant's own pattern (its horizontal part placed by the
+    stated heading) is significant or not, and in every pass (a constant fitted and not kept, or reported as
+    reference_or_model_error, is no longer a candidate)."""
+    gs = by.get("gyro_g_sensitivity")
+    if (gs is not None and gs.significant and model is not None and not model.has_physics("earth_rotation")
+            and (said := earth_rate_vertical(case, gs))):  # in any pass while the Earth rate is left out
+        gs.identifiable, gs.reason = False, "; ".join(filter(None, [gs.reason, said]))
+    for name, rivals in MIMICS.items():
+        const = by.get(name)
+        if const is None or not const.significant or const.identifiable is False:
+            continue  # in the model (its mimic tested given it), or not significant
+        top = const.rank if const.rank is not None else const.stat - const.threshold
+        for rival in [by.get(r) for r in rivals]:
+            if rival is None or not rival.significant or rival.identifiable is False:
+                continue
+            share = mimicked_fraction(case, const, rival)
+            own = rival.rank if rival.rank is not None else rival.stat - rival.threshold
+            if share < MIMIC_FRACTION or own < top:
+                continue
+            rival.rank = top - 1.0
+            rival.reason = "; ".join(filter(None, [rival.reason, (
+                f"it reproduces {100 * share:.3g} % of the known constant {name}'s pattern on this record: the "
+                f"constant (zero free parameters) is fitted first and {rival.effect} tested given it")]))
+
+
+def earth_rate_vertical(case, gsens) -> str:
+    """The note when a g-sensitivity fitted on a record whose user's model leaves out the Earth rate is that rate's
+    vertical part (every identified coefficient's 95 % interval holds Omega sin(lat) / g, the same on every axis:
+    on a still hold the Earth rate's vertical part is that times the specific force); '' otherwise. Its
+    horizontal part, which a stated heading off the true one misplaces, is then the reference's error: an up/down
+    turned about north with its heading stated 10-30 deg off (own ``fx_earth_rotation_updown_heading``) or blind
+    seed 9's navigation up/down (y and z -1.77e-6 rad/s per m/s^2: latitude -14 deg) named the g-sensitivity."""
+    from nav_core.earth import RATE, normal_gravity
+    lat = getattr(getattr(case, "scenario", None), "latitude_deg", None)
+    if lat is None or not gsens.intervals:
+        return ""
+    k0 = RATE * np.sin(np.radians(lat)) / float(normal_gravity(np.radians(lat), 0.0))
+    ivs = [gsens.intervals[m] for m in gsens.params if m in gsens.intervals and "gyro_coeff" in m]
+    if not ivs or not all(lo <= k0 <= hi for lo, hi in ivs) or all(lo <= 0.0 <= hi for lo, hi in ivs):
+        return ""  # not that value, or not told from 0
+    return (f"it is the left-out Earth rate's vertical part: every coefficient's 95 % interval holds Omega sin(lat) / g "
+            f"= {k0:.4g} rad/s per m/s^2 (latitude {lat:g} deg), which the Earth rate makes on a still hold; a known "
+            "constant, not sensor physics (its horizontal part not matching: the stated heading or the reference); "
+            "not ranked")
