@@ -48,19 +48,38 @@ def mounting_groups(case) -> list:
 
 
 def _nuisance(case, drift: bool) -> tuple:
-    """(mounting groups, rotation columns, table tilt columns, accelerometer wander sd per offset, gyro drift columns)
-    of :func:`_mounting_system`'s nuisance; the drift columns empty without ``drift``."""
+    """(mounting groups, rotation columns, table tilt columns, accelerometer wander sd per offset, gyro drift columns,
+    off-axis columns) of :func:`_mounting_system`'s nuisance; the drift columns empty without ``drift``."""
     groups = mounting_groups(case)
     wander = accel_wander_sd(case, groups) if len(groups) > 1 else np.zeros(0)
     slow = gyro_drift_columns(case, groups) if drift else np.zeros((case.n, 0))
-    return groups, rotation_columns(case), table_tilt_columns(case), wander, slow
+    return groups, rotation_columns(case), table_tilt_columns(case), wander, slow, off_axis_columns(case)
+
+
+def off_axis_columns(case) -> np.ndarray:
+    """(n, 3, 3) per sample the accelerometers' residual (m/s^2, body) of a constant vector per body axis (last
+    index) times the squared true rate |w|^2 (rad/s): the centripetal acceleration of a unit whose sensing centre is
+    off the table's axis, w x (w x r) = |w|^2 (s (s . r) - r) for the spin axis s, a vector fixed in the body times
+    the dwell's rate squared - and so is its change with the mounting's own tilt d (s turned by d x s in the body:
+    |w|^2 times a vector along the spin axis that w x (w x r) alone does not span; a navigation-grade null was left at
+    LR 321-882 without it). The tangential dw/dt x r is 0 on a dwell; the truth's rate steps at a dwell's edge, and its
+    gradient there, 1e2 rad/s^2 at 100 Hz, took the fit of r (6 times too small on the own industrial short table
+    8002, whose gyro misalignment stayed at LR 2.7e4). A unit mounted by hand sits centimetres off the axis: 5 cm is
+    0.18 m/s^2 at 110 deg/s, a different step on the accelerometers at each dwell, which pulled each mounting's tilt
+    (pinned by its accelerometers) away from what its gyros say, and the gyros' misalignment took the difference (own
+    short tables 5 cm off: the industrial null named axis_misalignment 1-4e-3 rad at LR 3.7e4)."""
+    if "off_axis_columns" not in case.cache:
+        w2 = np.sum(case.gyro_true ** 2, axis=1)
+        case.cache["off_axis_columns"] = w2[:, None, None] * np.eye(3)[None, :, :]
+    return case.cache["off_axis_columns"]
 
 
 def _mounting_system(ctx, cand, keep: list, resid_f: np.ndarray | None = None, nuisance: tuple | None = None):
     """(A, b, k, tol) of ``cand``'s parameters ``keep`` followed by a rotation of each mounting
     (:func:`mounting_groups`: w x d on the gyros, f x d on the accelerometers, one d per mounting shared by both
     triads), the tolerance as a Gaussian prior on each d, then the table axis's tilt from the vertical
-    (:func:`table_tilt_columns`, the tolerance its prior too), each mounting's own accelerometer bias offset
+    (:func:`table_tilt_columns`, the tolerance its prior too), each mounting's centripetal acceleration (a free
+    vector times the rate squared, :func:`off_axis_columns`), each mounting's own accelerometer bias offset
     (:func:`accel_wander_sd` its prior; none when the model states no wander), then a turn-on bias per channel (a
     mounting tilt's f x d is constant on a level table, the bias's own shape: only the mountings' differences tell
     them apart). ``nuisance`` is :func:`_nuisance`'s (default: without drift); with drift, each gyro's slow bias
@@ -68,10 +87,10 @@ def _mounting_system(ctx, cand, keep: list, resid_f: np.ndarray | None = None, n
     case, wh = ctx.case, _white(ctx)
     tol = np.radians(float(getattr(case.scenario, "attitude_tolerance_deg", 1.0)))
     nuisance = _nuisance(case, False) if nuisance is None else nuisance
-    groups, _, tilt, wander, slow = nuisance
+    groups, _, tilt, wander, slow, _ = nuisance
     stated = stated_samples(case)
     k, m, nt, nw, nd = len(keep), 3 * len(groups), tilt[0].shape[1], len(wander), 3 * slow.shape[1]
-    size = k + m + nt + nw + nd + 6
+    size = k + m + nt + 3 * len(groups) + nw + nd + 6
     a, b = np.zeros((size, size)), np.zeros(size)
     for ch in range(6):
         xf = wh.spectrum(_design(case, cand, keep, ch, nuisance, stated))
@@ -81,14 +100,15 @@ def _mounting_system(ctx, cand, keep: list, resid_f: np.ndarray | None = None, n
     # horizontal part shows, stays within it instead of fitting that part's noise
     a[k:k + m + nt, k:k + m + nt] += np.eye(m + nt) / max(tol, 1e-12) ** 2
     if nw:
-        a[k + m + nt:k + m + nt + nw, k + m + nt:k + m + nt + nw] += np.diag(1.0 / wander**2)
+        o = k + 2 * m + nt
+        a[o:o + nw, o:o + nw] += np.diag(1.0 / wander**2)
     return a, b, k, tol
 
 
 def _design(case, cand, keep: list, ch: int, nuisance: tuple, stated: np.ndarray) -> np.ndarray:
     """(n, size) channel ``ch``'s columns of :func:`_mounting_system` (``nuisance``: :func:`_nuisance`'s) in the time
     domain, 0 at unstated samples."""
-    groups, rot, tilt, wander, slow = nuisance
+    groups, rot, tilt, wander, slow, arm = nuisance
     k, m, nt, nw, nd = len(keep), 3 * len(groups), tilt[0].shape[1], len(wander), 3 * slow.shape[1]
     xc = cand.columns[ch][:, keep] if ch in cand.columns else np.zeros((case.n, k))
     bias = np.zeros((case.n, 6))
@@ -101,8 +121,10 @@ def _design(case, cand, keep: list, ch: int, nuisance: tuple, stated: np.ndarray
     drifts = np.zeros((case.n, nd))
     if nd and ch < 3:
         drifts[:, ch * slow.shape[1]:(ch + 1) * slow.shape[1]] = slow
-    x = np.hstack([xc] + [rot[ch] * g[:, None] for g in groups] + [tilt[ch], offsets, drifts, bias])
-    demean = np.arange(x.shape[1]) < k + m + nt
+    # each mounting's centripetal vector (free, m): the accelerometers' dwell-to-dwell steps in |w|^2
+    offaxis = [arm[:, ch - 3, :] * g[:, None] if ch >= 3 else np.zeros((case.n, 3)) for g in groups]
+    x = np.hstack([xc] + [rot[ch] * g[:, None] for g in groups] + [tilt[ch]] + offaxis + [offsets, drifts, bias])
+    demean = np.arange(x.shape[1]) < k + 2 * m + nt
     return np.where(stated[:, None], x - x[stated].mean(axis=0) * demean, 0.0)
 
 
