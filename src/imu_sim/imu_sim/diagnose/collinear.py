@@ -240,7 +240,7 @@ def earth_rate_vertical(case, gsens) -> str:
     ivs = [gsens.intervals[m] for m in gsens.params if m in gsens.intervals and "gyro_coeff" in m]
     if not ivs or not all(lo <= k0 <= hi for lo, hi in ivs) or all(lo <= 0.0 <= hi for lo, hi in ivs):
         return ""  # not that value, or not told from 0
-    return (f"it is the left-out Earth rate's vertical part: every coefficient's 95 % interval holds Omega sin(lat) / g "
-            f"= {k0:.4g} rad/s per m/s^2 (latitude {lat:g} deg), which the Earth rate makes on a still hold; a known "
-            "constant, not sensor physics (its horizontal part not matching: the stated heading or the reference); "
-            "not ranked")
+    return ("it is the left-out Earth rate's vertical part: every coefficient's 95 % interval holds "
+            f"Omega sin(lat) / g = {k0:.4g} rad/s per m/s^2 (latitude {lat:g} deg), which the Earth rate makes on a "
+            "still hold; a known constant, not sensor physics (its horizontal part not matching: the stated heading "
+            "or the reference); not ranked")
