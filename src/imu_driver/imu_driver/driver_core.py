@@ -9,11 +9,11 @@ import numpy as np
 from imu_driver.bp3010_codec import DEFAULT_FORMAT, FrameBatch, FrameFormat, StreamDecoder
 
 
-def hull_slope(u, y, at: float | None = None) -> float:
+def hull_slope(u, y) -> float:
     """Slope of the line under all points ``(u, y)`` (u increasing) that lies closest to them on average.
 
     The lower convex hull's edge above the points' mean ``u`` (Moon, Skelly and Towsley's linear
-    program for one-way delays), or above ``at``; 0 for fewer than two points.
+    program for one-way delays); 0 for fewer than two points.
     """
     hull = []
     for p in zip(u, y):
@@ -27,7 +27,7 @@ def hull_slope(u, y, at: float | None = None) -> float:
         hull.append(p)
     if len(hull) < 2:
         return 0.0
-    mean = float(np.mean(u)) if at is None else at
+    mean = float(np.mean(u))
     for (u0, y0), (u1, y1) in zip(hull, hull[1:]):
         if u1 >= mean:
             return (y1 - y0) / (u1 - u0)
