@@ -15,7 +15,7 @@ import numpy as np
 
 from scipy.stats import chi2
 
-from imu_sim.diagnose import fixture
+from imu_sim.diagnose import fixture, reference
 from imu_sim.diagnose.hold_noise import Prior, walk_and_temperature
 
 COLLINEAR = 0.95
@@ -180,7 +180,7 @@ def mimicked_fraction(case, constant, rival) -> float:
     free) that a least-squares fit of ``rival``'s columns reproduces; 0 without columns."""
     if not (constant.columns and rival.columns):
         return 0.0
-    keep = np.ones(case.n, bool) if getattr(case, "unstated", None) is None else ~case.unstated
+    keep = reference.stated_samples(case)
     k = next(iter(rival.columns.values())).shape[1]
     chans = sorted(constant.columns)
     r = np.concatenate([constant.columns[c][keep, 0] - constant.columns[c][keep, 0].mean() for c in chans])
